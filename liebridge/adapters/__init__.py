@@ -1,0 +1,1 @@
+"""Translation of tangents, covariances, information matrices and Jacobians between conventions."""

@@ -1,0 +1,10 @@
+"""Public numerical checks: users test their own Jacobians and conversions with these.
+
+``numerical_jacobian`` differentiates through a *given* retraction and local map — a Jacobian is
+only meaningful with respect to the chart it claims, so the check must use that chart (the design
+note's lesson: finite differences through raw matrix addition test nothing).
+"""
+
+from .jacobian import assert_jacobian, numerical_jacobian
+
+__all__ = ["assert_jacobian", "numerical_jacobian"]

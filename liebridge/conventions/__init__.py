@@ -1,0 +1,1 @@
+"""Convention descriptors as data, presets for real libraries, and detection."""

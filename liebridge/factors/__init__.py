@@ -1,0 +1,1 @@
+"""GTSAM factors written in any convention, and IMU preintegration."""

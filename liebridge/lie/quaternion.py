@@ -1,0 +1,156 @@
+"""Unit quaternions (Hamilton) with the storage order always explicit.
+
+Every function takes ``order="wxyz"`` or ``order="xyzw"`` as a required keyword: liebridge never
+guesses. All quaternions here are **Hamilton** (``q(R1 R2) = q(R1) ⊗ q(R2)``, the convention of
+GTSAM, Eigen, Sophus, ROS, scipy, Ceres); JPL quaternions (Trawny & Roumeliotis, "Indirect Kalman
+Filter for 3D Attitude Estimation", TR 2005-002, eq. 62; used by MSCKF-family VIO code such as
+OpenVINS) are converted with :func:`jpl_to_hamilton` / :func:`hamilton_to_jpl`.
+
+Matrix → quaternion uses :class:`scipy.spatial.transform.Rotation` (Markley's method, robust at
+every angle including π); quaternion → matrix is the closed polynomial form.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from .. import _validate as v
+from .._validate import FloatArray
+
+QuatOrder = Literal["wxyz", "xyzw"]
+
+__all__ = [
+    "canonical",
+    "conjugate",
+    "from_matrix",
+    "hamilton_to_jpl",
+    "jpl_to_hamilton",
+    "multiply",
+    "slerp",
+    "to_matrix",
+]
+
+
+def _check_order(order: str) -> None:
+    if order not in ("wxyz", "xyzw"):
+        raise ValueError(f"order: expected 'wxyz' or 'xyzw', got {order!r}")
+
+
+def _to_wxyz(q: FloatArray, order: str) -> FloatArray:
+    _check_order(order)
+    return q if order == "wxyz" else np.roll(q, 1, axis=-1)
+
+
+def _from_wxyz(q: FloatArray, order: str) -> FloatArray:
+    return q if order == "wxyz" else np.roll(q, -1, axis=-1)
+
+
+def to_matrix(q: Any, *, order: QuatOrder) -> FloatArray:
+    """Convert a unit quaternion ``(..., 4)`` in ``order`` to a rotation ``(..., 3, 3)``.
+
+    ``R = I + 2w·hat(u) + 2·hat(u)²`` for ``q = (w, u)``. The norm must be 1 within
+    :data:`liebridge._validate.QUATERNION_TOL`; normalise explicitly otherwise.
+    """
+    q = _to_wxyz(v.quaternion(q, "q"), order)
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    R = np.empty((*q.shape[:-1], 3, 3))
+    R[..., 0, 0] = 1 - 2 * (y * y + z * z)
+    R[..., 0, 1] = 2 * (x * y - w * z)
+    R[..., 0, 2] = 2 * (x * z + w * y)
+    R[..., 1, 0] = 2 * (x * y + w * z)
+    R[..., 1, 1] = 1 - 2 * (x * x + z * z)
+    R[..., 1, 2] = 2 * (y * z - w * x)
+    R[..., 2, 0] = 2 * (x * z - w * y)
+    R[..., 2, 1] = 2 * (y * z + w * x)
+    R[..., 2, 2] = 1 - 2 * (x * x + y * y)
+    return R
+
+
+def from_matrix(R: Any, *, order: QuatOrder) -> FloatArray:
+    """Rotation ``(..., 3, 3)`` → unit quaternion ``(..., 4)`` with ``w ≥ 0``, in ``order``.
+
+    Uses scipy's ``Rotation.from_matrix`` (Markley's method), which is exact at θ = π.
+    """
+    _check_order(order)
+    R = v.rotation(R, "R")
+    flat = R.reshape(-1, 3, 3)
+    q = Rotation.from_matrix(flat).as_quat()  # xyzw
+    q = canonical(q, order="xyzw").reshape((*R.shape[:-2], 4))
+    return _from_wxyz(np.roll(q, 1, axis=-1), order)
+
+
+def multiply(q1: Any, q2: Any, *, order: QuatOrder) -> FloatArray:
+    """Hamilton product ``q1 ⊗ q2`` (broadcast).
+
+    ``to_matrix(q1 ⊗ q2) = to_matrix(q1) @ to_matrix(q2)``.
+    """
+    a = _to_wxyz(v.vector(q1, "q1", 4), order)
+    b = _to_wxyz(v.vector(q2, "q2", 4), order)
+    w1, x1, y1, z1 = np.moveaxis(a, -1, 0)
+    w2, x2, y2, z2 = np.moveaxis(b, -1, 0)
+    out = np.stack(
+        [
+            w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
+            w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+            w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+            w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
+        ],
+        axis=-1,
+    )
+    return _from_wxyz(out, order)
+
+
+def conjugate(q: Any, *, order: QuatOrder) -> FloatArray:
+    """Conjugate ``(w, −u)``: the inverse of a unit quaternion."""
+    q = _to_wxyz(v.vector(q, "q", 4), order) * np.array([1.0, -1.0, -1.0, -1.0])
+    return _from_wxyz(q, order)
+
+
+def canonical(q: Any, *, order: QuatOrder) -> FloatArray:
+    """Choose the sign with ``w ≥ 0`` (``q`` and ``−q`` are the same rotation)."""
+    _check_order(order)
+    q = v.vector(q, "q", 4)
+    w = q[..., 0] if order == "wxyz" else q[..., 3]
+    return np.where((w < 0)[..., None], -q, q)
+
+
+def slerp(q0: Any, q1: Any, tau: Any, *, order: QuatOrder) -> FloatArray:
+    """Spherical linear interpolation along the **short** arc.
+
+    When ``q0·q1 < 0`` one input is negated first (otherwise the path would take the 360°-long
+    way, the design note's pitfall 11.4). ``tau`` broadcasts against the batch shape.
+    """
+    _check_order(order)
+    a = v.quaternion(q0, "q0")
+    b = v.quaternion(q1, "q1")
+    t = v.as_float_array(tau, "tau")
+    v.check_finite(t, "tau")
+    dot = np.einsum("...i,...i->...", a, b)
+    b = np.where((dot < 0)[..., None], -b, b)
+    dot = np.clip(np.abs(dot), -1.0, 1.0)
+    theta = np.arccos(dot)
+    s = np.sin(theta)
+    small = s < 1e-12
+    s_ = np.where(small, 1.0, s)
+    w0 = np.where(small, 1.0 - t, np.sin((1.0 - t) * theta) / s_)
+    w1 = np.where(small, t, np.sin(t * theta) / s_)
+    out = w0[..., None] * a + w1[..., None] * b
+    return np.asarray(out / np.linalg.norm(out, axis=-1, keepdims=True), dtype=np.float64)
+
+
+def jpl_to_hamilton(q_jpl: Any, *, order: QuatOrder) -> FloatArray:
+    """JPL quaternion → Hamilton quaternion of the same rotation matrix, same storage order.
+
+    Trawny & Roumeliotis (2005, eq. 62) define ``C(q̄) = (2q₄² − 1)I − 2q₄ hat(q) + 2 q qᵀ``, which
+    is ``to_matrix(q)ᵀ`` for the same four numbers read as Hamilton. So the Hamilton quaternion of
+    the matrix ``C(q̄)`` is the conjugate. (JPL code usually stores ``xyzw``, scalar last.)
+    """
+    return conjugate(q_jpl, order=order)
+
+
+def hamilton_to_jpl(q: Any, *, order: QuatOrder) -> FloatArray:
+    """Inverse of :func:`jpl_to_hamilton` (also a conjugation)."""
+    return conjugate(q, order=order)

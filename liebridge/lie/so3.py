@@ -1,0 +1,193 @@
+"""SO(3) kernel in canonical form: batched, float64, inputs never mutated.
+
+Conventions (the package's canonical ones, identical to GTSAM's ``Rot3``):
+
+* rotations are ``(..., 3, 3)`` matrices acting on column vectors;
+* the tangent is the rotation vector ``ω`` (``(..., 3)``), full angle ``θ = ‖ω‖``;
+* ``hat(ω) p = ω × p``;
+* ``jr`` is the *right* Jacobian: ``Exp(ω + δ) ≈ Exp(ω)·Exp(jr(ω) δ)``;
+  ``jl`` the *left* one: ``Exp(ω + δ) ≈ Exp(jl(ω) δ)·Exp(ω)``; ``jl(ω) = jr(−ω) = R·jr(ω)``.
+  (``jr`` is GTSAM's ``Rot3.ExpmapDerivative``; ``jr_inv`` its ``LogmapDerivative``.)
+
+Sources: Barfoot, *State Estimation for Robotics* (2nd ed.) §7.1; Solà et al. arXiv 1812.01537
+App. B; GTSAM ``gtsam/geometry/SO3.cpp`` (``DexpFunctor``).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .. import _validate as v
+from .._validate import FloatArray
+from ._series import jinv_coeff, one_minus_cos_over_t2, sinc, t_minus_sin_over_t3
+
+__all__ = [
+    "adjoint",
+    "exp",
+    "hat",
+    "jl",
+    "jl_inv",
+    "jr",
+    "jr_inv",
+    "log",
+    "project",
+    "vee",
+]
+
+#: Below ``cos θ`` this value, :func:`log` reads the axis from the symmetric part of R.
+_NEAR_PI_COS = -0.5
+
+
+def _hat(w: FloatArray) -> FloatArray:
+    out = np.zeros((*w.shape[:-1], 3, 3))
+    x, y, z = w[..., 0], w[..., 1], w[..., 2]
+    out[..., 0, 1], out[..., 0, 2] = -z, y
+    out[..., 1, 0], out[..., 1, 2] = z, -x
+    out[..., 2, 0], out[..., 2, 1] = -y, x
+    return out
+
+
+def _poly(w: FloatArray, a: FloatArray | float, b: FloatArray) -> FloatArray:
+    """``I + a·hat(w) + b·hat(w)²`` with scalar-per-batch coefficients ``a`` and ``b``."""
+    W = _hat(w)
+    a_ = np.asarray(a)[..., None, None]
+    return np.eye(3) + a_ * W + b[..., None, None] * (W @ W)
+
+
+def _exp(w: FloatArray) -> FloatArray:
+    th = np.linalg.norm(w, axis=-1)
+    return _poly(w, sinc(th), one_minus_cos_over_t2(th))
+
+
+def _jr(w: FloatArray) -> FloatArray:
+    th = np.linalg.norm(w, axis=-1)
+    return _poly(w, -one_minus_cos_over_t2(th), t_minus_sin_over_t3(th))
+
+
+def _jl(w: FloatArray) -> FloatArray:
+    th = np.linalg.norm(w, axis=-1)
+    return _poly(w, one_minus_cos_over_t2(th), t_minus_sin_over_t3(th))
+
+
+def _jr_inv(w: FloatArray) -> FloatArray:
+    th = np.linalg.norm(w, axis=-1)
+    return _poly(w, 0.5, jinv_coeff(th))
+
+
+def _jl_inv(w: FloatArray) -> FloatArray:
+    th = np.linalg.norm(w, axis=-1)
+    return _poly(w, -0.5, jinv_coeff(th))
+
+
+def hat(w: Any) -> FloatArray:
+    """Skew matrix of a 3-vector.
+
+    Parameters
+    ----------
+    w : array_like, shape (..., 3)
+
+    Returns
+    -------
+    ndarray, shape (..., 3, 3)
+        ``hat(w) @ p == cross(w, p)``.
+    """
+    return _hat(v.vector(w, "w", 3))
+
+
+def vee(W: Any) -> FloatArray:
+    """Inverse of :func:`hat`: the 3-vector of the skew part of ``W``, shape ``(..., 3)``.
+
+    Uses ``(W − Wᵀ)/2`` so that a slightly non-skew input gives its nearest skew matrix's vector.
+    """
+    W = v.square(W, "W", 3)
+    return 0.5 * np.stack(
+        [W[..., 2, 1] - W[..., 1, 2], W[..., 0, 2] - W[..., 2, 0], W[..., 1, 0] - W[..., 0, 1]],
+        axis=-1,
+    )
+
+
+def exp(w: Any) -> FloatArray:
+    """Exponential map (Rodrigues): rotation vector ``(..., 3)`` → rotation ``(..., 3, 3)``.
+
+    ``Exp(ω) = I + (sin θ/θ) hat(ω) + ((1 − cos θ)/θ²) hat(ω)²``, Taylor series near 0.
+    """
+    return _exp(v.vector(w, "w", 3))
+
+
+def _log(R: FloatArray) -> FloatArray:
+    s = 0.5 * np.stack(
+        [R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]],
+        axis=-1,
+    )  # = sin θ · u
+    c = 0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1.0)  # = cos θ
+    sn = np.linalg.norm(s, axis=-1)
+    theta = np.arctan2(sn, c)
+    # generic and small angles: ω = θ/sin θ · s (series through sinc)
+    near_pi = c < _NEAR_PI_COS
+    w = s / np.where(near_pi, 1.0, sinc(theta))[..., None]
+    if np.any(near_pi):
+        # axis from the symmetric part: (R + Rᵀ)/2 − cos θ·I = (1 − cos θ) u uᵀ
+        S = 0.5 * (R + np.swapaxes(R, -1, -2)) - c[..., None, None] * np.eye(3)
+        diag = np.diagonal(S, axis1=-2, axis2=-1)
+        k = np.argmax(diag, axis=-1)
+        idx = np.broadcast_to(k[..., None, None], (*S.shape[:-1], 1))
+        col = np.take_along_axis(S, idx, axis=-1)
+        u = col[..., 0] / np.linalg.norm(col[..., 0], axis=-1, keepdims=True)
+        sign = np.where(np.einsum("...i,...i->...", u, s) < 0.0, -1.0, 1.0)
+        w_pi = (sign * theta)[..., None] * u
+        w = np.where(near_pi[..., None], w_pi, w)
+    return w
+
+
+def log(R: Any) -> FloatArray:
+    """Logarithm map: rotation ``(..., 3, 3)`` → rotation vector ``(..., 3)`` with ``θ ∈ [0, π]``.
+
+    The angle is ``atan2(‖s‖, (tr R − 1)/2)`` with ``s = vee((R − Rᵀ)/2) = sin θ·u`` (accurate at
+    0 and π, unlike ``acos``). For ``cos θ < −1/2`` the axis is read from the symmetric part
+    ``(R + Rᵀ)/2 − cos θ·I = (1 − cos θ) u uᵀ`` (largest diagonal column), its sign from ``s``;
+    at θ = π exactly both ``±π u`` are logarithms and the one with the sign of that column is
+    returned. Raises ``ValueError`` on a non-rotation (see :mod:`liebridge._validate`).
+    """
+    return _log(v.rotation(R, "R"))
+
+
+def jr(w: Any) -> FloatArray:
+    """Right Jacobian of SO(3): ``I − B hat(ω) + C hat(ω)²``; ``Exp(ω+δ) ≈ Exp(ω) Exp(jr δ)``."""
+    return _jr(v.vector(w, "w", 3))
+
+
+def jl(w: Any) -> FloatArray:
+    """Left Jacobian of SO(3): ``I + B hat(ω) + C hat(ω)²`` ``= jr(−ω)``; also SE(3)'s ``V(ω)``."""
+    return _jl(v.vector(w, "w", 3))
+
+
+def jr_inv(w: Any) -> FloatArray:
+    """Inverse right Jacobian, closed form ``I + ½ hat(ω) + D hat(ω)²``, finite up to θ = π."""
+    return _jr_inv(v.vector(w, "w", 3))
+
+
+def jl_inv(w: Any) -> FloatArray:
+    """Inverse left Jacobian ``I − ½ hat(ω) + D hat(ω)²`` ``= jr_inv(−ω)``; SE(3)'s ``V(ω)⁻¹``."""
+    return _jl_inv(v.vector(w, "w", 3))
+
+
+def adjoint(R: Any) -> FloatArray:
+    """Adjoint of SO(3), which is ``R`` itself: ``R·Exp(ω)·Rᵀ = Exp(R ω)``. Returns a copy."""
+    return np.array(v.rotation(R, "R"), dtype=np.float64, copy=True)
+
+
+def project(M: Any) -> FloatArray:
+    """Closest rotation to ``M`` in Frobenius norm (SVD, ``U diag(1, 1, det(UVᵀ)) Vᵀ``).
+
+    An explicit opt-in for inputs that drifted from orthonormality; nothing in liebridge calls it
+    silently.
+    """
+    M = v.square(M, "M", 3)
+    U, _, Vt = np.linalg.svd(M)
+    d = np.sign(np.linalg.det(U @ Vt))
+    d = np.where(d == 0, 1.0, d)
+    D = np.broadcast_to(np.eye(3), (*M.shape[:-2], 3, 3)).copy()
+    D[..., 2, 2] = d
+    return np.asarray(U @ D @ Vt, dtype=np.float64)
