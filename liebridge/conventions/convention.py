@@ -1,0 +1,257 @@
+"""The convention descriptor: a frozen value object with its retraction and first-order maps.
+
+A :class:`Convention` says how a library perturbs a pose ``X = (R, t)`` with a 6-vector ``d``
+(or a rotation with a 3-vector):
+
+``side``
+    ``right``: the increment acts in the body frame, ``X·Exp(d)``; ``left``: in the world frame,
+    ``Exp(d)·X``. For the decoupled charts the side applies to the rotation only.
+``order``
+    ``rot_first``: ``d = (r, u)`` (GTSAM, Modern Robotics, pytransform3d, symforce);
+    ``trans_first``: ``d = (u, r)`` (Sophus, manif, Pinocchio, Barfoot, ROS, g2o).
+``chart``
+    ``se3``: the coupled SE(3) exponential (translation ``V(ω)·u``); ``so3xr3_body``: rotation and
+    translation perturbed separately, translation increment in the body frame ``t + R·u``;
+    ``so3xr3_world``: separately, translation increment in the world frame ``t + u``.
+``rotation``
+    how ``r`` becomes a rotation: see :mod:`liebridge.conventions.rotation_coords`.
+``quat_order``
+    how the library stores quaternions (``wxyz`` or ``xyzw``); it does not enter the retraction.
+
+Canonical (GTSAM) is ``right, rot_first, se3, exp``. ``local(X, retract(X, d)) == d`` within the
+chart's domain (``‖ω‖ < π``; ``‖r‖ < 1`` for ``quat_vec``), and the first-order maps
+:meth:`Convention.to_canonical` / :meth:`Convention.from_canonical` are closed form.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+
+from .. import _validate as v
+from .._validate import FloatArray
+from ..lie import se3
+from .rotation_coords import FIRST_ORDER_SCALE, ROTATION_COORDS, from_rotation, to_rotation
+
+Side = Literal["right", "left"]
+Order = Literal["rot_first", "trans_first"]
+Chart = Literal["se3", "so3xr3_body", "so3xr3_world"]
+SIDES = ("right", "left")
+ORDERS = ("rot_first", "trans_first")
+CHARTS = ("se3", "so3xr3_body", "so3xr3_world")
+QUAT_ORDERS = ("wxyz", "xyzw")
+
+
+def _check_field(name: str, value: str, allowed: tuple[str, ...]) -> None:
+    if value not in allowed:
+        raise ValueError(f"Convention.{name}: expected one of {allowed}, got {value!r}")
+
+
+def _is_rotation(X: FloatArray) -> bool:
+    return X.shape[-2:] == (3, 3)
+
+
+def group_input(X: Any, name: str = "X") -> FloatArray:
+    """Validate ``X`` as a pose ``(..., 4, 4)`` or a rotation ``(..., 3, 3)``."""
+    arr = v.as_float_array(X, name)
+    if arr.ndim >= 2 and arr.shape[-2:] == (3, 3):
+        return v.rotation(arr, name)
+    if arr.ndim >= 2 and arr.shape[-2:] == (4, 4):
+        return v.pose(arr, name)
+    raise ValueError(
+        f"{name}: expected a pose (..., 4, 4) or a rotation (..., 3, 3), got {arr.shape}"
+    )
+
+
+@dataclass(frozen=True)
+class Convention:
+    """A Lie-group convention as data. See the module docstring for the fields' meaning.
+
+    Parameters
+    ----------
+    name : str
+        Registry name (presets) or a user's label.
+    side, order, chart, rotation, quat_order : str
+        See the module docstring.
+    source : str
+        Where the facts come from (library, version, file).
+    notes : str
+        Defining identity, and tempting identities that are false, in words.
+    """
+
+    name: str
+    side: Side
+    order: Order
+    chart: Chart
+    rotation: str
+    quat_order: str
+    source: str = ""
+    notes: str = field(default="", compare=False, repr=False)
+
+    def __post_init__(self) -> None:
+        _check_field("side", self.side, SIDES)
+        _check_field("order", self.order, ORDERS)
+        _check_field("chart", self.chart, CHARTS)
+        _check_field("rotation", self.rotation, ROTATION_COORDS)
+        _check_field("quat_order", self.quat_order, QUAT_ORDERS)
+        if self.chart == "se3" and self.rotation != "exp":
+            raise ValueError(
+                f"Convention {self.name!r}: chart 'se3' is the SE(3) exponential of a twist whose "
+                f"rotation part is a rotation vector, so it needs rotation='exp', not "
+                f"{self.rotation!r}; a library that builds the rotation another way perturbs "
+                f"rotation and translation separately (chart 'so3xr3_body' or 'so3xr3_world')"
+            )
+
+    # ----------------------------------------------------------------- descriptors
+    @property
+    def fields(self) -> tuple[str, str, str, str]:
+        """``(side, order, chart, rotation)``: what a retraction determines (not ``quat_order``)."""
+        return (self.side, self.order, self.chart, self.rotation)
+
+    @property
+    def rotation_scale(self) -> float:
+        """First-order ``dω/dr`` of the rotation coordinates (2 for half angles, else 1)."""
+        return FIRST_ORDER_SCALE[self.rotation]
+
+    def describe(self) -> str:
+        """One line: name and fields."""
+        return (
+            f"{self.name}: side={self.side}, order={self.order}, chart={self.chart}, "
+            f"rotation={self.rotation}, quat_order={self.quat_order}"
+        )
+
+    # ----------------------------------------------------------------- retraction
+    def _split(self, d: FloatArray) -> tuple[FloatArray, FloatArray]:
+        if self.order == "rot_first":
+            return d[..., :3], d[..., 3:]
+        return d[..., 3:], d[..., :3]
+
+    def _join(self, r: FloatArray, u: FloatArray) -> FloatArray:
+        parts = (r, u) if self.order == "rot_first" else (u, r)
+        return np.concatenate(np.broadcast_arrays(*parts), axis=-1)
+
+    def _retract(self, X: FloatArray, d: FloatArray) -> FloatArray:
+        if _is_rotation(X):
+            dR = to_rotation(d, self.rotation)
+            return np.asarray(X @ dR if self.side == "right" else dR @ X, dtype=np.float64)
+        r, u = self._split(d)
+        if self.chart == "se3":
+            E = se3._exp(np.concatenate([r, u], axis=-1))
+            return np.asarray(X @ E if self.side == "right" else E @ X, dtype=np.float64)
+        R, t = X[..., :3, :3], X[..., :3, 3]
+        dR = to_rotation(r, self.rotation)
+        R2 = R @ dR if self.side == "right" else dR @ R
+        du = np.einsum("...ij,...j->...i", R, u) if self.chart == "so3xr3_body" else u
+        out = np.zeros(np.broadcast_shapes(X.shape, (*d.shape[:-1], 4, 4)))
+        out[..., :3, :3] = R2
+        out[..., :3, 3] = t + du
+        out[..., 3, 3] = 1.0
+        return out
+
+    def _local(self, X: FloatArray, Y: FloatArray) -> FloatArray:
+        if _is_rotation(X):
+            Xt = np.swapaxes(X, -1, -2)
+            dR = Xt @ Y if self.side == "right" else Y @ Xt
+            return from_rotation(dR, self.rotation)
+        if self.chart == "se3":
+            Xi = se3._inverse(X)
+            D = Xi @ Y if self.side == "right" else Y @ Xi
+            xi = se3._log(D)
+            return self._join(xi[..., :3], xi[..., 3:])
+        R, t = X[..., :3, :3], X[..., :3, 3]
+        Rt = np.swapaxes(R, -1, -2)
+        RY, tY = Y[..., :3, :3], Y[..., :3, 3]
+        dR = Rt @ RY if self.side == "right" else RY @ Rt
+        r = from_rotation(dR, self.rotation)
+        dt = tY - t
+        u = np.einsum("...ij,...j->...i", Rt, dt) if self.chart == "so3xr3_body" else dt
+        return self._join(r, u)
+
+    def retract(self, X: Any, d: Any) -> FloatArray:
+        """Perturb ``X`` by ``d`` in this convention (broadcast over leading dimensions).
+
+        Parameters
+        ----------
+        X : array_like, shape (..., 4, 4) or (..., 3, 3)
+            Pose or rotation.
+        d : array_like, shape (..., 6) or (..., 3)
+            Tangent in this convention's order and rotation coordinates.
+
+        Returns
+        -------
+        ndarray, same kind as ``X``
+        """
+        X = group_input(X)
+        d = v.vector(d, "d", 3 if _is_rotation(X) else 6)
+        return self._retract(X, d)
+
+    def local(self, X: Any, Y: Any) -> FloatArray:
+        """Inverse of :meth:`retract`: the ``d`` with ``retract(X, d) == Y`` (principal branch)."""
+        X = group_input(X)
+        Y = group_input(Y, "Y")
+        if X.shape[-2:] != Y.shape[-2:]:
+            raise ValueError(f"Y: shape {Y.shape} does not match X {X.shape}")
+        return self._local(X, Y)
+
+    # ----------------------------------------------------------------- first-order maps
+    def _to_canonical(self, X: FloatArray) -> FloatArray:
+        s = self.rotation_scale
+        if _is_rotation(X):
+            G = np.swapaxes(X, -1, -2) if self.side == "left" else np.eye(3)
+            return np.asarray(s * np.broadcast_to(G, X.shape), dtype=np.float64)
+        R = X[..., :3, :3]
+        if self.chart == "se3":
+            G = se3._adjoint(se3._inverse(X)) if self.side == "left" else np.eye(6)
+            G = np.broadcast_to(G, (*X.shape[:-2], 6, 6)).copy()
+        else:
+            Rt = np.swapaxes(R, -1, -2)
+            G = np.zeros((*X.shape[:-2], 6, 6))
+            G[..., :3, :3] = Rt if self.side == "left" else np.eye(3)
+            G[..., 3:, 3:] = Rt if self.chart == "so3xr3_world" else np.eye(3)
+        G[..., :, :3] *= s
+        if self.order == "trans_first":
+            G = np.concatenate([G[..., :, 3:], G[..., :, :3]], axis=-1)
+        return G
+
+    def _from_canonical(self, X: FloatArray) -> FloatArray:
+        s = self.rotation_scale
+        if _is_rotation(X):
+            G = X if self.side == "left" else np.eye(3)
+            return np.asarray(np.broadcast_to(G, X.shape) / s, dtype=np.float64)
+        R = X[..., :3, :3]
+        if self.chart == "se3":
+            G = se3._adjoint(X) if self.side == "left" else np.eye(6)
+            G = np.broadcast_to(G, (*X.shape[:-2], 6, 6)).copy()
+        else:
+            G = np.zeros((*X.shape[:-2], 6, 6))
+            G[..., :3, :3] = R if self.side == "left" else np.eye(3)
+            G[..., 3:, 3:] = R if self.chart == "so3xr3_world" else np.eye(3)
+        G[..., :3, :] /= s
+        if self.order == "trans_first":
+            G = np.concatenate([G[..., 3:, :], G[..., :3, :]], axis=-2)
+        return G
+
+    def to_canonical(self, X: Any) -> FloatArray:
+        """First-order map ``M``, ``ξ_gtsam = M d`` at ``X``; shape (..., 6, 6) or (..., 3, 3).
+
+        It is the derivative at ``d = 0`` of ``GTSAM.local(X, self.retract(X, d))``.
+        """
+        return self._to_canonical(group_input(X))
+
+    def from_canonical(self, X: Any) -> FloatArray:
+        """Inverse of :meth:`to_canonical` (closed form, no matrix inversion)."""
+        return self._from_canonical(group_input(X))
+
+
+#: The canonical tangent (GTSAM's): right, rotation first, SE(3) exponential.
+CANONICAL = Convention(
+    name="canonical",
+    side="right",
+    order="rot_first",
+    chart="se3",
+    rotation="exp",
+    quat_order="wxyz",
+    source="liebridge canonical form = GTSAM 4.3 Pose3/Rot3 (measured in tests)",
+)

@@ -1,0 +1,350 @@
+"""Named presets for real libraries, each with its evidence.
+
+Notation: right = ``X·Exp(d)``, left = ``Exp(d)·X``; ``(ω, v)`` = rotation first. Evidence codes as
+in ``shared/reference/conventions.md``: **V** checked by running the library (and re-checked in
+``tests/test_presets_*.py`` where it installs from PyPI), **S** read in its source, **D** docs.
+Every preset lists the defining identity of its ``retract`` and, where one tempts, a false one.
+A library without quaternions still gets a ``quat_order`` (it never enters a retraction); that is
+said in its notes.
+"""
+
+from __future__ import annotations
+
+from .convention import Convention
+
+GTSAM = Convention(
+    name="gtsam",
+    side="right",
+    order="rot_first",
+    chart="se3",
+    rotation="exp",
+    quat_order="wxyz",
+    source="V GTSAM 4.3.0 PyPI wheel (Pose3.retract, localCoordinates); S gtsam/base/Lie.h",
+    notes=(
+        "Pose3.retract(ξ) = X·Exp(ξ), ξ = (ω, v), true SE(3) exp (wheel built with "
+        "GTSAM_POSE3_EXPMAP=ON). False: retract(ξ) = Exp(ξ)·X (the design note's §6.4/§8.3 claim). "
+        "Quaternions: Rot3.Quaternion(w, x, y, z) and Rot3.quaternion() are wxyz; "
+        "toQuaternion().coeffs() is Eigen's xyzw."
+    ),
+)
+"""GTSAM ``Pose3``/``Rot3`` (PyPI wheel): right, (ω, v), SE(3) exp, rotation vector, wxyz."""
+
+GTSAM_CAYLEY = Convention(
+    name="gtsam_cayley",
+    side="right",
+    order="rot_first",
+    chart="so3xr3_body",
+    rotation="cayley",
+    quat_order="wxyz",
+    source="S gtsam/geometry/Pose3.cpp ChartAtOrigin, Rot3M.cpp CayleyChart "
+    "(GTSAM_POSE3_EXPMAP=OFF)",
+    notes=(
+        "retract(ξ) = (R·Cay(ω), t + R·v), Cay(ω) = (I − hat(ω)/2)⁻¹(I + hat(ω)/2). "
+        "False: retract(ξ) = X·Exp(ξ) (agrees only to first order)."
+    ),
+)
+"""GTSAM built with ``GTSAM_POSE3_EXPMAP=OFF`` (default before mid-2020): decoupled Cayley chart."""
+
+SOPHUS = Convention(
+    name="sophus",
+    side="right",
+    order="trans_first",
+    chart="se3",
+    rotation="exp",
+    quat_order="xyzw",
+    source="S Sophus sophus/se3.hpp (SE3::exp, tangent (υ, ω)), sophus/ceres_manifold.hpp "
+    "(T·exp(δ))",
+    notes=(
+        "retract(d) = X·exp(d), d = (υ, ω). SE3::params() = [qx, qy, qz, qw, tx, ty, tz]. "
+        "False: d = (ω, υ) as in GTSAM."
+    ),
+)
+"""Sophus (C++): right, (v, ω), SE(3) exp; params storage xyzw then translation."""
+
+MANIF = Convention(
+    name="manif",
+    side="right",
+    order="trans_first",
+    chart="se3",
+    rotation="exp",
+    quat_order="xyzw",
+    source="S manif include/manif/impl/lie_group_base.h (plus = rplus), impl/se3/SE3Tangent.h",
+    notes=(
+        "X.plus(d) = X.rplus(d) = X·Exp(d), d = (ρ, θ); X.minus(Y) = Log(Y⁻¹X). "
+        "coeffs = [x, y, z, qx, qy, qz, qw]. False: X.minus(Y) = Log(X⁻¹Y) (argument order)."
+    ),
+)
+"""manif: right (``plus`` = ``rplus``), (v, ω), SE(3) exp; coeffs xyz then xyzw."""
+
+PINOCCHIO = Convention(
+    name="pinocchio",
+    side="right",
+    order="trans_first",
+    chart="se3",
+    rotation="exp",
+    quat_order="xyzw",
+    source="V pin 4.1 (integrate/difference on the free-flyer, exp6/log6); "
+    "tests/test_presets_libs.py",
+    notes=(
+        "integrate(q, v) = X·exp6(v), v = (linear, angular); q = [x, y, z, qx, qy, qz, qw]. "
+        "False: the free-flyer integrates rotation and translation separately "
+        "(that is the R3×SO3 Lie group, preset pinocchio_r3xso3)."
+    ),
+)
+"""Pinocchio free-flyer / ``exp6``: right, (v, ω), SE(3) exp; XYZQUAT storage (xyzw)."""
+
+PINOCCHIO_R3XSO3 = Convention(
+    name="pinocchio_r3xso3",
+    side="right",
+    order="trans_first",
+    chart="so3xr3_world",
+    rotation="exp",
+    quat_order="xyzw",
+    source="V pin 4.1 liegroups R3×SO3 (integrate/difference); tests/test_presets_libs.py",
+    notes=(
+        "integrate(q, d) = (t + u, R·Exp(ω)), d = (u, ω): translation added in the world frame. "
+        "False: integrate = X·exp6(d)."
+    ),
+)
+"""Pinocchio ``R3 × SO3`` Lie group: right rotation, world-frame translation, (v, ω)."""
+
+JAXLIE = Convention(
+    name="jaxlie",
+    side="right",
+    order="trans_first",
+    chart="se3",
+    rotation="exp",
+    quat_order="wxyz",
+    source="V jaxlie 1.5 (SE3.rplus/exp); S jaxlie/_se3.py",
+    notes="rplus(X, d) = X·exp(d), d = (v, ω); SE3.wxyz_xyz = [qw, qx, qy, qz, x, y, z].",
+)
+"""jaxlie: right (``rplus``), (v, ω), SE(3) exp; storage ``wxyz_xyz``."""
+
+THESEUS = Convention(
+    name="theseus",
+    side="right",
+    order="trans_first",
+    chart="se3",
+    rotation="exp",
+    quat_order="wxyz",
+    source="S theseus/geometry/se3.py (retract = compose(exp_map)), quaternion helpers wxyz",
+    notes="retract(X, d) = X·exp(d), d = (v, ω).",
+)
+"""Theseus: right, (v, ω), SE(3) exp; quaternions wxyz."""
+
+PYPOSE = Convention(
+    name="pypose",
+    side="left",
+    order="trans_first",
+    chart="se3",
+    rotation="exp",
+    quat_order="xyzw",
+    source="S pypose/lietensor/lietensor.py (Retr = Exp(d)·X), storage [tx, ty, tz, qx, qy, "
+    "qz, qw]",
+    notes="X.Retr(d) = Exp(d)·X (left), d = (τ, φ). False: X·Exp(d).",
+)
+"""PyPose: left, (v, ω), SE(3) exp; storage translation then xyzw."""
+
+BARFOOT = Convention(
+    name="barfoot",
+    side="left",
+    order="trans_first",
+    chart="se3",
+    rotation="exp",
+    quat_order="wxyz",
+    source="V utiasSTARS liegroups (source package) SE3.perturb; D Barfoot, State Estimation for "
+    "Robotics, 2nd ed., §7.1.7 (ξ = (ρ, φ))",
+    notes=(
+        "perturb: T ← Exp(ξ)·T, ξ = (ρ, φ) (left, translation first). False: the utiasSTARS "
+        "package is `pip install liegroups` — that name on PyPI is an unrelated package."
+    ),
+)
+"""Barfoot / utiasSTARS ``liegroups``: left, (ρ, φ) = (v, ω), SE(3) exp."""
+
+PYTRANSFORM3D_GLOBAL = Convention(
+    name="pytransform3d_global",
+    side="left",
+    order="rot_first",
+    chart="se3",
+    rotation="exp",
+    quat_order="wxyz",
+    source="V pytransform3d 3.17 concat_globally_uncertain_transforms (Monte Carlo); "
+    "tests/test_presets_libs.py",
+    notes=(
+        "Global uncertainty: T = Exp(ξ)·T̄, ξ = (ω, v) (exponential coordinates, rotation first). "
+        "pq = [x, y, z, qw, qx, qy, qz]."
+    ),
+)
+"""pytransform3d "global" uncertainty: left, (ω, v), SE(3) exp; ``pq`` stores wxyz."""
+
+PYTRANSFORM3D_LOCAL = Convention(
+    name="pytransform3d_local",
+    side="right",
+    order="rot_first",
+    chart="se3",
+    rotation="exp",
+    quat_order="wxyz",
+    source="V pytransform3d 3.17 concat_locally_uncertain_transforms; tests/test_presets_libs.py",
+    notes="Local uncertainty: T = T̄·Exp(ξ), ξ = (ω, v) — identical to GTSAM's tangent.",
+)
+"""pytransform3d "local" uncertainty: right, (ω, v), SE(3) exp (same fields as GTSAM)."""
+
+SYMFORCE = Convention(
+    name="symforce",
+    side="right",
+    order="rot_first",
+    chart="so3xr3_world",
+    rotation="exp",
+    quat_order="xyzw",
+    source="V symforce 0.12; S symforce/geo/pose3.py docstring (retract is not a group op)",
+    notes=(
+        "Pose3.retract(a, v) = (R·Exp(ω), t + v), v = (ω, t). Stated by symforce itself: "
+        "retract(a, v) != compose(a, from_tangent(v)). Storage [qx, qy, qz, qw, x, y, z]."
+    ),
+)
+"""symforce ``Pose3``: right rotation, **world**-frame translation, (ω, t); storage xyzw."""
+
+CERES_QUATERNION = Convention(
+    name="ceres_quaternion",
+    side="left",
+    order="rot_first",
+    chart="so3xr3_world",
+    rotation="half_exp",
+    quat_order="wxyz",
+    source="V pyceres (Ceres 2.2.0) QuaternionManifold; S include/ceres/manifold.h",
+    notes=(
+        "SO(3) manifold: Plus(q, δ) = q(δ) ⊗ q, q(δ) = [cos‖δ‖, sin‖δ‖·δ/‖δ‖]: the rotation angle "
+        "is 2‖δ‖ (half-angle tangent, left). Storage [w, x, y, z]. False: Plus = q ⊗ exp(δ) "
+        "(right, full angle; Ceres master used the full angle Jun 2025–Jul 2026, no release did). "
+        "On a pose, as a product with a Euclidean translation block: see ceres_pose."
+    ),
+)
+"""Ceres ``QuaternionManifold`` (2.2): left, half angle, wxyz (SO(3); on poses ``ceres_pose``)."""
+
+CERES_EIGEN_QUATERNION = Convention(
+    name="ceres_eigen_quaternion",
+    side="left",
+    order="rot_first",
+    chart="so3xr3_world",
+    rotation="half_exp",
+    quat_order="xyzw",
+    source="V pyceres (Ceres 2.2.0) EigenQuaternionManifold; S include/ceres/manifold.h",
+    notes="As ceres_quaternion, with Eigen's storage [x, y, z, w].",
+)
+"""Ceres ``EigenQuaternionManifold`` (2.2): left, half angle, xyzw."""
+
+CERES_POSE = Convention(
+    name="ceres_pose",
+    side="left",
+    order="rot_first",
+    chart="so3xr3_world",
+    rotation="half_exp",
+    quat_order="wxyz",
+    source="S include/ceres/product_manifold.h; ProductManifold<QuaternionManifold, "
+    "EuclideanManifold<3>> over a [qw, qx, qy, qz, x, y, z] block",
+    notes=(
+        "Plus((q, t), (δ, u)) = (q(δ) ⊗ q, t + u): left half-angle rotation, world translation, "
+        "rotation block first (the product's order; reverse it for a [t, q] block)."
+    ),
+)
+"""Ceres pose as ``ProductManifold(QuaternionManifold, Euclidean<3>)``: left half angle, world t."""
+
+G2O = Convention(
+    name="g2o",
+    side="right",
+    order="trans_first",
+    chart="so3xr3_body",
+    rotation="quat_vec",
+    quat_order="xyzw",
+    source="V g2opy 2.3; S g2o types/slam3d/vertex_se3.h (oplusImpl: _estimate * increment), "
+    "edge_se3.cpp, isometry3d_mappings.cpp (toVectorMQT/fromVectorMQT)",
+    notes=(
+        "VertexSE3 oplus: X ← X·[R(q(r)), u], q(r) = (sqrt(1 − ‖r‖²), r): d = (u, r), r the "
+        "quaternion vector part (≈ θ/2). EDGE_SE3:QUAT error = toVectorMQT(Z⁻¹·Xi⁻¹·Xj) = "
+        "local(Z, Xi⁻¹Xj); its information is over (x, y, z, qx, qy, qz). False: that information "
+        "is over the rotation angle (gtsam.readG2o reads it so: 4× the rotation weight)."
+    ),
+)
+"""g2o ``VertexSE3`` / ``EDGE_SE3:QUAT``: right, (t, qvec), decoupled body chart, quat vector."""
+
+G2O_EXPMAP = Convention(
+    name="g2o_expmap",
+    side="left",
+    order="rot_first",
+    chart="se3",
+    rotation="exp",
+    quat_order="xyzw",
+    source="V g2opy 2.3 VertexSE3Expmap; S g2o types/sba/vertex_se3_expmap.cpp "
+    "(setEstimate(SE3Quat::exp(update) * estimate()))",
+    notes="VertexSE3Expmap (ORB-SLAM style) oplus: X ← Exp(ξ)·X, ξ = (ω, v).",
+)
+"""g2o ``VertexSE3Expmap`` (ORB-SLAM): left, (ω, v), SE(3) exp."""
+
+ROS = Convention(
+    name="ros",
+    side="left",
+    order="trans_first",
+    chart="so3xr3_world",
+    rotation="exp",
+    quat_order="xyzw",
+    source="S geometry_msgs/PoseWithCovariance.msg (noetic, ROS 2): covariance over "
+    "(x, y, z, rotX, rotY, rotZ), rotations about the parent frame's fixed axes",
+    notes=(
+        "ROS defines no retraction; this preset's retract (t + u, Exp(ω)·R) is the one whose "
+        "first-order map reproduces the message semantics: from GTSAM's tangent, "
+        "[[0, R], [R, 0]]. False: the covariance is P·Ad_X (left SE(3)), which couples "
+        "translation with rotation."
+    ),
+)
+"""ROS ``PoseWithCovariance``: parent-frame position, fixed-axis rotation, (x, y, z, rx, ry, rz)."""
+
+MR_BODY = Convention(
+    name="mr_body",
+    side="right",
+    order="rot_first",
+    chart="se3",
+    rotation="exp",
+    quat_order="wxyz",
+    source="V modern_robotics package (MatrixExp6, body twist); D Lynch & Park, Modern "
+    "Robotics §3.3",
+    notes="Body twist V_b = (ω_b, v_b): T·e^[V_b]. No quaternions (quat_order unused).",
+)
+"""Modern Robotics body twist: right, (ω, v), SE(3) exp."""
+
+MR_SPACE = Convention(
+    name="mr_space",
+    side="left",
+    order="rot_first",
+    chart="se3",
+    rotation="exp",
+    quat_order="wxyz",
+    source="V modern_robotics package (MatrixExp6, space twist); D Lynch & Park, Modern "
+    "Robotics §3.3",
+    notes="Space twist V_s = (ω_s, v_s): e^[V_s]·T; V_s = Ad_T V_b. No quaternions.",
+)
+"""Modern Robotics space twist: left, (ω, v), SE(3) exp."""
+
+#: All presets, in registry order (ties in :func:`detect_convention` resolve to the first).
+PRESETS: tuple[Convention, ...] = (
+    GTSAM,
+    GTSAM_CAYLEY,
+    SOPHUS,
+    MANIF,
+    PINOCCHIO,
+    PINOCCHIO_R3XSO3,
+    JAXLIE,
+    THESEUS,
+    PYPOSE,
+    BARFOOT,
+    PYTRANSFORM3D_GLOBAL,
+    PYTRANSFORM3D_LOCAL,
+    SYMFORCE,
+    CERES_QUATERNION,
+    CERES_EIGEN_QUATERNION,
+    CERES_POSE,
+    G2O,
+    G2O_EXPMAP,
+    ROS,
+    MR_BODY,
+    MR_SPACE,
+)

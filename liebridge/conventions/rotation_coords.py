@@ -1,0 +1,87 @@
+"""The four ways a library turns 3 numbers into a rotation increment, and back.
+
+Each map sends ``r ∈ ℝ³`` to ``ΔR ∈ SO(3)``; all four agree with the rotation vector to first
+order up to a scale (``exp``, ``cayley``: 1; ``half_exp``, ``quat_vec``: 1/2, i.e. ``r ≈ ω/2``):
+
+``exp``
+    Rotation vector (full angle): ``ΔR = Exp(r)``. GTSAM, Sophus, manif, Pinocchio, ...
+``half_exp``
+    Ceres ``QuaternionManifold``: ``q(δ) = [cos‖δ‖, sin‖δ‖·δ/‖δ‖]``, rotation angle ``2‖δ‖``,
+    so ``ΔR = Exp(2r)`` (``include/ceres/manifold.h``, Ceres 2.2).
+``quat_vec``
+    g2o ``VertexSE3``: the vector part of a unit quaternion with ``w = sqrt(1 − ‖r‖²) ≥ 0``
+    (``types/slam3d/isometry3d_mappings.cpp``, ``fromCompactQuaternion``); ``‖r‖ ≤ 1``.
+    ``ΔR = I + 2w·hat(r) + 2·hat(r)²``; equals ``Exp(2 asin‖r‖ · r/‖r‖)``.
+``cayley``
+    GTSAM's ``Rot3::CayleyChart`` (``gtsam/geometry/Rot3M.cpp``, used by builds with
+    ``GTSAM_ROT3_EXPMAP=OFF``): ``ΔR = (I − hat(r)/2)⁻¹(I + hat(r)/2)
+    = I + 4/(4 + ‖r‖²)·(hat(r) + hat(r)²/2)``; inverse ``r = 2 vee(R − Rᵀ)/(1 + tr R)``.
+
+``exp`` and ``half_exp`` are linearly related (exactly); the others are not.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+
+from .._validate import FloatArray
+from ..lie import so3
+from ..lie._series import sinc
+
+RotationCoords = Literal["exp", "half_exp", "quat_vec", "cayley"]
+ROTATION_COORDS: tuple[str, ...] = ("exp", "half_exp", "quat_vec", "cayley")
+
+#: First-order scale ``dω/dr`` at ``r = 0`` of each map.
+FIRST_ORDER_SCALE: dict[str, float] = {"exp": 1.0, "half_exp": 2.0, "quat_vec": 2.0, "cayley": 1.0}
+
+
+def to_rotation(r: FloatArray, kind: str) -> FloatArray:
+    """Map coordinates ``r`` ``(..., 3)`` to the rotation increment ``(..., 3, 3)``."""
+    if kind == "exp":
+        return so3._exp(r)
+    if kind == "half_exp":
+        return so3._exp(2.0 * r)
+    W = so3._hat(r)
+    n2 = np.einsum("...i,...i->...", r, r)
+    if kind == "quat_vec":
+        if (n2 > 1.0 + 1e-12).any():
+            i = tuple(int(k) for k in np.argwhere(n2 > 1.0 + 1e-12)[0])
+            raise ValueError(
+                f"d: quaternion-vector rotation coordinates need ‖r‖ ≤ 1, got "
+                f"‖r‖ = {float(np.sqrt(n2[i])):.6g} at batch index {i}"
+            )
+        w = np.sqrt(np.clip(1.0 - n2, 0.0, None))
+        return np.eye(3) + 2.0 * w[..., None, None] * W + 2.0 * (W @ W)
+    if kind == "cayley":
+        c = (4.0 / (4.0 + n2))[..., None, None]
+        return np.eye(3) + c * (W + 0.5 * (W @ W))
+    raise ValueError(f"rotation: unknown rotation coordinates {kind!r}")
+
+
+def from_rotation(R: FloatArray, kind: str) -> FloatArray:
+    """Inverse of :func:`to_rotation` (principal branch: ``θ ≤ π``, quaternion ``w ≥ 0``)."""
+    if kind == "exp":
+        return so3._log(R)
+    if kind == "half_exp":
+        return 0.5 * so3._log(R)
+    if kind == "quat_vec":
+        w = so3._log(R)
+        th = np.linalg.norm(w, axis=-1)
+        # vector part sin(θ/2)·ω/θ = ½·sinc(θ/2)·ω, w-component cos(θ/2) ≥ 0 for θ ≤ π
+        return 0.5 * sinc(0.5 * th)[..., None] * w
+    if kind == "cayley":
+        s = np.stack(
+            [R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]],
+            axis=-1,
+        )
+        den = 1.0 + np.trace(R, axis1=-2, axis2=-1)
+        if (den <= 1e-12).any():
+            i = tuple(int(k) for k in np.argwhere(den <= 1e-12)[0])
+            raise ValueError(
+                f"Cayley coordinates are undefined for a rotation by π (batch index {i}): "
+                f"1 + tr R = {float(den[i]):.3g}"
+            )
+        return np.asarray(2.0 * s / den[..., None], dtype=np.float64)
+    raise ValueError(f"rotation: unknown rotation coordinates {kind!r}")
