@@ -1,1 +1,22 @@
-"""Translation of tangents, covariances, information matrices and Jacobians between conventions."""
+"""Translation of tangents, covariances, information matrices and Jacobians between conventions.
+
+The conversion functions are re-exported at the top level (``liebridge.tangent_map`` ...).
+"""
+
+from .convert import (
+    convert_covariance,
+    convert_information,
+    convert_jacobian,
+    convert_tangent,
+    is_exactly_linear,
+    tangent_map,
+)
+
+__all__ = [
+    "convert_covariance",
+    "convert_information",
+    "convert_jacobian",
+    "convert_tangent",
+    "is_exactly_linear",
+    "tangent_map",
+]

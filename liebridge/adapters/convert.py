@@ -1,0 +1,207 @@
+"""Tangents, covariances, information matrices and Jacobians translated between conventions.
+
+Everything is one formula. With ``M = tangent_map(X, src, dst)``, the derivative at ``d = 0`` of
+``dst.local(X, src.retract(X, d))``:
+
+* tangent: ``d_dst = M d_src`` (first order) or ``dst.local(X, src.retract(X, d_src))`` (exact);
+* covariance: ``Σ_dst = M Σ_src Mᵀ``; information: ``Λ_dst = M⁻ᵀ Λ_src M⁻¹``;
+* Jacobian of a function with a group input at ``X`` and a group output at ``Y``:
+  ``J_dst = M(Y) · J_src · M(X)⁻¹``.
+
+``M`` is closed form (adjoints, permutations, block rotations, scale) and ``M⁻¹`` is
+``tangent_map(X, dst, src)``, also closed form: no matrix is inverted. Whether the first-order
+map is the whole story is :func:`is_exactly_linear`: side, order, rotation scale (``exp`` ↔
+``half_exp``) and body ↔ world translation frames are exactly linear; a change between the SE(3)
+exponential and a decoupled chart, or to/from ``quat_vec``/``cayley`` coordinates, is not, and
+for a large covariance there :func:`convert_covariance` offers ``method="unscented"``.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+import numpy as np
+
+from .. import _validate as v
+from .._validate import FloatArray
+from ..conventions import Convention, ConventionLike, get, group_input
+
+__all__ = [
+    "convert_covariance",
+    "convert_information",
+    "convert_jacobian",
+    "convert_tangent",
+    "is_exactly_linear",
+    "tangent_map",
+]
+
+_LINEAR_ROTATIONS = {"exp", "half_exp"}
+
+
+def _chart_family(c: Convention) -> str:
+    return "se3" if c.chart == "se3" else "so3xr3"
+
+
+def is_exactly_linear(src: ConventionLike, dst: ConventionLike) -> bool:
+    """Whether ``dst.local(X, src.retract(X, d))`` is linear in ``d`` (so ``M d`` is exact).
+
+    True when the two differ only by side, order, rotation scale (``exp`` ↔ ``half_exp``) or the
+    frame of a decoupled translation (``so3xr3_body`` ↔ ``so3xr3_world``); False across
+    ``se3`` ↔ ``so3xr3`` or when one side uses ``quat_vec``/``cayley`` and the other does not.
+    Exactness holds within the charts' common domain (rotation angle below π).
+    """
+    a, b = get(src), get(dst)
+    if _chart_family(a) != _chart_family(b):
+        return False
+    return a.rotation == b.rotation or {a.rotation, b.rotation} <= _LINEAR_ROTATIONS
+
+
+def _map(X: FloatArray, a: Convention, b: Convention) -> FloatArray:
+    if a.fields == b.fields:
+        n = 3 if X.shape[-2:] == (3, 3) else 6
+        return np.broadcast_to(np.eye(n), (*X.shape[:-2], n, n)).copy()
+    return np.asarray(b._from_canonical(X) @ a._to_canonical(X), dtype=np.float64)
+
+
+def tangent_map(X: Any, src: ConventionLike, dst: ConventionLike) -> FloatArray:
+    """First-order map of tangents from ``src`` to ``dst`` at ``X``.
+
+    Parameters
+    ----------
+    X : array_like, shape (..., 4, 4) or (..., 3, 3)
+        The pose (or rotation) both tangents live at.
+    src, dst : Convention or str
+        Conventions (objects or registry names).
+
+    Returns
+    -------
+    ndarray, shape (..., 6, 6) or (..., 3, 3)
+        ``M = ∂/∂d dst.local(X, src.retract(X, d)) |_{d=0}``, closed form.
+    """
+    return _map(group_input(X), get(src), get(dst))
+
+
+def convert_tangent(
+    d: Any, X: Any, src: ConventionLike, dst: ConventionLike, *, exact: bool = True
+) -> FloatArray:
+    """Re-express a tangent ``d`` at ``X`` from ``src`` in ``dst``.
+
+    ``exact=True`` returns ``dst.local(X, src.retract(X, d))`` (the same perturbed pose, read in
+    ``dst``'s chart); ``exact=False`` the first-order ``tangent_map(X, src, dst) @ d``. They agree
+    whenever :func:`is_exactly_linear` holds.
+    """
+    a, b = get(src), get(dst)
+    Xa = group_input(X)
+    d = v.vector(d, "d", 3 if Xa.shape[-2:] == (3, 3) else 6)
+    if exact:
+        return b._local(Xa, a._retract(Xa, d))
+    return np.einsum("...ij,...j->...i", _map(Xa, a, b), d)
+
+
+def _sqrt_psd(cov: FloatArray) -> FloatArray:
+    lam, U = np.linalg.eigh(0.5 * (cov + np.swapaxes(cov, -1, -2)))
+    return np.asarray(U * np.sqrt(np.clip(lam, 0.0, None))[..., None, :], dtype=np.float64)
+
+
+def convert_covariance(
+    cov: Any,
+    X: Any,
+    src: ConventionLike,
+    dst: ConventionLike,
+    *,
+    method: Literal["linear", "unscented"] = "linear",
+) -> FloatArray:
+    """Re-express a covariance of a perturbation at ``X`` from ``src``'s tangent to ``dst``'s.
+
+    Parameters
+    ----------
+    cov : array_like, shape (..., n, n)
+        Symmetric positive semi-definite covariance in ``src``'s tangent (``n`` = 6, or 3 for a
+        rotation).
+    X : array_like, shape (..., 4, 4) or (..., 3, 3)
+        Mean pose (rotation).
+    src, dst : Convention or str
+    method : {"linear", "unscented"}
+        ``"linear"``: ``M Σ Mᵀ`` (exact when :func:`is_exactly_linear`). ``"unscented"``: the
+        symmetric sigma-point set ``±√n·S_k`` (``S Sᵀ = Σ``, equal weights ``1/2n``) pushed
+        through ``dst.local(X, src.retract(X, ·))``; the covariance about the transformed mean
+        is returned (the mean shift itself, second order, is dropped: it belongs to the pose).
+
+    Returns
+    -------
+    ndarray, shape (..., n, n)
+    """
+    a, b = get(src), get(dst)
+    Xa = group_input(X)
+    n = 3 if Xa.shape[-2:] == (3, 3) else 6
+    cov = v.covariance(cov, "cov", n)
+    if method == "linear":
+        M = _map(Xa, a, b)
+        return np.asarray(M @ cov @ np.swapaxes(M, -1, -2), dtype=np.float64)
+    if method != "unscented":
+        raise ValueError(f"method: expected 'linear' or 'unscented', got {method!r}")
+    S = _sqrt_psd(cov) * np.sqrt(n)  # (..., n, n), columns are the sigma directions
+    pts = np.concatenate([np.swapaxes(S, -1, -2), -np.swapaxes(S, -1, -2)], axis=-2)  # (..., 2n, n)
+    Xb = Xa[..., None, :, :]
+    y = b._local(Xb, a._retract(Xb, pts))
+    dy = y - y.mean(axis=-2, keepdims=True)
+    return np.asarray(np.einsum("...ki,...kj->...ij", dy, dy) / (2 * n), dtype=np.float64)
+
+
+def convert_information(info: Any, X: Any, src: ConventionLike, dst: ConventionLike) -> FloatArray:
+    """Re-express an information matrix: ``Λ_dst = M⁻ᵀ Λ_src M⁻¹``.
+
+    ``M⁻¹ = tangent_map(X, dst, src)`` in closed form.
+    Works for singular (rank-deficient) information: nothing is inverted.
+    """
+    a, b = get(src), get(dst)
+    Xa = group_input(X)
+    n = 3 if Xa.shape[-2:] == (3, 3) else 6
+    info = v.covariance(info, "info", n)
+    Mi = _map(Xa, b, a)
+    return np.asarray(np.swapaxes(Mi, -1, -2) @ info @ Mi, dtype=np.float64)
+
+
+def convert_jacobian(
+    J: Any,
+    src: ConventionLike,
+    dst: ConventionLike,
+    *,
+    at_input: Any = None,
+    at_output: Any = None,
+) -> FloatArray:
+    """Re-express a Jacobian ``J_out_in`` whose group input and/or output changes convention.
+
+    ``J_dst = M(Y) · J_src · M(X)⁻¹`` with ``M(·) = tangent_map(·, src, dst)``; pass ``at_input=X``
+    to convert the columns (a group input at ``X``), ``at_output=Y`` to convert the rows (a group
+    output at ``Y``), or both. ``None`` leaves that side as it is (a vector input or output).
+
+    Parameters
+    ----------
+    J : array_like, shape (..., m, n)
+    src, dst : Convention or str
+    at_input : array_like, shape (..., 4, 4) or (..., 3, 3), optional
+    at_output : array_like, shape (..., 4, 4) or (..., 3, 3), optional
+
+    Returns
+    -------
+    ndarray, shape (..., m, n)
+    """
+    a, b = get(src), get(dst)
+    Jm = v.as_float_array(J, "J")
+    if Jm.ndim < 2:
+        raise ValueError(f"J: expected shape (..., m, n), got {Jm.shape}")
+    v.check_finite(Jm, "J")
+    if at_input is not None:
+        X = group_input(at_input, "at_input")
+        Mi = _map(X, b, a)
+        if Jm.shape[-1] != Mi.shape[-1]:
+            raise ValueError(f"J: {Jm.shape[-1]} columns, but the input tangent has {Mi.shape[-1]}")
+        Jm = Jm @ Mi
+    if at_output is not None:
+        Y = group_input(at_output, "at_output")
+        Mo = _map(Y, a, b)
+        if Jm.shape[-2] != Mo.shape[-1]:
+            raise ValueError(f"J: {Jm.shape[-2]} rows, but the output tangent has {Mo.shape[-1]}")
+        Jm = Mo @ Jm
+    return np.asarray(Jm, dtype=np.float64)
