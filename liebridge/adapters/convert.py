@@ -122,10 +122,11 @@ def convert_covariance(
         Mean pose (rotation).
     src, dst : Convention or str
     method : {"linear", "unscented"}
-        ``"linear"``: ``M Σ Mᵀ`` (exact when :func:`is_exactly_linear`). ``"unscented"``: the
-        symmetric sigma-point set ``±√n·S_k`` (``S Sᵀ = Σ``, equal weights ``1/2n``) pushed
-        through ``dst.local(X, src.retract(X, ·))``; the covariance about the transformed mean
-        is returned (the mean shift itself, second order, is dropped: it belongs to the pose).
+        ``"linear"``: ``M Σ Mᵀ`` (exact when :func:`is_exactly_linear`). ``"unscented"``: sigma
+        points of a fifth-degree Gaussian cubature (``2n² + 1`` points, see :func:`_sigma5`)
+        scaled by ``S`` (``S Sᵀ = Σ``) and pushed through ``dst.local(X, src.retract(X, ·))``;
+        the covariance about the transformed mean is returned (the mean shift, second order,
+        is dropped: it belongs to the pose). Exact for maps quadratic in the perturbation.
 
     Returns
     -------
@@ -140,12 +141,40 @@ def convert_covariance(
         return np.asarray(M @ cov @ np.swapaxes(M, -1, -2), dtype=np.float64)
     if method != "unscented":
         raise ValueError(f"method: expected 'linear' or 'unscented', got {method!r}")
-    S = _sqrt_psd(cov) * np.sqrt(n)  # (..., n, n), columns are the sigma directions
-    pts = np.concatenate([np.swapaxes(S, -1, -2), -np.swapaxes(S, -1, -2)], axis=-2)  # (..., 2n, n)
+    pts, w = _sigma5(n)
+    S = _sqrt_psd(cov)  # (..., n, n), S Sᵀ = Σ
+    deltas = np.einsum("...ij,kj->...ki", S, pts)  # (..., K, n)
     Xb = Xa[..., None, :, :]
-    y = b._local(Xb, a._retract(Xb, pts))
-    dy = y - y.mean(axis=-2, keepdims=True)
-    return np.asarray(np.einsum("...ki,...kj->...ij", dy, dy) / (2 * n), dtype=np.float64)
+    y = b._local(Xb, a._retract(Xb, deltas))
+    mean = np.einsum("k,...ki->...i", w, y)
+    dy = y - mean[..., None, :]
+    out = np.einsum("k,...ki,...kj->...ij", w, dy, dy)
+    return np.asarray(0.5 * (out + np.swapaxes(out, -1, -2)), dtype=np.float64)
+
+
+def _sigma5(n: int) -> tuple[FloatArray, FloatArray]:
+    """Fifth-degree Gaussian cubature for ``N(0, I_n)``: ``2n² + 1`` points and weights.
+
+    Stroud's rule (Stroud, *Approximate Calculation of Multiple Integrals*, 1971, rule En^r² 5-2;
+    also Lu & Darmofal 2004): the origin with weight ``2/(n+2)``, ``±√(n+2)·e_i`` with weight
+    ``(4−n)/(2(n+2)²)`` and ``√((n+2)/2)·(±e_i ± e_j)`` with weight ``1/(n+2)²``. It integrates
+    every polynomial of degree ≤ 5 exactly, so the covariance of a map that is quadratic in the
+    perturbation — e.g. the ``V(ω)·v`` coupling between the SE(3) exponential and a decoupled
+    chart — is exact; the classic 2n-point unscented set only matches degree 3 and misses it.
+    """
+    eye = np.eye(n)
+    pts = [np.zeros((1, n)), np.sqrt(n + 2.0) * eye, -np.sqrt(n + 2.0) * eye]
+    wts = [np.array([2.0 / (n + 2)]), np.full(2 * n, (4.0 - n) / (2.0 * (n + 2) ** 2))]
+    r = np.sqrt((n + 2.0) / 2.0)
+    pairs = [(i, j) for i in range(n) for j in range(i + 1, n)]
+    for si in (1.0, -1.0):
+        for sj in (1.0, -1.0):
+            for i, j in pairs:
+                p = np.zeros(n)
+                p[i], p[j] = si * r, sj * r
+                pts.append(p[None, :])
+    wts.append(np.full(4 * len(pairs), 1.0 / (n + 2) ** 2))
+    return np.concatenate(pts), np.concatenate(wts)
 
 
 def convert_information(info: Any, X: Any, src: ConventionLike, dst: ConventionLike) -> FloatArray:
