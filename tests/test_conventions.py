@@ -105,8 +105,8 @@ def test_first_order_maps_of_the_reference_table():
     rng = np.random.default_rng(6)
     X = random_poses(rng, ())
     R, t = X[:3, :3], X[:3, 3]
-    I, Z = np.eye(3), np.zeros((3, 3))
-    P = np.block([[Z, I], [I, Z]])
+    Id, Z = np.eye(3), np.zeros((3, 3))
+    P = np.block([[Z, Id], [Id, Z]])
     Ad = np.block([[R, Z], [so3.hat(t) @ R, R]])
     table = {
         "sophus": P,
@@ -117,9 +117,9 @@ def test_first_order_maps_of_the_reference_table():
         "barfoot": P @ Ad,
         "pypose": P @ Ad,
         "pytransform3d_global": Ad,
-        "symforce": np.block([[I, Z], [Z, R]]),
+        "symforce": np.block([[Id, Z], [Z, R]]),
         "ros": np.block([[Z, R], [R, Z]]),
-        "g2o": np.block([[Z, I], [I / 2, Z]]),
+        "g2o": np.block([[Z, Id], [Id / 2, Z]]),
     }
     for name, expected in table.items():
         np.testing.assert_allclose(
