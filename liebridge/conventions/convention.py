@@ -33,7 +33,13 @@ import numpy as np
 from .. import _validate as v
 from .._validate import FloatArray
 from ..lie import se3
-from .rotation_coords import FIRST_ORDER_SCALE, ROTATION_COORDS, from_rotation, to_rotation
+from .rotation_coords import (
+    FIRST_ORDER_SCALE,
+    ROTATION_COORDS,
+    d_from_rotation,
+    from_rotation,
+    to_rotation,
+)
 
 Side = Literal["right", "left"]
 Order = Literal["rot_first", "trans_first"]
@@ -194,6 +200,44 @@ class Convention:
         if X.shape[-2:] != Y.shape[-2:]:
             raise ValueError(f"Y: shape {Y.shape} does not match X {X.shape}")
         return self._local(X, Y)
+
+    def _local_jacobian(self, X: FloatArray, Y: FloatArray) -> FloatArray:
+        s = self.rotation_scale
+        if _is_rotation(X):
+            Xt = np.swapaxes(X, -1, -2)
+            dR = Xt @ Y if self.side == "right" else Y @ Xt
+            return np.asarray(s * d_from_rotation(dR, self.rotation, self.side), dtype=np.float64)
+        if self.chart == "se3":
+            if self.side == "right":
+                J = se3._jl_inv(-se3._log(se3._inverse(X) @ Y))  # Jr⁻¹(ξ) = Jl⁻¹(−ξ)
+            else:
+                J = se3._jl_inv(se3._log(Y @ se3._inverse(X)))
+        else:
+            RX, RY = X[..., :3, :3], Y[..., :3, :3]
+            RXt = np.swapaxes(RX, -1, -2)
+            dR = RXt @ RY if self.side == "right" else RY @ RXt
+            J = np.zeros((*np.broadcast_shapes(X.shape, Y.shape)[:-2], 6, 6))
+            J[..., :3, :3] = s * d_from_rotation(dR, self.rotation, self.side)
+            J[..., 3:, 3:] = RXt @ RY if self.chart == "so3xr3_body" else np.eye(3)
+        if self.order == "trans_first":
+            J = np.concatenate([J[..., 3:, :], J[..., :3, :]], axis=-2)
+            J = np.concatenate([J[..., :, 3:], J[..., :, :3]], axis=-1)
+        return np.asarray(J, dtype=np.float64)
+
+    def local_jacobian(self, X: Any, Y: Any) -> FloatArray:
+        """Differentiate ``local(X, ·)`` at ``Y`` in this convention's own chart.
+
+        Returns ``J = ∂ local(X, retract(Y, δ)) / ∂δ |_{δ=0}``, ``(..., 6, 6)`` (or 3×3), closed
+        form. For ``se3``/right this is ``Jr⁻¹(local(X, Y))`` (reordered), for ``se3``/left
+        ``Jl⁻¹``; for the decoupled charts it is block diagonal (rotation block from
+        :func:`~liebridge.conventions.rotation_coords.d_from_rotation`, translation block
+        ``R_Xᵀ R_Y`` in the body frame, ``I`` in the world frame). To differentiate with respect
+        to GTSAM's perturbation of ``Y`` instead, multiply by ``tangent_map(Y, "gtsam", self)``.
+        False: ``J = I`` (true only at ``Y = X``: the textbook approximation that moves optima).
+        """
+        X = group_input(X)
+        Y = group_input(Y, "Y")
+        return self._local_jacobian(X, Y)
 
     # ----------------------------------------------------------------- first-order maps
     def _to_canonical(self, X: FloatArray) -> FloatArray:

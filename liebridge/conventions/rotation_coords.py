@@ -85,3 +85,38 @@ def from_rotation(R: FloatArray, kind: str) -> FloatArray:
             )
         return np.asarray(2.0 * s / den[..., None], dtype=np.float64)
     raise ValueError(f"rotation: unknown rotation coordinates {kind!r}")
+
+
+def d_from_rotation(R: FloatArray, kind: str, side: str) -> FloatArray:
+    """Differentiate :func:`from_rotation` under a rotation-vector perturbation of ``R``.
+
+    Returns ``∂ from_rotation(R·Exp(δ)) / ∂δ`` (``side="right"``) or
+    ``∂ from_rotation(Exp(δ)·R) / ∂δ`` (``side="left"``) at ``δ = 0``, shape ``(..., 3, 3)``:
+
+    * ``exp``: ``Jr⁻¹(ω)`` / ``Jl⁻¹(ω)``; ``half_exp``: half of those;
+    * ``quat_vec``: with ``(w, u)`` the quaternion of ``R`` (``w ≥ 0``),
+      ``q ⊗ (1, δ/2)`` gives ``½(w I + hat(u))``; ``(1, δ/2) ⊗ q`` gives ``½(w I − hat(u))``;
+    * ``cayley``: with ``s = vee(R − Rᵀ)`` and ``r = 2s/(1 + tr R)``, right:
+      ``2/(1 + tr R)·(tr R·I − Rᵀ) + ½ r rᵀ`` (from ``[δ]A + Aᵀ[δ] = [(tr A·I − A)δ]``);
+      left: the right one times ``Rᵀ``.
+
+    Verified against finite differences in ``tests/test_local_jacobian.py``.
+    """
+    if kind in ("exp", "half_exp"):
+        w = so3._log(R)
+        J = so3._jr_inv(w) if side == "right" else so3._jl_inv(w)
+        return J if kind == "exp" else 0.5 * J
+    if kind == "quat_vec":
+        w = so3._log(R)
+        th = np.linalg.norm(w, axis=-1)
+        u = 0.5 * sinc(0.5 * th)[..., None] * w
+        qw = np.cos(0.5 * th)[..., None, None]
+        H = so3._hat(u)
+        return 0.5 * (qw * np.eye(3) + (H if side == "right" else -H))
+    if kind == "cayley":
+        r = from_rotation(R, "cayley")
+        tr = np.trace(R, axis1=-2, axis2=-1)[..., None, None]
+        D = 2.0 / (1.0 + tr) * (tr * np.eye(3) - np.swapaxes(R, -1, -2))
+        D = D + 0.5 * r[..., :, None] * r[..., None, :]
+        return D if side == "right" else np.asarray(D @ np.swapaxes(R, -1, -2), dtype=np.float64)
+    raise ValueError(f"rotation: unknown rotation coordinates {kind!r}")
