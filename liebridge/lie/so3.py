@@ -133,8 +133,11 @@ def _log(R: FloatArray) -> FloatArray:
         diag = np.diagonal(S, axis1=-2, axis2=-1)
         k = np.argmax(diag, axis=-1)
         idx = np.broadcast_to(k[..., None, None], (*S.shape[:-1], 1))
-        col = np.take_along_axis(S, idx, axis=-1)
-        u = col[..., 0] / np.linalg.norm(col[..., 0], axis=-1, keepdims=True)
+        col = np.take_along_axis(S, idx, axis=-1)[..., 0]
+        # only the near-π entries are used; the others may have a zero column (R = I), so
+        # divide by 1 there rather than produce 0/0 warnings that np.where would discard
+        norm = np.where(near_pi, np.linalg.norm(col, axis=-1), 1.0)[..., None]
+        u = col / norm
         sign = np.where(np.einsum("...i,...i->...", u, s) < 0.0, -1.0, 1.0)
         w_pi = (sign * theta)[..., None] * u
         w = np.where(near_pi[..., None], w_pi, w)
