@@ -27,7 +27,12 @@ def _batch_index(mask: npt.NDArray[np.bool_]) -> tuple[int, ...]:
 
 
 def as_float_array(x: Any, name: str) -> FloatArray:
-    """Convert ``x`` to a float64 array without mutating it, rejecting non-numeric input."""
+    """Convert ``x`` to a float64 array without mutating it, rejecting non-numeric input.
+
+    Complex input is a ``TypeError`` too: numpy's cast would silently drop the imaginary part.
+    """
+    if np.iscomplexobj(x):
+        raise TypeError(f"{name}: expected a real numeric array, got complex values")
     try:
         arr = np.asarray(x, dtype=np.float64)
     except (TypeError, ValueError) as exc:
@@ -37,11 +42,20 @@ def as_float_array(x: Any, name: str) -> FloatArray:
     return arr
 
 
-def check_finite(arr: FloatArray, name: str) -> None:
-    """Raise if ``arr`` holds NaN or Inf, naming the first offending index."""
+def check_finite(arr: FloatArray, name: str, core_ndim: int | None = None) -> None:
+    """Raise if ``arr`` holds NaN or Inf, naming the first offending index.
+
+    With ``core_ndim`` (the number of trailing non-batch axes: 1 for vectors, 2 for matrices) the
+    message splits the index into the batch index and the entry inside the element.
+    """
     if not np.isfinite(arr).all():
-        bad = ~np.isfinite(arr)
-        raise ValueError(f"{name}: contains NaN or Inf at index {_batch_index(bad)}")
+        idx = _batch_index(~np.isfinite(arr))
+        if core_ndim is None:
+            raise ValueError(f"{name}: contains NaN or Inf at index {idx}")
+        split = len(idx) - core_ndim
+        raise ValueError(
+            f"{name}: contains NaN or Inf at batch index {idx[:split]}, entry {idx[split:]}"
+        )
 
 
 def vector(x: Any, name: str, dim: int) -> FloatArray:
@@ -49,7 +63,7 @@ def vector(x: Any, name: str, dim: int) -> FloatArray:
     arr = as_float_array(x, name)
     if arr.ndim < 1 or arr.shape[-1] != dim:
         raise ValueError(f"{name}: expected shape (..., {dim}), got {arr.shape}")
-    check_finite(arr, name)
+    check_finite(arr, name, core_ndim=1)
     return arr
 
 
@@ -58,7 +72,7 @@ def square(x: Any, name: str, dim: int) -> FloatArray:
     arr = as_float_array(x, name)
     if arr.ndim < 2 or arr.shape[-2:] != (dim, dim):
         raise ValueError(f"{name}: expected shape (..., {dim}, {dim}), got {arr.shape}")
-    check_finite(arr, name)
+    check_finite(arr, name, core_ndim=2)
     return arr
 
 

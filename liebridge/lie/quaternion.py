@@ -127,7 +127,7 @@ def slerp(q0: Any, q1: Any, tau: Any, *, order: QuatOrder) -> FloatArray:
     a = v.quaternion(q0, "q0")
     b = v.quaternion(q1, "q1")
     t = v.as_float_array(tau, "tau")
-    v.check_finite(t, "tau")
+    v.check_finite(t, "tau", core_ndim=0)
     dot = np.einsum("...i,...i->...", a, b)
     b = np.where((dot < 0)[..., None], -b, b)
     dot = np.clip(np.abs(dot), -1.0, 1.0)

@@ -224,6 +224,6 @@ def interpolate(T0: Any, T1: Any, tau: Any) -> FloatArray:
     T0 = v.pose(T0, "T0")
     T1 = v.pose(T1, "T1")
     tau_ = v.as_float_array(tau, "tau")
-    v.check_finite(tau_, "tau")
+    v.check_finite(tau_, "tau", core_ndim=0)
     xi = _log(_inverse(T0) @ T1)
     return np.asarray(T0 @ _exp(tau_[..., None] * xi), dtype=np.float64)
