@@ -46,8 +46,11 @@ def numerical_jacobian(
         The function; it receives what ``retract`` returns (batched if ``x`` is batched).
     x : array_like
         The point: a pose ``(..., 4, 4)``, a rotation ``(..., 3, 3)`` or a vector ``(..., n)``.
+        Without ``retract`` it is always read as a batch of vectors (the last axis), so a
+        ``(k, 3)``-shaped or ``(3, 3)``-shaped array of 3-vectors is differentiated row by row.
     retract : callable, optional
         ``retract(x, d)`` with ``d`` of shape ``(..., dim)``. Default: ``x + d`` (vector input).
+        With a retraction, ``(..., 3, 3)`` and ``(..., 4, 4)`` inputs are group elements.
     local : callable, optional
         ``local(y0, y)`` of the *input* chart; used for the output when ``out_local`` is None
         (a map from a group to the same group in the same convention).
@@ -63,12 +66,17 @@ def numerical_jacobian(
     ndarray, shape (..., m, dim)
     """
     x_arr = np.asarray(x, dtype=np.float64)
-    n = dim if dim is not None else _tangent_dim(x_arr)
-    batch = (
-        x_arr.shape[:-2]
-        if (x_arr.ndim >= 2 and x_arr.shape[-2:] in ((3, 3), (4, 4)))
-        else (x_arr.shape[:-1])
-    )
+    if retract is None:
+        # Euclidean input: always a batch of vectors, even when shaped (..., 3, 3) or (..., 4, 4)
+        if x_arr.ndim < 1:
+            raise ValueError("x: a vector input needs shape (..., n)")
+        n, batch = x_arr.shape[-1], x_arr.shape[:-1]
+        if dim is not None and dim != n:
+            raise ValueError(f"dim: {dim} does not match the vector length {n} of x")
+    else:
+        n = dim if dim is not None else _tangent_dim(x_arr)
+        group = x_arr.ndim >= 2 and x_arr.shape[-2:] in ((3, 3), (4, 4))
+        batch = x_arr.shape[:-2] if group else x_arr.shape[:-1]
     ret: Retract = retract if retract is not None else (lambda a, d: np.asarray(a) + d)
     if out_local is None:
         out: Local = local if local is not None else _euclidean_local
@@ -97,14 +105,20 @@ def assert_jacobian(
     rtol: float = 1e-6,
     name: str = "Jacobian",
 ) -> None:
-    """Raise ``AssertionError`` naming the worst entry unless ``|a − e| ≤ atol + rtol·|e|``."""
+    """Raise ``AssertionError`` naming the worst entry unless ``|a − e| ≤ atol + rtol·|e|``.
+
+    The message gives the index of the entry with the largest excess over the tolerance, both
+    values and the difference. NaN or Inf in ``actual`` or ``expected`` always fails.
+    """
     a = np.asarray(actual, dtype=np.float64)
     e = np.asarray(expected, dtype=np.float64)
     if a.shape != e.shape:
         raise AssertionError(f"{name}: shape {a.shape} != expected {e.shape}")
     excess = np.abs(a - e) - (atol + rtol * np.abs(e))
-    if not np.isfinite(a).all() or (excess > 0).any():
-        bad = np.where(np.isfinite(a), excess, np.inf)
+    finite = np.isfinite(a) & np.isfinite(e)
+    if not finite.all() or (excess > 0).any():
+        # a NaN/Inf on either side is the worst possible entry (NaN > 0 is False: never pass it)
+        bad = np.where(finite, excess, np.inf)
         i = np.unravel_index(int(np.argmax(bad)), a.shape)
         raise AssertionError(
             f"{name}: worst entry {tuple(int(k) for k in i)}: got {a[i]:.12g}, expected "
