@@ -1,0 +1,498 @@
+"""SE(3) kernel: agreement with GTSAM and Pinocchio, finite differences, identities, batching.
+
+Canonical form is GTSAM's: ξ = (ω, v), rotation first, right perturbation ``X·Exp(ξ)``, true SE(3)
+exponential. Pinocchio's motion vectors are (v, ω); ``P`` below swaps the two blocks (``P = P⁻¹``),
+so ``pin.exp6(P ξ)`` is our ``exp(ξ)`` and a Pinocchio Jacobian ``J`` reads ``P J P`` in our order.
+
+Tolerances. Translations go up to 30 m, and every quantity that carries a translation (the
+translation of ``Exp``, the ``v`` part of ``Log``, the lower-left blocks of ``Ad`` and of the
+Jacobians) is linear in it, so its rounding error grows with it. All bounds are therefore
+``tol · scale`` with ``scale = max(1, ‖v‖, ‖t‖)`` — a relative tolerance for large translations
+and an absolute one below 1 m:
+
+* ``ORACLE_TOL = 1e-12`` against GTSAM / Pinocchio (measured ≤ 2e-15 · scale; Pinocchio's
+  ``log6`` ≈ 1e-14 · scale near θ = 3 because it goes through ``acos``).
+* GTSAM's near-π Taylor polynomial for D(θ) (see ``test_lie_so3``) enters ``Pose3.Logmap`` and
+  ``Pose3.LogmapDerivative`` through ``V⁻¹ = J_l⁻¹``: the same ``0.06 δ²`` allowance (measured
+  ≤ 0.034 δ² · scale), only where GTSAM uses that polynomial (δ² < 1e-6).
+* ``FD_TOL = 1e-8`` for central differences with step 1e-6: rounding ≈ ``eps_mach · scale / ε``
+  ≈ 6e-9 at 30 m would be too close, so the bound is ``FD_TOL · scale`` (measured ≤ 2e-9 · scale).
+* ``ID_TOL = 1e-12`` for identities between kernel outputs (products of a few 6×6 matrices with
+  entries up to ~100: measured ≤ 5e-14 · scale).
+"""
+
+from __future__ import annotations
+
+import math
+import zlib
+
+import _strategies as S
+import gtsam
+import numpy as np
+import pinocchio as pin
+import pytest
+import scipy.linalg
+from hypothesis import given
+from hypothesis import strategies as st
+
+from liebridge.check import assert_jacobian, numerical_jacobian
+from liebridge.lie import se3, so3
+
+pytestmark = pytest.mark.filterwarnings("error")
+
+ORACLE_TOL = 1e-12
+FD_TOL = 1e-8
+ID_TOL = 1e-12
+PI = math.pi
+
+#: (ω, v) ↔ (v, ω); its own inverse.
+P = np.block([[np.zeros((3, 3)), np.eye(3)], [np.eye(3), np.zeros((3, 3))]])
+
+
+def _scale(*vectors: np.ndarray) -> float:
+    return max([1.0, *(float(np.linalg.norm(x)) for x in vectors)])
+
+
+def _theta(xi: np.ndarray) -> float:
+    return float(np.linalg.norm(xi[:3]))
+
+
+def _gtsam_near_pi_allowance(theta: float) -> float:
+    delta = max(PI - theta, 0.0)
+    return 0.06 * delta * delta if delta * delta < 1e-6 else 0.0
+
+
+def _pin_exp(xi: np.ndarray) -> np.ndarray:
+    return np.asarray(pin.exp6(P @ xi).homogeneous)
+
+
+# name -> (kernel, [(oracle, fn, max angle, GTSAM near-π allowance applies)])
+SE3_ORACLES = {
+    "exp": (
+        se3.exp,
+        [
+            ("gtsam", lambda xi: gtsam.Pose3.Expmap(xi).matrix(), PI, False),
+            ("pinocchio", _pin_exp, PI, False),
+        ],
+    ),
+    "jr": (
+        se3.jr,
+        [
+            ("gtsam", gtsam.Pose3.ExpmapDerivative, PI, False),
+            # pin.Jexp6 is the right Jacobian in (v, ω): see test_pinocchio_jexp6_is_right_jacobian
+            ("pinocchio", lambda xi: P @ pin.Jexp6(P @ xi) @ P, PI, False),
+        ],
+    ),
+    "jl": (
+        se3.jl,
+        [
+            (
+                "gtsam",
+                lambda xi: gtsam.Pose3.Expmap(xi).AdjointMap() @ gtsam.Pose3.ExpmapDerivative(xi),
+                PI,
+                False,
+            )
+        ],
+    ),
+    "jr_inv": (
+        se3.jr_inv,
+        [
+            ("gtsam", gtsam.Pose3.LogmapDerivative, PI, True),
+            # Jlog6(T) = J_r⁻¹(log T); log6 picks one of the two logs at π itself
+            ("pinocchio", lambda xi: P @ pin.Jlog6(pin.SE3(_pin_exp(xi))) @ P, PI - 1e-12, False),
+        ],
+    ),
+    "ad": (se3.ad, [("gtsam", gtsam.Pose3.adjointMap, 4 * PI, False)]),
+}
+
+
+def _check_against_oracles(name: str, xi: np.ndarray) -> None:
+    ours_fn, oracles = SE3_ORACLES[name]
+    ours = ours_fn(xi)
+    theta, scale = _theta(xi), _scale(xi[3:])
+    for oracle, fn, max_angle, near_pi in oracles:
+        if theta > max_angle:
+            continue
+        tol = ORACLE_TOL + (_gtsam_near_pi_allowance(theta) if near_pi else 0.0)
+        np.testing.assert_allclose(
+            ours, fn(xi), rtol=0, atol=tol * scale, err_msg=f"{name} vs {oracle} at θ={theta!r}"
+        )
+
+
+def test_pinocchio_jexp6_is_right_jacobian_in_v_omega() -> None:
+    # Establish what pin.Jexp6 is before trusting it as an oracle: central differences of
+    # pin.exp6 in Pinocchio's own (v, ω) order through the right local map log6(Y0⁻¹ Y).
+    rng = np.random.default_rng(1)
+    for xi in S.random_twists(rng, (6,), max_norm=3.0):
+        nu = P @ xi
+        fd = numerical_jacobian(
+            lambda x: pin.exp6(x).homogeneous,
+            nu,
+            out_local=lambda Y0, Y: pin.log6(np.linalg.inv(Y0) @ Y).vector,
+        )
+        left = numerical_jacobian(
+            lambda x: pin.exp6(x).homogeneous,
+            nu,
+            out_local=lambda Y0, Y: pin.log6(Y @ np.linalg.inv(Y0)).vector,
+        )
+        J = pin.Jexp6(nu)
+        assert_jacobian(J, fd, atol=FD_TOL * 10, rtol=0, name="pin.Jexp6")
+        assert np.abs(J - left).max() > 1e-2  # not the left Jacobian
+
+
+@pytest.mark.parametrize("angle", S.EDGE_ANGLES)
+@pytest.mark.parametrize("name", sorted(SE3_ORACLES))
+def test_matches_gtsam_and_pinocchio_at_edge_angles(name: str, angle: float) -> None:
+    rng = np.random.default_rng(zlib.crc32(f"{name}{angle!r}".encode()))
+    v = S.random_twists(rng, (4,))[:, 3:]
+    for u, vk in zip(S.random_unit(rng, (4,)), v, strict=True):
+        _check_against_oracles(name, np.concatenate([angle * u, vk]))
+
+
+@pytest.mark.parametrize("name", sorted(SE3_ORACLES))
+@given(xi=S.twists())
+def test_matches_gtsam_and_pinocchio_random(name: str, xi: np.ndarray) -> None:
+    _check_against_oracles(name, xi)
+
+
+@given(T=S.poses())
+def test_adjoint_matches_gtsam(T: np.ndarray) -> None:
+    np.testing.assert_allclose(
+        se3.adjoint(T), gtsam.Pose3(T).AdjointMap(), rtol=0, atol=ORACLE_TOL * _scale(T[:3, 3])
+    )
+
+
+# --------------------------------------------------------------------------- log
+
+
+def _assert_log_matches(ours: np.ndarray, ref: np.ndarray, T: np.ndarray, what: str) -> None:
+    theta, scale = _theta(ref), _scale(T[:3, 3], ref[3:])
+    tol = ORACLE_TOL * scale
+    if PI - theta < 1e-14:
+        # both (πu, V(πu)⁻¹t) and (−πu, V(−πu)⁻¹t) are logarithms: compare the angle, the axis up
+        # to sign, and that each really is a logarithm of T
+        assert abs(_theta(ours) - PI) < ORACLE_TOL, what
+        err = min(np.abs(ours[:3] - ref[:3]).max(), np.abs(ours[:3] + ref[:3]).max())
+        assert err < ORACLE_TOL, f"{what}: ±axis differ by {err}"
+        np.testing.assert_allclose(se3.exp(ref), T, rtol=0, atol=tol, err_msg=what)
+    else:
+        tol += _gtsam_near_pi_allowance(theta) * scale if "gtsam" in what else 0.0
+        np.testing.assert_allclose(ours, ref, rtol=0, atol=tol, err_msg=what)
+    np.testing.assert_allclose(se3.exp(ours), T, rtol=0, atol=ORACLE_TOL * scale, err_msg=what)
+
+
+def _check_log(T: np.ndarray) -> None:
+    ours = se3.log(T)
+    _assert_log_matches(ours, gtsam.Pose3.Logmap(gtsam.Pose3(T)), T, "log vs gtsam")
+    _assert_log_matches(ours, P @ pin.log6(pin.SE3(T)).vector, T, "log vs pinocchio")
+
+
+@pytest.mark.parametrize("angle", S.EDGE_ANGLES)
+def test_log_matches_gtsam_and_pinocchio_at_edge_angles(angle: float) -> None:
+    rng = np.random.default_rng(zlib.crc32(repr(angle).encode()))
+    R = S.rotation_from_rotvec(angle * S.random_unit(rng, (4,)))
+    for T in S.assemble(R, S.random_twists(rng, (4,))[:, 3:]):
+        _check_log(T)
+
+
+@pytest.mark.parametrize("R", list(S.pi_rotations()), ids=lambda R: str(np.round(np.diag(R), 2)))
+def test_log_at_exactly_pi(R: np.ndarray) -> None:
+    for t in ([0.0, 0.0, 0.0], [1.0, -2.0, 3.0], [30.0, 0.0, 0.0]):
+        T = S.assemble(R, t)
+        _check_log(T)
+        assert np.isfinite(se3.log(T)).all()
+
+
+@given(T=S.poses())
+def test_log_matches_gtsam_and_pinocchio_random(T: np.ndarray) -> None:
+    _check_log(T)
+
+
+@given(xi=S.twists(max_angle=PI - 1e-9))
+def test_log_exp_roundtrip(xi: np.ndarray) -> None:
+    np.testing.assert_allclose(se3.log(se3.exp(xi)), xi, rtol=0, atol=ORACLE_TOL * _scale(xi[3:]))
+
+
+def test_log_exp_roundtrip_edge_angles_batched() -> None:
+    rng = np.random.default_rng(12)
+    angles = tuple(a for a in S.EDGE_ANGLES if a <= PI - 1e-9)
+    w = S.edge_rotvecs(rng, 6, angles)
+    xi = np.concatenate([w, S.random_twists(rng, (len(w),))[:, 3:]], axis=-1)
+    err = np.abs(se3.log(se3.exp(xi)) - xi).max(axis=-1)
+    scale = np.maximum(1.0, np.linalg.norm(xi[:, 3:], axis=-1))
+    assert (err <= ORACLE_TOL * scale).all(), err.max()
+
+
+@given(T=S.poses())
+def test_exp_log_roundtrip_everywhere(T: np.ndarray) -> None:
+    np.testing.assert_allclose(se3.exp(se3.log(T)), T, rtol=0, atol=ORACLE_TOL * _scale(T[:3, 3]))
+
+
+@given(xi=S.twists())
+def test_exp_is_the_matrix_exponential(xi: np.ndarray) -> None:
+    # the true SE(3) exponential: Exp(ξ) = expm(hat(ξ)), independent of any closed form
+    np.testing.assert_allclose(
+        se3.exp(xi), scipy.linalg.expm(se3.hat(xi)), rtol=0, atol=ORACLE_TOL * _scale(xi[3:])
+    )
+
+
+# --------------------------------------------------------------------------- Jacobians
+
+
+def _right_local(Y0: np.ndarray, Y: np.ndarray) -> np.ndarray:
+    return se3.log(se3.inverse(Y0) @ Y)
+
+
+def _left_local(Y0: np.ndarray, Y: np.ndarray) -> np.ndarray:
+    return se3.log(Y @ se3.inverse(Y0))
+
+
+def _assert_fd(analytic: np.ndarray, fd: np.ndarray, xi: np.ndarray, name: str) -> None:
+    scale = np.maximum(1.0, np.linalg.norm(xi[..., 3:], axis=-1))[..., None, None]
+    assert_jacobian(analytic / scale, fd / scale, atol=FD_TOL, rtol=0, name=name)
+
+
+def test_jr_jl_against_finite_differences() -> None:
+    rng = np.random.default_rng(5)
+    w = np.concatenate([S.edge_rotvecs(rng, 3), S.random_rotvecs(rng, (6,), 2 * PI - 0.5)])
+    xi = np.concatenate([w, S.random_twists(rng, (len(w),))[:, 3:]], axis=-1)
+    fd_r = numerical_jacobian(se3.exp, xi, out_local=_right_local)
+    fd_l = numerical_jacobian(se3.exp, xi, out_local=_left_local)
+    _assert_fd(se3.jr(xi), fd_r, xi, "se3.jr")
+    _assert_fd(se3.jl(xi), fd_l, xi, "se3.jl")
+    assert np.abs(se3.jr(xi) - fd_l).max() > 1e-2  # the check can tell the two apart
+
+
+@given(xi=S.twists())
+def test_jr_jl_against_finite_differences_random(xi: np.ndarray) -> None:
+    _assert_fd(se3.jr(xi), numerical_jacobian(se3.exp, xi, out_local=_right_local), xi, "jr")
+    _assert_fd(se3.jl(xi), numerical_jacobian(se3.exp, xi, out_local=_left_local), xi, "jl")
+
+
+def test_jr_inv_jl_inv_against_finite_differences_of_log() -> None:
+    # d Log(T·Exp(δ))/dδ = J_r⁻¹(Log T), d Log(Exp(δ)·T)/dδ = J_l⁻¹(Log T); stay 1e-3 below the
+    # branch cut at π so that the 1e-6 steps do not cross it
+    rng = np.random.default_rng(6)
+    angles = tuple(a for a in S.EDGE_ANGLES if a <= PI - 1e-3)
+    w = S.edge_rotvecs(rng, 3, angles)
+    T = S.assemble(S.rotation_from_rotvec(w), S.random_twists(rng, (len(w),))[:, 3:])
+    xi = se3.log(T)
+    fd_r = numerical_jacobian(se3.log, T, retract=lambda X, d: X @ se3.exp(d))
+    fd_l = numerical_jacobian(se3.log, T, retract=lambda X, d: se3.exp(d) @ X)
+    _assert_fd(se3.jr_inv(xi), fd_r, xi, "se3.jr_inv")
+    _assert_fd(se3.jl_inv(xi), fd_l, xi, "se3.jl_inv")
+
+
+@given(xi=S.twists())
+def test_jacobian_identities(xi: np.ndarray) -> None:
+    s = _scale(xi[3:])
+    tol, tol2 = ID_TOL * s, ID_TOL * s * s  # single blocks ∝ ‖v‖; products of two such blocks
+    eye = np.eye(6)
+    Ad = se3.adjoint(se3.exp(xi))
+    np.testing.assert_allclose(se3.jl(xi), se3.jr(-xi), rtol=0, atol=tol)
+    np.testing.assert_allclose(se3.jl_inv(xi), se3.jr_inv(-xi), rtol=0, atol=tol)
+    np.testing.assert_allclose(se3.jl(xi), Ad @ se3.jr(xi), rtol=0, atol=tol2)
+    np.testing.assert_allclose(se3.jr_inv(xi) @ se3.jr(xi), eye, rtol=0, atol=tol2)
+    np.testing.assert_allclose(se3.jl_inv(xi) @ se3.jl(xi), eye, rtol=0, atol=tol2)
+
+
+# --------------------------------------------------------------------------- adjoints
+
+
+@given(T=S.poses(), xi=S.twists())
+def test_adjoint_conjugation_identity(T: np.ndarray, xi: np.ndarray) -> None:
+    # T·Exp(ξ)·T⁻¹ = Exp(Ad_T ξ)
+    eta = se3.adjoint(T) @ xi
+    lhs = T @ se3.exp(xi) @ se3.inverse(T)
+    tol = ORACLE_TOL * _scale(eta[3:], T[:3, 3], xi[3:])
+    np.testing.assert_allclose(lhs, se3.exp(eta), rtol=0, atol=tol)
+
+
+@given(T1=S.poses(), T2=S.poses())
+def test_adjoint_is_a_homomorphism(T1: np.ndarray, T2: np.ndarray) -> None:
+    tol = ID_TOL * _scale(T1[:3, 3]) * _scale(T2[:3, 3])
+    np.testing.assert_allclose(
+        se3.adjoint(T1 @ T2), se3.adjoint(T1) @ se3.adjoint(T2), rtol=0, atol=tol
+    )
+    np.testing.assert_allclose(
+        se3.adjoint(se3.inverse(T1)), np.linalg.inv(se3.adjoint(T1)), rtol=0, atol=tol
+    )
+
+
+@given(xi=S.twists())
+def test_ad_is_the_derivative_of_adjoint(xi: np.ndarray) -> None:
+    # d/ds Ad(Exp(s ξ)) at s = 0, central differences in s; truncation h²/6·‖ad_ξ‖³ ≤ 1e-9 and
+    # rounding eps_mach·‖Ad‖/h ≈ 1e-8 at 30 m, so 1e-7 relative to the scale
+    fd = numerical_jacobian(lambda s: se3.adjoint(se3.exp(s * xi)), np.zeros(1))[..., 0]
+    np.testing.assert_allclose(se3.ad(xi), fd, rtol=0, atol=1e-7 * _scale(xi[3:]))
+    # and ad_ξ η is the Lie bracket [hat ξ, hat η]
+    eta = np.arange(1.0, 7.0)
+    X, Y = se3.hat(xi), se3.hat(eta)
+    np.testing.assert_allclose(
+        se3.hat(se3.ad(xi) @ eta), X @ Y - Y @ X, rtol=0, atol=ID_TOL * _scale(xi[3:])
+    )
+
+
+# --------------------------------------------------------------------------- group operations
+
+
+@given(T1=S.poses(), T2=S.poses(), p=S.translations())
+def test_compose_inverse_act_match_gtsam(T1: np.ndarray, T2: np.ndarray, p: np.ndarray) -> None:
+    tol = ORACLE_TOL * _scale(T1[:3, 3]) * _scale(T2[:3, 3], p)
+    g1, g2 = gtsam.Pose3(T1), gtsam.Pose3(T2)
+    np.testing.assert_allclose(se3.compose(T1, T2), g1.compose(g2).matrix(), rtol=0, atol=tol)
+    np.testing.assert_allclose(se3.inverse(T1), g1.inverse().matrix(), rtol=0, atol=tol)
+    np.testing.assert_allclose(se3.act(T1, p), g1.transformFrom(p), rtol=0, atol=tol)
+    np.testing.assert_allclose(se3.compose(T1, se3.inverse(T1)), np.eye(4), rtol=0, atol=tol)
+
+
+@given(xi=S.twists(), p=S.translations())
+def test_hat_vee_match_gtsam(xi: np.ndarray, p: np.ndarray) -> None:
+    np.testing.assert_array_equal(se3.hat(xi), gtsam.Pose3.Hat(xi))
+    np.testing.assert_array_equal(se3.vee(se3.hat(xi)), xi)
+    np.testing.assert_array_equal(gtsam.Pose3.Vee(se3.hat(xi)), xi)
+    # hat(ξ) acting on a homogeneous point is ω × p + v
+    np.testing.assert_allclose(
+        (se3.hat(xi) @ np.append(p, 1.0))[:3],
+        np.cross(xi[:3], p) + xi[3:],
+        rtol=0,
+        atol=ID_TOL * _scale(xi[3:], p),
+    )
+
+
+@given(T0=S.poses(), xi=S.twists(max_angle=PI - 1e-3), tau=st.floats(0.0, 1.0))
+def test_interpolate(T0: np.ndarray, xi: np.ndarray, tau: float) -> None:
+    T1 = T0 @ se3.exp(xi)
+    tol = ORACLE_TOL * _scale(T0[:3, 3]) * _scale(xi[3:])
+    np.testing.assert_allclose(se3.interpolate(T0, T1, 0.0), T0, rtol=0, atol=tol)
+    np.testing.assert_allclose(se3.interpolate(T0, T1, 1.0), T1, rtol=0, atol=tol)
+    # the midpoint M is halfway along the screw: T0·(T0⁻¹M)² = T1
+    M = se3.interpolate(T0, T1, 0.5)
+    half = se3.inverse(T0) @ M
+    np.testing.assert_allclose(T0 @ half @ half, T1, rtol=0, atol=tol)
+    # GTSAM's Pose3.slerp is the same geodesic
+    g = gtsam.Pose3(T0).slerp(tau, gtsam.Pose3(T1)).matrix()
+    np.testing.assert_allclose(se3.interpolate(T0, T1, tau), g, rtol=0, atol=tol)
+
+
+def test_interpolate_broadcasts_tau() -> None:
+    rng = np.random.default_rng(4)
+    T0, T1 = S.random_poses(rng, (2,))
+    taus = np.linspace(0.0, 1.0, 7)
+    out = se3.interpolate(T0, T1, taus)
+    assert out.shape == (7, 4, 4)
+    for k, tau in enumerate(taus):
+        np.testing.assert_allclose(out[k], se3.interpolate(T0, T1, tau), rtol=0, atol=1e-13)
+
+
+def test_compose_broadcasts() -> None:
+    rng = np.random.default_rng(2)
+    A = S.random_poses(rng, (5,))
+    B = S.random_poses(rng)
+    out = se3.compose(A, B)
+    assert out.shape == (5, 4, 4)
+    for k in range(5):
+        np.testing.assert_allclose(out[k], A[k] @ B, rtol=0, atol=1e-13)
+
+
+# --------------------------------------------------------------------------- no NaN anywhere
+
+
+def test_no_nan_at_any_angle() -> None:
+    rng = np.random.default_rng(9)
+    th = np.concatenate([np.linspace(0.0, PI, 1001), np.asarray(S.EDGE_ANGLES)])
+    w = th[:, None] * S.random_unit(rng, th.shape)
+    w = np.concatenate([w, PI * np.asarray(S.PI_AXES), so3.log(S.pi_rotations())])
+    xi = np.concatenate([w, S.random_twists(rng, (len(w),))[:, 3:]], axis=-1)
+    Rs = np.concatenate([so3.exp(w), S.pi_rotations()])
+    T = S.assemble(Rs, S.random_twists(rng, (len(Rs),))[:, 3:])
+    for name, out in [
+        ("exp", se3.exp(xi)),
+        ("log", se3.log(T)),
+        ("jr", se3.jr(xi)),
+        ("jl", se3.jl(xi)),
+        ("jr_inv", se3.jr_inv(xi)),
+        ("jl_inv", se3.jl_inv(xi)),
+        ("jr_inv(log)", se3.jr_inv(se3.log(T))),
+        ("interpolate", se3.interpolate(np.eye(4), T, 0.5)),
+    ]:
+        assert np.isfinite(out).all(), name
+    scale = np.maximum(1.0, np.linalg.norm(T[:, :3, 3], axis=-1))[:, None, None]
+    assert (np.abs(se3.exp(se3.log(T)) - T) <= ORACLE_TOL * scale).all()
+
+
+# --------------------------------------------------------------------------- batching, mutation
+
+
+def _twist(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
+    return S.random_twists(rng, shape)
+
+
+def _pose(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
+    return S.random_poses(rng, shape)
+
+
+def _point(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
+    return rng.uniform(-30.0, 30.0, size=(*shape, 3))
+
+
+def _alg(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
+    X = np.zeros((*shape, 4, 4))
+    X[..., :3, :] = rng.normal(size=(*shape, 3, 4))
+    return X
+
+
+def _tau(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
+    return rng.uniform(-0.5, 1.5, size=shape)
+
+
+SE3_PUBLIC = {
+    "act": (se3.act, [_pose, _point]),
+    "ad": (se3.ad, [_twist]),
+    "adjoint": (se3.adjoint, [_pose]),
+    "compose": (se3.compose, [_pose, _pose]),
+    "exp": (se3.exp, [_twist]),
+    "hat": (se3.hat, [_twist]),
+    "interpolate": (se3.interpolate, [_pose, _pose, _tau]),
+    "inverse": (se3.inverse, [_pose]),
+    "jl": (se3.jl, [_twist]),
+    "jl_inv": (se3.jl_inv, [_twist]),
+    "jr": (se3.jr, [_twist]),
+    "jr_inv": (se3.jr_inv, [_twist]),
+    "log": (se3.log, [_pose]),
+    "vee": (se3.vee, [_alg]),
+}
+
+
+def test_every_public_function_is_covered() -> None:
+    assert set(SE3_PUBLIC) == set(se3.__all__)
+
+
+@pytest.mark.parametrize("batch", S.BATCH_SHAPES, ids=str)
+@pytest.mark.parametrize("name", sorted(SE3_PUBLIC))
+def test_batched_equals_elementwise(name: str, batch: tuple[int, ...]) -> None:
+    fn, makers = SE3_PUBLIC[name]
+    rng = np.random.default_rng(len(name) + 7 * len(batch))
+    S.assert_batched_equals_elementwise(fn, *(m(rng, batch) for m in makers), batch=batch)
+
+
+@pytest.mark.parametrize("name", sorted(SE3_PUBLIC))
+def test_inputs_not_mutated_and_outputs_float64(name: str) -> None:
+    fn, makers = SE3_PUBLIC[name]
+    rng = np.random.default_rng(3)
+    args = [m(rng, (4,)) for m in makers]
+    copies = [a.copy() for a in args]
+    for a in args:
+        a.setflags(write=False)  # an in-place write would raise
+    out = fn(*args)
+    for a, c in zip(args, copies, strict=True):
+        np.testing.assert_array_equal(a, c)
+        assert not np.shares_memory(out, a), "output aliases the input"
+    assert out.dtype == np.float64
+
+
+def test_integer_inputs_give_float64() -> None:
+    assert se3.exp([0, 0, 1, 1, 2, 3]).dtype == np.float64
+    assert se3.log(np.eye(4, dtype=int)).dtype == np.float64
+    assert se3.act(np.eye(4, dtype=int), [1, 2, 3]).dtype == np.float64
+    assert se3.compose(np.eye(4, dtype=int), np.eye(4, dtype=int)).dtype == np.float64
