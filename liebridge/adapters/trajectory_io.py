@@ -1,0 +1,198 @@
+"""Trajectory text files: TUM and KITTI, read and written at full float precision.
+
+TUM (TUM RGB-D benchmark, Sturm et al. 2012; also the format of ``evo``)
+    One pose per line, ``timestamp tx ty tz qx qy qz qw``: the translation and the Hamilton
+    quaternion, scalar **last** (layout ``"xyz_qxyzw"`` in :mod:`liebridge.adapters.poses`), of
+    ``T_world_body``. Lines starting with ``#`` (and anything after a ``#``) are comments; commas
+    and tabs separate like spaces (as the benchmark's ``associate.py`` accepts).
+KITTI (KITTI odometry ``poses/XX.txt``)
+    One pose per line, 12 numbers: the top 3×4 block ``[R | t]`` of ``T_world_camera``,
+    row-major (layout ``"kitti"``). No timestamps.
+
+Reading validates every line: a wrong number of fields, a field that is not a number, NaN/Inf,
+a quaternion whose norm is off, or a rotation block that is not orthonormal raises ``ValueError``
+naming the file and the 1-based line number. The tolerances follow the precision the numbers were
+printed with (:func:`liebridge.adapters._layouts.text_quaternion_tol`,
+:func:`~liebridge.adapters._layouts.text_rotation_tol`): a 4-decimal TUM ground truth loads, a
+``repr``-precision file is held to ``1e-6``. Quaternions are normalised; KITTI rotation blocks are
+returned exactly as printed (project with :func:`liebridge.lie.so3.project` if you need them
+orthonormal to machine precision).
+
+Writing uses ``repr`` of every float (the shortest text that reads back to the same double), so
+KITTI files and TUM timestamps and translations round-trip bit for bit; TUM quaternions are
+written with ``w ≥ 0``.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+import numpy as np
+
+from .. import _validate as v
+from .._validate import FloatArray
+from . import poses as _layouts
+
+__all__ = ["read_kitti", "read_tum", "write_kitti", "write_tum"]
+
+PathLike = str | os.PathLike[str]
+
+
+def _data_lines(path: PathLike) -> list[tuple[int, list[str]]]:
+    """Non-empty, non-comment lines of ``path`` as ``(line_number, fields)``."""
+    out = []
+    with open(path, encoding="utf-8") as fh:
+        for lineno, line in enumerate(fh, start=1):
+            body = line.split("#", 1)[0].replace(",", " ")
+            fields = body.split()
+            if fields:
+                out.append((lineno, fields))
+    return out
+
+
+def _numbers(path: PathLike, lineno: int, fields: list[str], n: int, what: str) -> list[float]:
+    if len(fields) != n:
+        raise ValueError(f"{path}:{lineno}: expected {n} numbers ({what}), got {len(fields)}")
+    try:
+        vals = [float(f) for f in fields]
+    except ValueError:
+        bad = next(f for f in fields if not _is_float(f))
+        raise ValueError(f"{path}:{lineno}: not a number: {bad!r} ({what})") from None
+    if not all(np.isfinite(vals)):
+        raise ValueError(f"{path}:{lineno}: NaN or Inf ({what})")
+    return vals
+
+
+def _is_float(s: str) -> bool:
+    try:
+        float(s)
+    except ValueError:
+        return False
+    return True
+
+
+def _fmt(x: float) -> str:
+    return repr(float(x))
+
+
+def read_tum(path: PathLike) -> tuple[FloatArray, FloatArray]:
+    """Read a TUM trajectory file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Text file with lines ``timestamp tx ty tz qx qy qz qw``.
+
+    Returns
+    -------
+    timestamps : ndarray, shape (N,)
+    poses : ndarray, shape (N, 4, 4)
+        ``T_world_body`` with the quaternion normalised.
+
+    Raises
+    ------
+    ValueError
+        On a malformed line, naming the file and line number.
+    """
+    what = "timestamp tx ty tz qx qy qz qw"
+    rows, linenos = [], []
+    for lineno, fields in _data_lines(path):
+        vals = _numbers(path, lineno, fields, 8, what)
+        q = np.array(vals[4:8])
+        err = abs(float(np.linalg.norm(q)) - 1.0)
+        tol = _layouts.text_quaternion_tol(fields[4:8])
+        if err > tol:
+            raise ValueError(
+                f"{path}:{lineno}: quaternion norm off by {err:.3g} (tolerance {tol:g} for "
+                f"numbers printed with this precision)"
+            )
+        rows.append(vals)
+        linenos.append(lineno)
+    data = np.array(rows, dtype=np.float64).reshape(-1, 8)
+    q = data[:, 4:8] / np.linalg.norm(data[:, 4:8], axis=-1, keepdims=True)
+    x = np.concatenate([data[:, 1:4], q], axis=-1)
+    return data[:, 0].copy(), _layouts.to_matrix(x, layout="xyz_qxyzw")
+
+
+def write_tum(path: PathLike, timestamps: Any, poses: Any) -> None:
+    """Write a TUM trajectory file (``repr`` precision, quaternion ``w ≥ 0``).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    timestamps : array_like, shape (N,)
+    poses : array_like, shape (N, 4, 4)
+        ``T_world_body``; rotation blocks must be orthonormal within
+        :data:`liebridge.adapters.poses.ROTATION_TOL`.
+    """
+    t = v.as_float_array(timestamps, "timestamps")
+    if t.ndim != 1:
+        raise ValueError(f"timestamps: expected shape (N,), got {t.shape}")
+    v.check_finite(t, "timestamps")
+    T = v.pose(poses, "poses")
+    if T.ndim != 3 or T.shape[0] != t.shape[0]:
+        raise ValueError(
+            f"poses: expected shape ({t.shape[0]}, 4, 4) to match timestamps, got {T.shape}"
+        )
+    x = _layouts.from_matrix(T, layout="xyz_qxyzw")
+    lines = ["# timestamp tx ty tz qx qy qz qw\n"]
+    lines += [" ".join(map(_fmt, (ti, *xi))) + "\n" for ti, xi in zip(t, x, strict=True)]
+    with open(path, "w", encoding="utf-8") as fh:
+        fh.writelines(lines)
+
+
+def read_kitti(path: PathLike) -> FloatArray:
+    """Read a KITTI odometry pose file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Text file with 12 numbers per line, the 3×4 block ``[R | t]`` row-major.
+
+    Returns
+    -------
+    ndarray, shape (N, 4, 4)
+        ``T_world_camera``, the numbers exactly as printed (rotation not projected).
+
+    Raises
+    ------
+    ValueError
+        On a malformed line (wrong count, not a number, rotation not orthonormal within the
+        printed precision), naming the file and line number.
+    """
+    what = "3x4 [R | t] row-major"
+    rows = []
+    for lineno, fields in _data_lines(path):
+        vals = _numbers(path, lineno, fields, 12, what)
+        R = np.array(vals).reshape(3, 4)[:, :3]
+        tol = _layouts.text_rotation_tol([fields[i] for i in (0, 1, 2, 4, 5, 6, 8, 9, 10)])
+        err = float(np.abs(R.T @ R - np.eye(3)).max())
+        if err > tol or np.linalg.det(R) < 0:
+            raise ValueError(
+                f"{path}:{lineno}: rotation block is not a rotation: max|RᵀR − I| = {err:.3g} "
+                f"(tolerance {tol:g}), det = {float(np.linalg.det(R)):.3g}"
+            )
+        rows.append(vals)
+    data = np.array(rows, dtype=np.float64).reshape(-1, 12)
+    T = np.zeros((data.shape[0], 4, 4))
+    T[:, :3, :] = data.reshape(-1, 3, 4)
+    T[:, 3, 3] = 1.0
+    return T
+
+
+def write_kitti(path: PathLike, poses: Any) -> None:
+    """Write a KITTI odometry pose file (12 numbers per line, ``repr`` precision).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    poses : array_like, shape (N, 4, 4)
+        Rotation blocks must be orthonormal within :data:`liebridge.adapters.poses.ROTATION_TOL`.
+    """
+    T = v.pose(poses, "poses")
+    if T.ndim != 3:
+        raise ValueError(f"poses: expected shape (N, 4, 4), got {T.shape}")
+    x = _layouts.from_matrix(T, layout="kitti")
+    with open(path, "w", encoding="utf-8") as fh:
+        fh.writelines(" ".join(map(_fmt, xi)) + "\n" for xi in x)
