@@ -1,0 +1,133 @@
+"""Pose3 / Values batch conversion."""
+
+import gtsam
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from liebridge.adapters import gtsam_glue as glue
+
+
+def random_poses(n: int, seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    T = np.tile(np.eye(4), (n, 1, 1))
+    T[:, :3, :3] = Rotation.random(n, random_state=rng).as_matrix()
+    T[:, :3, 3] = rng.normal(scale=10.0, size=(n, 3))
+    return T
+
+
+def test_to_pose3_single_and_batch() -> None:
+    T = random_poses(5, 0)
+    p = glue.to_pose3(T[0])
+    assert isinstance(p, gtsam.Pose3)
+    assert np.array_equal(p.rotation().matrix(), T[0, :3, :3])
+    assert np.array_equal(p.translation(), T[0, :3, 3])
+    ps = glue.to_pose3(T)
+    assert isinstance(ps, list) and len(ps) == 5
+    assert all(np.array_equal(pi.matrix(), Ti) for pi, Ti in zip(ps, T, strict=True))
+
+
+def test_from_pose3_single_and_sequence() -> None:
+    ps = [
+        gtsam.Pose3(gtsam.Rot3.Ypr(0.1 * k, -0.2, 0.3), np.array([k, 2.0, 3.0])) for k in range(4)
+    ]
+    one = glue.from_pose3(ps[2])
+    assert one.shape == (4, 4) and np.array_equal(one, ps[2].matrix())
+    many = glue.from_pose3(ps)
+    assert many.shape == (4, 4, 4)
+    assert np.array_equal(many, np.stack([p.matrix() for p in ps]))
+    assert glue.from_pose3(iter(ps)).shape == (4, 4, 4)
+    with pytest.raises(TypeError, match=r"p\[1\]: expected gtsam.Pose3"):
+        glue.from_pose3([ps[0], gtsam.Rot3()])
+    with pytest.raises(TypeError):
+        glue.from_pose3(3.0)
+
+
+def test_round_trip_is_bit_exact() -> None:
+    T = random_poses(100, 1)
+    assert np.array_equal(glue.from_pose3(glue.to_pose3(T)), T)
+    keys = [gtsam.symbol("x", k) for k in range(100)]
+    vals = glue.to_values(T, keys)
+    assert vals.size() == 100
+    assert np.array_equal(glue.from_values(vals, keys), T)
+
+
+def test_non_rotation_rejected_where_gtsam_accepts_it() -> None:
+    T = random_poses(3, 2)
+    T[2, :3, :3] *= 1.001
+    # GTSAM builds it without complaint ...
+    gtsam.Pose3(T[2])
+    # ... liebridge does not, and says where
+    with pytest.raises(ValueError, match=r"T: not a rotation at batch index \(2,\)"):
+        glue.to_pose3(T)
+    with pytest.raises(ValueError, match=r"batch index \(2,\)"):
+        glue.to_values(T, [0, 1, 2])
+    R = np.diag([1.0, 1.0, -1.0])  # orthonormal but a reflection
+    M = np.eye(4)
+    M[:3, :3] = R
+    with pytest.raises(ValueError, match="reflection"):
+        glue.to_pose3(M)
+
+
+def test_to_values_does_not_mutate_and_checks_keys() -> None:
+    T = random_poses(3, 3)
+    base = gtsam.Values()
+    base.insert(100, gtsam.Point3(1.0, 2.0, 3.0))
+    out = glue.to_values(T, [0, 1, 2], base)
+    assert base.size() == 1  # the input Values is untouched
+    assert out.size() == 4 and out.exists(100)
+    assert isinstance(out.atPose3(1), gtsam.Pose3)
+    with pytest.raises(ValueError, match="key 100 already exists"):
+        glue.to_values(T, [0, 100, 2], base)
+    with pytest.raises(ValueError, match="appears twice"):
+        glue.to_values(T, [0, 1, 0])
+    with pytest.raises(ValueError, match="expected 3 keys"):
+        glue.to_values(T, [0, 1])
+    with pytest.raises(TypeError, match=r"keys\[1\]"):
+        glue.to_values(T, [0, 1.5, 2])
+    with pytest.raises(ValueError, match=r"shape \(N, 4, 4\)"):
+        glue.to_values(T[0], [0])
+    with pytest.raises(TypeError, match=r"gtsam\.Values"):
+        glue.to_values(T, [0, 1, 2], values={})
+
+
+def test_from_values_order_repeats_and_errors() -> None:
+    T = random_poses(6, 4)
+    keys = [50, 7, 9, 1, 30, 2]  # not sorted: extractPose3 sorts, from_values must not
+    vals = glue.to_values(T, keys)
+    vals.insert(999, gtsam.Point3(0.0, 0.0, 0.0))
+    want = [9, 50, 9, 2]
+    got = glue.from_values(vals, want)
+    ref = np.stack([vals.atPose3(k).matrix() for k in want])  # the per-key loop
+    assert np.array_equal(got, ref)
+    assert glue.from_values(vals, []).shape == (0, 4, 4)
+    with pytest.raises(ValueError, match=r"keys\[1\]: key 8 is not in values"):
+        glue.from_values(vals, [7, 8])
+    with pytest.raises(TypeError, match=r"keys\[2\]: the value under key 999 is not a Pose3"):
+        glue.from_values(vals, [7, 9, 999])
+    with pytest.raises(TypeError, match=r"gtsam\.Values"):
+        glue.from_values({}, [1])
+    with pytest.raises(ValueError, match="uint64"):
+        glue.from_values(vals, [-1])
+
+
+def test_from_values_subset_of_large_pose_only_values() -> None:
+    T = random_poses(40, 5)
+    vals = glue.to_values(T, range(100, 140))
+    for want in ([139, 100, 120], list(range(139, 99, -1)), [105] * 50):
+        got = glue.from_values(vals, want)
+        assert np.array_equal(got, T[np.array(want) - 100])
+    with pytest.raises(ValueError, match=r"keys\[40\]: key 99 is not in values"):
+        glue.from_values(vals, [*range(100, 140), 99])
+
+
+def test_batch_path_layout_assumption() -> None:
+    # extractPose3 rows: R row-major then t, in increasing key order (the batch path relies on it)
+    vals = gtsam.Values()
+    p5 = gtsam.Pose3(gtsam.Rot3.Ypr(0.3, 0.2, 0.1), np.array([1.0, 2.0, 3.0]))
+    vals.insert(5, p5)
+    vals.insert(2, gtsam.Pose3())
+    rows = gtsam.utilities.extractPose3(vals)
+    assert np.array_equal(rows[1, :9].reshape(3, 3), p5.rotation().matrix())
+    assert np.array_equal(rows[1, 9:], [1.0, 2.0, 3.0])
+    assert np.array_equal(rows[0, :9], np.eye(3).ravel())
