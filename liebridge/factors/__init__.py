@@ -1,1 +1,11 @@
 """GTSAM factors written in any convention, and IMU preintegration."""
+
+# IMU preintegration (Forster et al.) and its factor
+from .preintegration import ImuDelta, ImuPreintegrator, PreintegratedImu, preintegrate
+
+__all__ = [
+    "ImuDelta",
+    "ImuPreintegrator",
+    "PreintegratedImu",
+    "preintegrate",
+]
