@@ -1,0 +1,635 @@
+"""g2o / TORO-iSAM pose-graph files with explicit information semantics.
+
+Read with :func:`read`, write with :func:`write`, hand to GTSAM with :meth:`G2OGraph.to_gtsam`.
+Inside, every information matrix is over **GTSAM's tangent** of the edge error,
+``ξ = (ω, v) = Log(Z⁻¹·Ti⁻¹·Tj)`` (rotation first; what ``gtsam.BetweenFactorPose3`` whitens),
+whatever the file held. Supported lines::
+
+    VERTEX_SE3:QUAT id x y z qx qy qz qw
+    EDGE_SE3:QUAT   i j x y z qx qy qz qw  I11 I12 .. I16 I22 .. I66   (21 numbers)
+    VERTEX3         id x y z roll pitch yaw
+    EDGE3           i j x y z roll pitch yaw  A11 A12 .. A16 A22 .. A66 (21 numbers)
+    FIX             id [id ...]
+
+(2D types are not read: use ``gtsam.readG2o(path, is3D=False)``.) A measurement ``Z`` is
+``T_i_j``, pose ``j`` in the frame of pose ``i`` (``Ti⁻¹·Tj`` when consistent).
+
+``EDGE_SE3:QUAT`` (g2o, ``types/slam3d/edge_se3.cpp``)
+    The information is over g2o's own error ``e = (t, qvec)`` of ``Z⁻¹·Ti⁻¹·Tj``: translation,
+    then the **vector part of the unit quaternion** (sign chosen with ``w ≥ 0``), 21 numbers =
+    the upper triangle, row-major. To first order ``e = M ξ`` with ``M = [[0, I], [I/2, 0]]``
+    (:func:`_g2o_error_map`; the quaternion vector part is half the rotation angle), so the
+    format's own definition gives ``Λ_gtsam = Mᵀ Λ_g2o M``: the blocks swapped, the rotation block
+    **divided by 4** and the cross blocks by 2 (``information="g2o"``, the default).
+    ``gtsam.readG2o`` only swaps the blocks (``information="gtsam"`` reproduces it): it reads the
+    information on ``qvec ≈ θ/2`` as information on ``θ``, a rotation weight 4× heavier than g2o's
+    own (and twice the cross terms). Both readings give the same χ² only if one of them is
+    rescaled; pick the one your data was made for.
+
+``EDGE3`` / ``VERTEX3`` (TORO / iSAM 3D format; ``sphere2500.txt``)
+    ``x y z roll pitch yaw``, with ``R = Rz(yaw)·Ry(pitch)·Rx(roll)`` (rotation about the fixed
+    x axis by roll, then fixed y by pitch, then fixed z by yaw; GTSAM ``Rot3.Ypr(yaw, pitch,
+    roll)``). The 21 numbers are an upper triangle, row-major, over the parameter difference
+    ``(x, y, z, roll, pitch, yaw)(Ti⁻¹Tj) − (x, y, z, roll, pitch, yaw)(Z)``. What they *are*
+    differs between the readers of the format:
+
+    * iSAM (Kaess et al.; ``isam/examples/Loader.cpp`` reads ``EDGE3`` as ``x y z roll pitch
+      yaw`` + the upper-triangular **square-root information** ``S``, ``Λ = SᵀS``, reordering the
+      angle block to its internal ``(yaw, pitch, roll)``; ``isam/slam3d.h``
+      ``Pose3d_Pose3d_Factor::basic_error`` = ``vector(p2 ⊖ p1) − vector(measure)``, angles
+      wrapped). The sphere datasets come from iSAM.
+    * g2o (``types/slam3d_addons/edge_se3_euler.cpp``, ``EdgeSE3Euler`` registered as ``EDGE3``)
+      reads the 21 numbers as the **information** over ``(x, y, z, roll, pitch, yaw)``.
+    * TORO (``posegraph3.cpp`` ``TreePoseGraph3::load``) reads them as information indexed like
+      its internal pose ``(roll, pitch, yaw, x, y, z)`` (``treeoptimizer3_iteration.cpp`` takes
+      rotational weights from ``W[0..2][0..2]``), and GTSAM's ``readG2o`` uses them as-is as
+      information on ``(ω, v)`` — rotation first, like TORO.
+
+    The data decides: in ``sphere2500.txt`` every edge holds ``diag(10, 10, 10, 100, 100, 25)``,
+    and against ``sphere2500_groundtruth.txt`` the measurement noise has standard deviations
+    ``(0.10, 0.10, 0.10, 0.010, 0.010, 0.040)`` in ``(x, y, z, roll, pitch, yaw)`` — exactly the
+    reciprocals, i.e. iSAM's square-root information in file order (``tests/test_g2o.py``
+    checks this, and that ``Rz·Ry·Rx`` closes the ground-truth loops while ``Rx·Ry·Rz`` does not).
+    Read with ``information="gtsam"`` the same file gets a rotation weight of 10 instead of
+    ``10⁴`` and translation weights ``(100, 100, 25)`` instead of 100.
+    With ``information="g2o"`` (the format's definition), ``edge3="sqrt_information"`` (default,
+    iSAM) or ``edge3="information"`` (g2o's ``EdgeSE3Euler``) selects ``Λ_e``, and
+    ``Λ_gtsam = Eᵀ Λ_e E`` with ``E = ∂(x, y, z, roll, pitch, yaw)(Z·Exp(ξ))/∂ξ`` at ``ξ = 0``
+    (:func:`_euler_error_map`: ``[[0, R_Z], [W(roll, pitch), 0]]``, ``W`` the body-rate → ZYX
+    Euler-rate matrix), exact to first order at the measurement. (iSAM's own reordering is exact
+    only for a diagonal angle block; g2o's ``EdgeSE3Euler`` converts by differentiating the
+    parameters of ``Z`` itself rather than of ``Z⁻¹·Ti⁻¹·Tj``, which agrees only near ``Z = I``.)
+
+Graphs without ``VERTEX`` lines (``sphere2500.txt``) get initial values by chaining the
+odometry edges ``(k−1, k)`` from the identity at the smallest id.
+
+Numbers are written with ``repr`` (the shortest text that reads back to the same double) and
+the pose parameters are stored exactly as read, so ``read(write(g))`` reproduces every array of
+``g`` bit for bit; ``gtsam.writeG2o`` prints 6 significant digits. A malformed line raises
+``ValueError`` naming the file and the 1-based line number.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Any, Literal
+
+import numpy as np
+import numpy.typing as npt
+
+from .. import _validate as v
+from .._validate import FloatArray
+from ..lie import quaternion as quat
+from . import poses as _layouts
+
+__all__ = ["G2OGraph", "read", "write"]
+
+PathLike = str | os.PathLike[str]
+IntArray = npt.NDArray[np.int64]
+InformationReading = Literal["g2o", "gtsam"]
+Edge3Numbers = Literal["sqrt_information", "information"]
+
+_2D_TAGS = frozenset(
+    {"VERTEX_SE2", "EDGE_SE2", "VERTEX2", "EDGE2", "VERTEX", "EDGE", "VERTEX_XY", "EDGE_SE2_XY"}
+)
+_TRIU = np.triu_indices(6)
+#: A quaternion whose norm is this close to 1 is taken as already normalised (dividing again
+#: could flip its last bits, and ``read(write(g))`` must reproduce ``g`` exactly).
+_UNIT_NORM_SLACK = 8 * np.finfo(np.float64).eps
+
+
+def _g2o_error_map() -> FloatArray:
+    """First-order map from GTSAM's tangent to g2o's ``EDGE_SE3:QUAT`` error, ``e = M ξ``.
+
+    ``ξ = (ω, v) = Log(Z⁻¹·Ti⁻¹·Tj)`` (GTSAM) and ``e = (t, qvec)`` of the same ``Z⁻¹·Ti⁻¹·Tj``
+    (g2o, ``w ≥ 0``). ``Exp(ξ)`` has translation ``Jl(ω)·v = v + O(|ξ|²)`` and quaternion vector
+    part ``sin(θ/2)·ω/θ = ω/2 + O(θ³)``, so ``M = [[0, I], [I/2, 0]]`` (rows ``t, qvec``; columns
+    ``ω, v``), checked by finite differences in ``tests/test_g2o.py``. Information maps as
+    ``Λ_gtsam = Mᵀ Λ_g2o M`` (and back with ``M⁻¹ = [[0, 2I], [I, 0]]``); with entries 0, 1, ½
+    and one nonzero per column both maps are exact in floating point.
+
+    This must equal liebridge's ``tangent_map(I, GTSAM, G2O)`` in the DESIGN's definition
+    (``δ_dst = M δ_src``, here src = GTSAM, dst = G2O; ``tangent_map(I, G2O, GTSAM)`` is its
+    inverse) once the conversion core exists; the two are to be unified into one.
+    """
+    M = np.zeros((6, 6))
+    M[:3, 3:] = np.eye(3)
+    M[3:, :3] = 0.5 * np.eye(3)
+    return M
+
+
+def _is_float(s: str) -> bool:
+    try:
+        float(s)
+    except ValueError:
+        return False
+    return True
+
+
+def _rpy_matrix(rpy: FloatArray) -> FloatArray:
+    """``Rz(yaw)·Ry(pitch)·Rx(roll)`` for ``rpy = (roll, pitch, yaw)`` ``(..., 3)``."""
+    cr, sr = np.cos(rpy[..., 0]), np.sin(rpy[..., 0])
+    cp, sp = np.cos(rpy[..., 1]), np.sin(rpy[..., 1])
+    cy, sy = np.cos(rpy[..., 2]), np.sin(rpy[..., 2])
+    R = np.empty((*rpy.shape[:-1], 3, 3))
+    R[..., 0, 0] = cy * cp
+    R[..., 0, 1] = cy * sp * sr - sy * cr
+    R[..., 0, 2] = cy * sp * cr + sy * sr
+    R[..., 1, 0] = sy * cp
+    R[..., 1, 1] = sy * sp * sr + cy * cr
+    R[..., 1, 2] = sy * sp * cr - cy * sr
+    R[..., 2, 0] = -sp
+    R[..., 2, 1] = cp * sr
+    R[..., 2, 2] = cp * cr
+    return R
+
+
+def _euler_error_map(rpy: FloatArray) -> FloatArray:
+    """``E = ∂(x, y, z, roll, pitch, yaw)(Z·Exp(ξ))/∂ξ`` at ``ξ = 0``, ``(..., 6, 6)``.
+
+    ``Z = (Rz(yaw)·Ry(pitch)·Rx(roll), t)``; columns ``ξ = (ω, v)`` (GTSAM). The translation of
+    ``Z·Exp(ξ)`` is ``t + R_Z·v + O(|ξ|²)``; the ZYX Euler rates for a body rate ``ω`` are
+    ``W ω`` with ``W = [[1, sφ tθ, cφ tθ], [0, cφ, −sφ], [0, sφ/cθ, cφ/cθ]]`` (φ roll, θ pitch),
+    singular at ``cos θ = 0``. So ``E = [[0, R_Z], [W, 0]]``.
+    """
+    R = _rpy_matrix(rpy)
+    cr, sr = np.cos(rpy[..., 0]), np.sin(rpy[..., 0])
+    cp, tp = np.cos(rpy[..., 1]), np.tan(rpy[..., 1])
+    W = np.zeros(R.shape)
+    W[..., 0, 0] = 1.0
+    W[..., 0, 1] = sr * tp
+    W[..., 0, 2] = cr * tp
+    W[..., 1, 1] = cr
+    W[..., 1, 2] = -sr
+    W[..., 2, 1] = sr / cp
+    W[..., 2, 2] = cr / cp
+    E = np.zeros((*rpy.shape[:-1], 6, 6))
+    E[..., :3, 3:] = R
+    E[..., 3:, :3] = W
+    return E
+
+
+def _swap_blocks(A: FloatArray) -> FloatArray:
+    """``P A P`` with ``P`` exchanging the two 3-blocks: (t, r) order ↔ (r, t) order."""
+    out = np.empty_like(A)
+    out[..., :3, :3] = A[..., 3:, 3:]
+    out[..., 3:, 3:] = A[..., :3, :3]
+    out[..., :3, 3:] = A[..., 3:, :3]
+    out[..., 3:, :3] = A[..., :3, 3:]
+    return out
+
+
+def _triu_to_sym(vals: FloatArray) -> FloatArray:
+    m = np.zeros((*vals.shape[:-1], 6, 6))
+    m[..., _TRIU[0], _TRIU[1]] = vals
+    m[..., _TRIU[1], _TRIU[0]] = vals
+    return m
+
+
+def _triu_to_upper(vals: FloatArray) -> FloatArray:
+    m = np.zeros((*vals.shape[:-1], 6, 6))
+    m[..., _TRIU[0], _TRIU[1]] = vals
+    return m
+
+
+def _readonly(a: npt.NDArray[Any]) -> npt.NDArray[Any]:
+    a = np.array(a, copy=True)
+    a.flags.writeable = False
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class G2OGraph:
+    """A 3D pose graph as read from (or to be written to) a g2o file.
+
+    Attributes
+    ----------
+    vertex_ids : ndarray of int64, shape (N,)
+        Vertex ids, used as GTSAM keys by :meth:`to_gtsam`.
+    vertex_xyz_qxyzw : ndarray, shape (N, 7)
+        Vertex poses ``T_world_vertex`` as stored in the file, layout ``"xyz_qxyzw"`` (unit
+        quaternion, sign as written). :attr:`poses` gives the matrices.
+    edges : ndarray of int64, shape (M, 2)
+        ``(i, j)`` vertex ids of each edge.
+    measured_xyz_qxyzw : ndarray, shape (M, 7)
+        Measurements ``Z = T_i_j``, layout ``"xyz_qxyzw"``. :attr:`measured` gives the matrices.
+    information : ndarray, shape (M, 6, 6)
+        Information of each edge over GTSAM's tangent ``ξ = (ω, v) = Log(Z⁻¹·Ti⁻¹·Tj)``,
+        rotation first, whatever the file stored (see the module docstring).
+    information_reading : {"g2o", "gtsam"}
+        How the file's numbers were turned into :attr:`information`; :func:`write` inverts it.
+    fixed : tuple of int
+        Ids from ``FIX`` lines (kept and written back; :meth:`to_gtsam` adds no prior for them).
+    vertices_from_odometry : bool
+        True if the file had no vertices and :attr:`poses` were chained from odometry edges.
+    """
+
+    vertex_ids: IntArray
+    vertex_xyz_qxyzw: FloatArray
+    edges: IntArray
+    measured_xyz_qxyzw: FloatArray
+    information: FloatArray
+    information_reading: InformationReading = "g2o"
+    fixed: tuple[int, ...] = field(default=())
+    vertices_from_odometry: bool = False
+
+    def __post_init__(self) -> None:
+        ids = np.asarray(self.vertex_ids)
+        if ids.ndim != 1 or not np.issubdtype(ids.dtype, np.integer):
+            raise ValueError(f"vertex_ids: expected a 1-D integer array, got {ids.shape}")
+        n = ids.shape[0]
+        vx = v.vector(self.vertex_xyz_qxyzw, "vertex_xyz_qxyzw", 7)
+        if vx.shape != (n, 7):
+            raise ValueError(f"vertex_xyz_qxyzw: expected shape ({n}, 7), got {vx.shape}")
+        v.quaternion(vx[:, 3:], "vertex_xyz_qxyzw quaternion")
+        e = np.asarray(self.edges)
+        if e.ndim != 2 or e.shape[1] != 2 or not np.issubdtype(e.dtype, np.integer):
+            raise ValueError(f"edges: expected an (M, 2) integer array, got {e.shape}")
+        m = e.shape[0]
+        mx = v.vector(self.measured_xyz_qxyzw, "measured_xyz_qxyzw", 7)
+        if mx.shape != (m, 7):
+            raise ValueError(f"measured_xyz_qxyzw: expected shape ({m}, 7), got {mx.shape}")
+        v.quaternion(mx[:, 3:], "measured_xyz_qxyzw quaternion")
+        info = v.covariance(self.information, "information", 6)
+        if info.shape != (m, 6, 6):
+            raise ValueError(f"information: expected shape ({m}, 6, 6), got {info.shape}")
+        if self.information_reading not in ("g2o", "gtsam"):
+            raise ValueError(
+                f"information_reading: expected 'g2o' or 'gtsam', got {self.information_reading!r}"
+            )
+        if np.unique(ids).shape[0] != n:
+            raise ValueError("vertex_ids: ids are not unique")
+        missing = ~np.isin(e, ids)
+        if missing.any():
+            k = int(np.argwhere(missing)[0][0])
+            raise ValueError(
+                f"edges[{k}]: {tuple(int(x) for x in e[k])} refers to a missing vertex"
+            )
+        object.__setattr__(self, "vertex_ids", _readonly(ids.astype(np.int64)))
+        object.__setattr__(self, "vertex_xyz_qxyzw", _readonly(vx))
+        object.__setattr__(self, "edges", _readonly(e.astype(np.int64)))
+        object.__setattr__(self, "measured_xyz_qxyzw", _readonly(mx))
+        # exactly symmetric, so that writing the upper triangle loses nothing
+        object.__setattr__(self, "information", _readonly(0.5 * (info + info.transpose(0, 2, 1))))
+        object.__setattr__(self, "fixed", tuple(int(i) for i in self.fixed))
+
+    @cached_property
+    def poses(self) -> FloatArray:
+        """Vertex poses ``T_world_vertex``, ``(N, 4, 4)`` (read-only)."""
+        return _readonly(_layouts.to_matrix(self.vertex_xyz_qxyzw, layout="xyz_qxyzw"))
+
+    @cached_property
+    def measured(self) -> FloatArray:
+        """Edge measurements ``Z = T_i_j``, ``(M, 4, 4)`` (read-only)."""
+        return _readonly(_layouts.to_matrix(self.measured_xyz_qxyzw, layout="xyz_qxyzw"))
+
+    @classmethod
+    def from_matrices(
+        cls,
+        vertex_ids: Any,
+        poses: Any,
+        edges: Any,
+        measured: Any,
+        information: Any,
+        *,
+        information_reading: InformationReading = "g2o",
+        fixed: Iterable[int] = (),
+    ) -> G2OGraph:
+        """Build a graph from matrices (for instance an optimisation result) to :func:`write`.
+
+        ``poses`` ``(N, 4, 4)`` and ``measured`` ``(M, 4, 4)`` are stored as ``"xyz_qxyzw"``
+        (``w ≥ 0``), so :attr:`poses` equals the input to rounding (~1e-16), not bitwise;
+        ``information`` ``(M, 6, 6)`` is over GTSAM's ``(ω, v)``; ``information_reading`` is the
+        reading :func:`write` will invert.
+        """
+        return cls(
+            vertex_ids=np.asarray(vertex_ids, dtype=np.int64).reshape(-1),
+            vertex_xyz_qxyzw=_layouts.from_matrix(poses, layout="xyz_qxyzw").reshape(-1, 7),
+            edges=np.asarray(edges, dtype=np.int64).reshape(-1, 2),
+            measured_xyz_qxyzw=_layouts.from_matrix(measured, layout="xyz_qxyzw").reshape(-1, 7),
+            information=np.asarray(information, dtype=np.float64).reshape(-1, 6, 6),
+            information_reading=information_reading,
+            fixed=tuple(fixed),
+        )
+
+    def to_gtsam(self) -> tuple[Any, Any]:
+        """GTSAM factor graph and initial values.
+
+        Returns
+        -------
+        graph : gtsam.NonlinearFactorGraph
+            One ``BetweenFactorPose3(i, j, Z, noiseModel.Gaussian.Information(Λ))`` per edge, in
+            file order (``Λ`` = :attr:`information`; GTSAM's "smart" constructor returns a
+            ``Diagonal`` or ``Isotropic`` model when ``Λ`` is one, as ``gtsam.readG2o`` does).
+        values : gtsam.Values
+            :attr:`poses` under their vertex ids.
+        """
+        import gtsam
+
+        from . import gtsam_glue
+
+        graph = gtsam.NonlinearFactorGraph()
+        for (i, j), Z, info in zip(self.edges, self.measured, self.information, strict=True):
+            noise = gtsam.noiseModel.Gaussian.Information(info)
+            graph.add(gtsam.BetweenFactorPose3(int(i), int(j), gtsam_glue.to_pose3(Z), noise))
+        values = gtsam_glue.to_values(self.poses, [int(k) for k in self.vertex_ids])
+        return graph, values
+
+
+class _Parser:
+    """Line-by-line parser that names the file and line in every error."""
+
+    def __init__(self, path: PathLike) -> None:
+        self.path = path
+
+    def fail(self, lineno: int, msg: str) -> ValueError:
+        return ValueError(f"{self.path}:{lineno}: {msg}")
+
+    def numbers(self, lineno: int, tag: str, fields: list[str], n: int, what: str) -> list[float]:
+        """Parse exactly ``n`` finite numbers from ``fields`` (the values after the ids)."""
+        if len(fields) != n:
+            raise self.fail(
+                lineno, f"{tag} expects {n} values after the id(s) ({what}), got {len(fields)}"
+            )
+        try:
+            out = list(map(float, fields))
+        except ValueError:
+            bad = next(f for f in fields if not _is_float(f))
+            raise self.fail(lineno, f"not a number: {bad!r} ({tag})") from None
+        if not all(map(math.isfinite, out)):
+            raise self.fail(lineno, f"NaN or Inf ({tag})")
+        return out
+
+    def vertex_id(self, lineno: int, f: str) -> int:
+        try:
+            k = int(f)
+        except ValueError:
+            raise self.fail(lineno, f"vertex id {f!r} is not an integer") from None
+        if k < 0:
+            raise self.fail(lineno, f"vertex id {k} is negative")
+        return k
+
+    def unit_quaternion(self, lineno: int, fields: list[str], q: list[float]) -> list[float]:
+        """Normalise within the printed precision; already-unit input (repr) is kept bit for bit."""
+        norm = float(np.linalg.norm(q))
+        tol = _layouts.text_quaternion_tol(fields)
+        if abs(norm - 1.0) > tol:
+            raise self.fail(
+                lineno,
+                f"quaternion norm off by {abs(norm - 1.0):.3g} (tolerance {tol:g} for numbers "
+                "printed with this precision)",
+            )
+        if abs(norm - 1.0) <= _UNIT_NORM_SLACK:  # a normalised quaternion, re-read: keep it
+            return q
+        return [c / norm for c in q]
+
+
+def read(
+    path: PathLike,
+    information: InformationReading = "g2o",
+    *,
+    edge3: Edge3Numbers = "sqrt_information",
+) -> G2OGraph:
+    """Read a 3D g2o / TORO file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    information : {"g2o", "gtsam"}
+        ``"g2o"`` (default): the format's own definition, mapped exactly (to first order at the
+        measurement) to GTSAM's tangent — ``EDGE_SE3:QUAT``: ``Λ = Mᵀ Λ_file M`` (rotation block
+        /4, cross blocks /2 after the block swap); ``EDGE3``: ``Λ = Eᵀ Λ_e E`` with ``Λ_e`` per
+        ``edge3``. ``"gtsam"``: what ``gtsam.readG2o(path, is3D=True)`` does — ``EDGE_SE3:QUAT``:
+        block swap only (a 4× heavier rotation weight than g2o uses); ``EDGE3``: the 21 numbers
+        as-is as information on ``(ω, v)``. See the module docstring for the evidence.
+    edge3 : {"sqrt_information", "information"}
+        With ``information="g2o"``, what the 21 ``EDGE3`` numbers are: iSAM's upper-triangular
+        square-root information (default; what ``sphere2500.txt`` holds, checked against its
+        ground truth) or g2o ``EdgeSE3Euler``'s information, both over
+        ``(x, y, z, roll, pitch, yaw)``.
+
+    Returns
+    -------
+    G2OGraph
+
+    Raises
+    ------
+    ValueError
+        On a malformed or unsupported line (naming the file and line number), an edge to a
+        missing vertex, or a file without vertices whose odometry chain has a gap.
+    """
+    if information not in ("g2o", "gtsam"):
+        raise ValueError(f"information: expected 'g2o' or 'gtsam', got {information!r}")
+    if edge3 not in ("sqrt_information", "information"):
+        raise ValueError(f"edge3: expected 'sqrt_information' or 'information', got {edge3!r}")
+    P = _Parser(path)
+    v_ids: list[int] = []
+    v_line: dict[int, int] = {}
+    # raw numbers; rotation as a normalised quaternion (xyzw) or roll, pitch, yaw (+ padding)
+    v_raw: list[list[float]] = []
+    v_euler: list[bool] = []
+    e_ids: list[tuple[int, int]] = []
+    e_raw: list[list[float]] = []  # x y z, 4 rotation numbers, 21 information numbers
+    e_euler: list[bool] = []
+    e_lines: list[int] = []
+    fixed: list[int] = []
+    with open(path, encoding="utf-8") as fh:
+        for lineno, line in enumerate(fh, start=1):
+            fields = line.split("#", 1)[0].split()
+            if not fields:
+                continue
+            tag = fields[0]
+            if tag in ("VERTEX_SE3:QUAT", "VERTEX3"):
+                if len(fields) < 2:
+                    raise P.fail(lineno, f"{tag} without an id")
+                k = P.vertex_id(lineno, fields[1])
+                if k in v_line:
+                    raise P.fail(lineno, f"vertex {k} already defined on line {v_line[k]}")
+                if tag == "VERTEX_SE3:QUAT":
+                    x = P.numbers(lineno, tag, fields[2:], 7, "x y z qx qy qz qw")
+                    x = x[:3] + P.unit_quaternion(lineno, fields[5:9], x[3:])
+                else:
+                    x = [*P.numbers(lineno, tag, fields[2:], 6, "x y z roll pitch yaw"), 0.0]
+                v_ids.append(k)
+                v_raw.append(x)
+                v_euler.append(tag == "VERTEX3")
+                v_line[k] = lineno
+            elif tag in ("EDGE_SE3:QUAT", "EDGE3"):
+                if len(fields) < 3:
+                    raise P.fail(lineno, f"{tag} without two vertex ids")
+                i, j = P.vertex_id(lineno, fields[1]), P.vertex_id(lineno, fields[2])
+                if i == j:
+                    raise P.fail(lineno, f"{tag} from vertex {i} to itself")
+                if tag == "EDGE_SE3:QUAT":
+                    x = P.numbers(lineno, tag, fields[3:], 28, "x y z qx qy qz qw + 21 information")
+                    x = x[:3] + P.unit_quaternion(lineno, fields[6:10], x[3:7]) + x[7:]
+                else:
+                    x = P.numbers(
+                        lineno, tag, fields[3:], 27, "x y z roll pitch yaw + 21 information"
+                    )
+                    if information == "g2o" and abs(np.cos(x[4])) < 1e-9:
+                        raise P.fail(
+                            lineno, "pitch = ±π/2: the Euler-angle information is singular"
+                        )
+                    x = [*x[:6], 0.0, *x[6:]]
+                e_ids.append((i, j))
+                e_raw.append(x)
+                e_euler.append(tag == "EDGE3")
+                e_lines.append(lineno)
+            elif tag == "FIX":
+                if len(fields) < 2:
+                    raise P.fail(lineno, "FIX without an id")
+                fixed.extend(P.vertex_id(lineno, f) for f in fields[1:])
+            elif tag in _2D_TAGS:
+                raise P.fail(
+                    lineno,
+                    f"2D type {tag} is not supported; use gtsam.readG2o(path, is3D=False)",
+                )
+            else:
+                raise P.fail(
+                    lineno,
+                    f"unsupported tag {tag!r} (supported: VERTEX_SE3:QUAT, EDGE_SE3:QUAT, "
+                    "VERTEX3, EDGE3, FIX)",
+                )
+
+    # batch conversion
+    vraw = np.array(v_raw, dtype=np.float64).reshape(-1, 7)
+    vpar = _params_from_raw(vraw, np.array(v_euler, dtype=bool))
+    eraw = np.array(e_raw, dtype=np.float64).reshape(-1, 28)
+    euler = np.array(e_euler, dtype=bool)
+    measured = _params_from_raw(eraw[:, :7], euler)
+    nums = eraw[:, 7:]
+    info = np.empty((eraw.shape[0], 6, 6))
+    q = ~euler
+    if information == "g2o":
+        M = _g2o_error_map()
+        info[q] = M.T @ _triu_to_sym(nums[q]) @ M
+        if edge3 == "sqrt_information":
+            S = _triu_to_upper(nums[euler])
+            lam_e = np.swapaxes(S, -1, -2) @ S
+        else:
+            lam_e = _triu_to_sym(nums[euler])
+        E = _euler_error_map(eraw[euler, 3:6])
+        lam = np.swapaxes(E, -1, -2) @ lam_e @ E
+        info[euler] = 0.5 * (lam + np.swapaxes(lam, -1, -2))
+    else:
+        info[q] = _swap_blocks(_triu_to_sym(nums[q]))
+        info[euler] = _triu_to_sym(nums[euler])
+    try:
+        v.covariance(info, "information", 6)
+    except ValueError:
+        for k, lam_k in enumerate(info):  # name the line
+            try:
+                v.covariance(lam_k, "information", 6)
+            except ValueError as exc:
+                raise P.fail(e_lines[k], f"{exc} (after conversion to GTSAM's (ω, v))") from None
+        raise
+    edges = np.array(e_ids, dtype=np.int64).reshape(-1, 2)
+    from_odometry = not v_ids
+    if from_odometry:
+        ids, vpar = _chain_odometry(P, edges, measured)
+    else:
+        ids = np.array(v_ids, dtype=np.int64)
+        for k, (i, j) in enumerate(e_ids):
+            for end in (i, j):
+                if end not in v_line:
+                    raise P.fail(
+                        e_lines[k], f"edge refers to vertex {end}, which has no VERTEX line"
+                    )
+    id_set = set(ids.tolist())
+    for k in fixed:
+        if k not in id_set:
+            raise ValueError(f"{path}: FIX refers to vertex {k}, which does not exist")
+    return G2OGraph(
+        vertex_ids=ids,
+        vertex_xyz_qxyzw=vpar,
+        edges=edges,
+        measured_xyz_qxyzw=measured,
+        information=info,
+        information_reading=information,
+        fixed=tuple(fixed),
+        vertices_from_odometry=from_odometry,
+    )
+
+
+def _params_from_raw(raw: FloatArray, euler: npt.NDArray[np.bool_]) -> FloatArray:
+    """``(K, 7)`` rows ``x y z qx qy qz qw`` or ``x y z roll pitch yaw 0`` → ``"xyz_qxyzw"``."""
+    out = raw.copy()
+    if euler.any():
+        out[euler, 3:] = quat.from_matrix(_rpy_matrix(raw[euler, 3:6]), order="xyzw")
+    return out
+
+
+def _chain_odometry(
+    P: _Parser, edges: IntArray, measured: FloatArray
+) -> tuple[IntArray, FloatArray]:
+    """Chain initial poses by composing odometry edges ``(k−1, k)`` (or ``(k, k−1)``, inverted)."""
+    if edges.shape[0] == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros((0, 7))
+    ids = np.unique(edges)
+    Z = _layouts.to_matrix(measured, layout="xyz_qxyzw")
+    step: dict[int, FloatArray] = {}
+    for k in range(edges.shape[0] - 1, -1, -1):  # first occurrence wins
+        i, j = int(edges[k, 0]), int(edges[k, 1])
+        if j == i + 1:
+            step[j] = Z[k]
+        elif i == j + 1 and i not in step:
+            Zi = Z[k]
+            inv = np.eye(4)
+            inv[:3, :3] = Zi[:3, :3].T
+            inv[:3, 3] = -Zi[:3, :3].T @ Zi[:3, 3]
+            step[i] = inv
+    T = np.empty((ids.shape[0], 4, 4))
+    T[0] = np.eye(4)
+    for n in range(1, ids.shape[0]):
+        k = int(ids[n])
+        if k != int(ids[n - 1]) + 1 or k not in step:
+            raise ValueError(
+                f"{P.path}: no VERTEX lines and no odometry edge {k - 1} -> {k}: cannot chain "
+                "initial values (add VERTEX lines or use gtsam.InitializePose3)"
+            )
+        T[n] = T[n - 1] @ step[k]
+    return ids.astype(np.int64), _layouts.from_matrix(T, layout="xyz_qxyzw")
+
+
+def write(path: PathLike, graph: G2OGraph) -> None:
+    """Write ``graph`` as ``VERTEX_SE3:QUAT`` / ``EDGE_SE3:QUAT`` / ``FIX`` lines.
+
+    Every number is written with ``repr`` (full precision). The information is converted back to
+    the file's ``(t, qvec)`` order by inverting ``graph.information_reading``: for ``"g2o"``,
+    ``Λ_file = M⁻ᵀ Λ M⁻¹`` (rotation block ×4, cross blocks ×2 after the swap); for ``"gtsam"``
+    the block swap only (what ``gtsam.writeG2o`` does, but at full precision). Both maps are exact
+    in floating point, so ``read(path, graph.information_reading)`` returns ``graph`` bit for bit
+    (``EDGE3`` / ``VERTEX3`` input is written in the quaternion types).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    graph : G2OGraph
+    """
+    if not isinstance(graph, G2OGraph):
+        raise TypeError(f"graph: expected G2OGraph, got {type(graph).__name__}")
+    Minv = np.zeros((6, 6))  # inverse of _g2o_error_map(): [[0, 2I], [I, 0]]
+    Minv[:3, 3:] = 2.0 * np.eye(3)
+    Minv[3:, :3] = np.eye(3)
+    lam = graph.information
+    if graph.information_reading == "g2o":
+        file_info = Minv.T @ lam @ Minv
+    else:
+        file_info = _swap_blocks(lam)
+    r = repr
+    lines = [
+        f"VERTEX_SE3:QUAT {int(k)} " + " ".join(r(float(c)) for c in x) + "\n"
+        for k, x in zip(graph.vertex_ids, graph.vertex_xyz_qxyzw, strict=True)
+    ]
+    for (i, j), x, m in zip(graph.edges, graph.measured_xyz_qxyzw, file_info, strict=True):
+        nums = [*x.tolist(), *m[_TRIU].tolist()]
+        lines.append(f"EDGE_SE3:QUAT {int(i)} {int(j)} " + " ".join(r(c) for c in nums) + "\n")
+    if graph.fixed:
+        lines.append("FIX " + " ".join(str(k) for k in graph.fixed) + "\n")
+    with open(path, "w", encoding="utf-8") as fh:
+        fh.writelines(lines)
