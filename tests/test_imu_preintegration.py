@@ -424,7 +424,9 @@ def test_bad_inputs_name_argument_index_and_size() -> None:
         preintegrate(acc, gyro, dt[:9], bias=BIAS, params=params)
     bad = gyro.copy()
     bad[7, 1] = np.nan
-    with pytest.raises(ValueError, match=r"gyro: contains NaN or Inf at index \(7, 1\)"):
+    with pytest.raises(
+        ValueError, match=r"gyro: contains NaN or Inf at batch index \(7,\), entry \(1,\)"
+    ):
         preintegrate(acc, bad, dt, bias=BIAS, params=params)
     bad_dt = dt.copy()
     bad_dt[4] = -0.01

@@ -147,8 +147,8 @@ def _read_samples(acc: Any, gyro: Any, dt: Any) -> tuple[FloatArray, FloatArray,
         raise ValueError(f"gyro: {gyro_.shape[0]} samples but acc has {n}")
     if n == 0:
         raise ValueError("acc: no samples (N = 0)")
-    v.check_finite(acc_, "acc")
-    v.check_finite(gyro_, "gyro")
+    v.check_finite(acc_, "acc", core_ndim=1)
+    v.check_finite(gyro_, "gyro", core_ndim=1)
     dt_ = v.as_float_array(dt, "dt")
     if dt_.ndim == 0:
         dt_ = np.full(n, float(dt_))
