@@ -136,6 +136,16 @@ def test_g2o_error_map_by_finite_differences() -> None:
         assert np.allclose(g2o._g2o_error_map(), M, atol=1e-8)
 
 
+def test_error_map_is_the_conversion_cores_tangent_map() -> None:
+    # to be unified: δ_dst = tangent_map(I, src, dst) δ_src with src = GTSAM, dst = G2O
+    from liebridge.adapters.convert import tangent_map
+    from liebridge.conventions import presets
+
+    M = tangent_map(np.eye(4), presets.GTSAM, presets.G2O)
+    assert np.allclose(g2o._g2o_error_map(), M, atol=1e-15)
+    assert np.allclose(tangent_map(np.eye(4), presets.G2O, presets.GTSAM), np.linalg.inv(M))
+
+
 @pytest.mark.parametrize("name", QUAT_FILES)
 def test_chi2_matches_g2o_at_file_values_within_second_order(name: str) -> None:
     """Per edge, |0.5 eᵀΛe − error| ≤ ‖Λ‖(|Mξ||Δ| + |Δ|²/2), Δ = e − Mξ, at the file's values.

@@ -33,17 +33,21 @@ whatever the file held. Supported lines::
     ``(x, y, z, roll, pitch, yaw)(Ti⁻¹Tj) − (x, y, z, roll, pitch, yaw)(Z)``. What they *are*
     differs between the readers of the format:
 
-    * iSAM (Kaess et al.; ``isam/examples/Loader.cpp`` reads ``EDGE3`` as ``x y z roll pitch
-      yaw`` + the upper-triangular **square-root information** ``S``, ``Λ = SᵀS``, reordering the
-      angle block to its internal ``(yaw, pitch, roll)``; ``isam/slam3d.h``
-      ``Pose3d_Pose3d_Factor::basic_error`` = ``vector(p2 ⊖ p1) − vector(measure)``, angles
-      wrapped). The sphere datasets come from iSAM.
-    * g2o (``types/slam3d_addons/edge_se3_euler.cpp``, ``EdgeSE3Euler`` registered as ``EDGE3``)
-      reads the 21 numbers as the **information** over ``(x, y, z, roll, pitch, yaw)``.
-    * TORO (``posegraph3.cpp`` ``TreePoseGraph3::load``) reads them as information indexed like
-      its internal pose ``(roll, pitch, yaw, x, y, z)`` (``treeoptimizer3_iteration.cpp`` takes
-      rotational weights from ``W[0..2][0..2]``), and GTSAM's ``readG2o`` uses them as-is as
-      information on ``(ω, v)`` — rotation first, like TORO.
+    * iSAM 1.x (Kaess et al., MIT; ``Loader.cpp``, ``$Id: Loader.cpp 2955``) reads ``EDGE3`` as
+      ``x y z roll pitch yaw`` + the upper-triangular **square-root information** ``S``
+      (``Λ = SᵀS``), reordering the angle block to its internal ``(yaw, pitch, roll)``; its
+      ``slam3d.h`` ``Pose3d_Pose3d_Factor::basic_error`` is ``vector(p2 ⊖ p1) − vector(measure)``
+      with the angles wrapped. The sphere datasets come from iSAM.
+    * g2o (RainerKuemmerle/g2o ``g2o/types/slam3d_addons/edge_se3_euler.cpp``,
+      ``EdgeSE3Euler::read``, registered as ``EDGE3``) reads the 21 numbers as the
+      **information** over ``(x, y, z, roll, pitch, yaw)``.
+    * TORO (Grisetti et al.; ``posegraph3.cpp`` ``TreePoseGraph3::load``, read in the copy
+      vendored by introlab/rtabmap under ``corelib/src/optimizer/toro3d/``) reads them as
+      information indexed like its internal ``Pose3`` ``(roll, pitch, yaw, x, y, z)``
+      (``transformation3.h``; ``treeoptimizer3_iteration.cpp`` takes rotational weights from
+      ``W[0..2][0..2]``). GTSAM (borglab/gtsam ``gtsam/slam/dataset.cpp``,
+      ``ParseMeasurement<Pose3>``) uses them as-is as information on ``(ω, v)`` — rotation
+      first, like TORO — and builds ``Rot3::Ypr(yaw, pitch, roll)``.
 
     The data decides: in ``sphere2500.txt`` every edge holds ``diag(10, 10, 10, 100, 100, 25)``,
     and against ``sphere2500_groundtruth.txt`` the measurement noise has standard deviations
@@ -333,10 +337,11 @@ class G2OGraph:
         from . import gtsam_glue
 
         graph = gtsam.NonlinearFactorGraph()
-        for (i, j), Z, info in zip(self.edges, self.measured, self.information, strict=True):
+        Z = gtsam_glue.to_pose3(self.measured.reshape(-1, 4, 4))
+        for (i, j), Zk, info in zip(self.edges.tolist(), Z, self.information, strict=True):
             noise = gtsam.noiseModel.Gaussian.Information(info)
-            graph.add(gtsam.BetweenFactorPose3(int(i), int(j), gtsam_glue.to_pose3(Z), noise))
-        values = gtsam_glue.to_values(self.poses, [int(k) for k in self.vertex_ids])
+            graph.add(gtsam.BetweenFactorPose3(i, j, Zk, noise))
+        values = gtsam_glue.to_values(self.poses.reshape(-1, 4, 4), self.vertex_ids.tolist())
         return graph, values
 
 
