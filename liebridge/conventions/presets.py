@@ -23,7 +23,7 @@ GTSAM = Convention(
     notes=(
         "Pose3.retract(ξ) = X·Exp(ξ), ξ = (ω, v), true SE(3) exp (wheel built with "
         "GTSAM_POSE3_EXPMAP=ON). False: retract(ξ) = Exp(ξ)·X (the design note's §6.4/§8.3 claim). "
-        "Quaternions: Rot3.Quaternion(w, x, y, z) and Rot3.quaternion() are wxyz; "
+        "Quaternions: the constructor Rot3.Quaternion(w, x, y, z) takes wxyz; "
         "toQuaternion().coeffs() is Eigen's xyzw."
     ),
 )
