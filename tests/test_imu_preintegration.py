@@ -451,9 +451,16 @@ def test_bad_inputs_name_argument_index_and_size() -> None:
     zero_coriolis.setOmegaCoriolis(np.zeros(3))
     preintegrate(acc, gyro, dt, bias=BIAS, params=zero_coriolis)
     inc = ImuPreintegrator(params)
-    with pytest.raises(ValueError, match="dt: must be > 0"):
-        inc.integrate(acc[0], gyro[0], -1.0)
-    assert inc.n_samples == 0
+    inc.integrate(acc[0], gyro[0], dt[0])
+    with pytest.raises(ValueError, match="dt: must be finite and > 0, got -1 at sample 1"):
+        inc.integrate(acc[1], gyro[1], -1.0)
+    with pytest.raises(ValueError, match="gyro: contains NaN or Inf at sample 1, entry 2"):
+        inc.integrate(acc[1], [0.0, 0.0, np.nan], dt[1])
+    with pytest.raises(ValueError, match=r"acc: expected shape \(3,\) or \(N, 3\), got \(4,\)"):
+        inc.integrate([0.0, 0.0, 9.8, 1.0], gyro[1], dt[1])
+    with pytest.raises(ValueError, match=r"dt: must be > 0.*\(block starting at sample 1\)"):
+        inc.integrate(acc[1:4], gyro[1:4], [0.01, 0.0, 0.01])
+    assert inc.n_samples == 1
     # nothing was mutated
     np.testing.assert_array_equal(acc, ACC[:10])
     np.testing.assert_array_equal(gyro, GYRO[:10])

@@ -57,10 +57,12 @@ not implemented here).
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import Any, NamedTuple
 
 import gtsam
 import numpy as np
+import numpy.typing as npt
 
 from .. import _validate as v
 from .._validate import FloatArray
@@ -73,16 +75,27 @@ __all__ = ["ImuDelta", "ImuPreintegrator", "PreintegratedImu", "preintegrate"]
 # inputs
 
 
+def _is_isotropic(C: FloatArray) -> bool:
+    return bool(np.all(C == C[0, 0] * np.eye(3)))
+
+
 @dataclasses.dataclass(frozen=True)
 class _Params:
-    """Numbers read once from a ``gtsam.PreintegrationParams``."""
+    """Numbers read once from a ``gtsam.PreintegrationParams``.
+
+    The noise covariances are continuous-time densities in the *body* frame: with a rotated
+    sensor, ``bRs Q bRsᵀ`` (an isotropic ``Q`` is kept bit for bit; rotation leaves it alone).
+    With a lever arm the gyroscope covariance stays in the sensor frame (the general path applies
+    ``bRs`` and the lever-arm coupling to the per-sample blocks instead).
+    """
 
     gravity: FloatArray  # (3,) navigation frame
-    acc_cov: FloatArray  # (3, 3) continuous-time, sensor frame
+    acc_cov: FloatArray  # (3, 3)
     gyro_cov: FloatArray
     int_cov: FloatArray
     body_R_sensor: FloatArray | None  # (3, 3) or None
     lever_arm: FloatArray | None  # (3,) body frame, None when zero
+    fast: bool  # isotropic gyroscope noise and no lever arm
 
 
 def _read_params(params: Any) -> _Params:
@@ -106,21 +119,27 @@ def _read_params(params: Any) -> _Params:
             raise ValueError(f"{name}: expected shape (3, 3), got {c.shape}")
         return np.asarray(0.5 * (c + c.T))
 
-    body_R_sensor = lever = None
+    acc_cov = cov(params.getAccelerometerCovariance(), "params.accelerometerCovariance")
+    gyro_cov = cov(params.getGyroscopeCovariance(), "params.gyroscopeCovariance")
+    int_cov = cov(params.getIntegrationCovariance(), "params.integrationCovariance")
+    bRs = lever = None
     body_P_sensor = params.getBodyPSensor()
     if body_P_sensor is not None:
-        body_R_sensor = v.rotation(
-            np.array(body_P_sensor.rotation().matrix()), "params.body_P_sensor"
-        )
+        bRs = v.rotation(np.array(body_P_sensor.rotation().matrix()), "params.body_P_sensor")
         t = np.array(body_P_sensor.translation(), dtype=np.float64)
         lever = t if np.any(t != 0.0) else None
+        if not _is_isotropic(acc_cov):
+            acc_cov = bRs @ acc_cov @ bRs.T
+        if lever is None and not _is_isotropic(gyro_cov):
+            gyro_cov = bRs @ gyro_cov @ bRs.T
     return _Params(
         gravity=gravity.copy(),
-        acc_cov=cov(params.getAccelerometerCovariance(), "params.accelerometerCovariance"),
-        gyro_cov=cov(params.getGyroscopeCovariance(), "params.gyroscopeCovariance"),
-        int_cov=cov(params.getIntegrationCovariance(), "params.integrationCovariance"),
-        body_R_sensor=body_R_sensor,
+        acc_cov=acc_cov,
+        gyro_cov=gyro_cov,
+        int_cov=int_cov,
+        body_R_sensor=bRs,
         lever_arm=lever,
+        fast=lever is None and _is_isotropic(gyro_cov),
     )
 
 
@@ -168,12 +187,9 @@ def _read_samples(acc: Any, gyro: Any, dt: Any) -> tuple[FloatArray, FloatArray,
 # structure-of-arrays helpers: vectors (3, n), matrices (3, 3, n); `out` may not alias inputs
 
 
-def _mv(A: FloatArray, x: FloatArray, out: FloatArray) -> FloatArray:
-    for i in range(3):
-        np.multiply(A[i, 0], x[0], out=out[i])
-        out[i] += A[i, 1] * x[1]
-        out[i] += A[i, 2] * x[2]
-    return out
+def _mv(A: FloatArray, x: FloatArray) -> FloatArray:
+    """``A_k x_k`` for ``A`` (3, 3, n), ``x`` (3, n)."""
+    return np.asarray(np.einsum("ijn,jn->in", A, x))
 
 
 def _cols_cross(M: FloatArray, x: FloatArray, out: FloatArray) -> FloatArray:
@@ -187,68 +203,70 @@ def _cols_cross(M: FloatArray, x: FloatArray, out: FloatArray) -> FloatArray:
     return out
 
 
-def _qmul(a: FloatArray, b: FloatArray, out: FloatArray | None = None) -> FloatArray:
-    """Hamilton product of quaternions stored (w, x, y, z) along axis 0; ``out`` may alias."""
-    aw, ax, ay, az = a
-    bw, bx, by, bz = b
-    w = aw * bw - ax * bx - ay * by - az * bz
-    x = aw * bx + ax * bw + ay * bz - az * by
-    y = aw * by - ax * bz + ay * bw + az * bx
-    z = aw * bz + ax * by - ay * bx + az * bw
-    if out is None:
-        return np.stack([w, x, y, z])
-    out[0], out[1], out[2], out[3] = w, x, y, z
-    return out
+# Unit quaternions w + x i + y j + z k are held as complex pairs (α, β) = (w + x i, y + z i),
+# q = α + β j (Cayley–Dickson). The Hamilton product is then four complex products:
+# (α₁, β₁)(α₂, β₂) = (α₁α₂ − β₁β̄₂, α₁β₂ + β₁ᾱ₂): a quarter of the array operations of the
+# real 16-product form, which is what a vectorized scan is bound by.
+ComplexArray = npt.NDArray[np.complex128]
 
 
-def _qscan_small(q: FloatArray) -> FloatArray:
-    """Sequential prefix products for a few quaternions (plain floats are faster there)."""
-    cols = q.T.tolist()
-    w, x, y, z = cols[0]
-    out = [cols[0]]
-    for bw, bx, by, bz in cols[1:]:
-        w, x, y, z = (
-            w * bw - x * bx - y * by - z * bz,
-            w * bx + x * bw + y * bz - z * by,
-            w * by - x * bz + y * bw + z * bx,
-            w * bz + x * by - y * bx + z * bw,
-        )
-        out.append([w, x, y, z])
-    return np.array(out).T
+def _cmul(
+    a1: ComplexArray, b1: ComplexArray, a2: ComplexArray, b2: ComplexArray
+) -> tuple[ComplexArray, ComplexArray]:
+    return a1 * a2 - b1 * b2.conj(), a1 * b2 + b1 * a2.conj()
+
+
+def _qscan_small(a: ComplexArray, b: ComplexArray) -> tuple[ComplexArray, ComplexArray]:
+    """Sequential prefix products for a few quaternions (Python complex numbers)."""
+    xa, xb = a.tolist(), b.tolist()
+    oa, ob = [xa[0]], [xb[0]]
+    p, q = xa[0], xb[0]
+    for u, w in zip(xa[1:], xb[1:], strict=True):
+        p, q = p * u - q * w.conjugate(), p * w + q * u.conjugate()
+        oa.append(p)
+        ob.append(q)
+    return np.array(oa, dtype=np.complex128), np.array(ob, dtype=np.complex128)
 
 
 _SCAN_BLOCK = 8
 
 
-def _qscan(q: FloatArray) -> FloatArray:
-    """Inclusive prefix products ``q_0 ⊗ q_1 ⊗ … ⊗ q_k`` of ``q`` (4, n), ``(w, x, y, z)``.
+def _qscan(a: ComplexArray, b: ComplexArray) -> tuple[ComplexArray, ComplexArray]:
+    """Inclusive prefix products ``q_0 q_1 … q_k`` of quaternions given as (α, β), shape (n,).
 
     Blocked scan: prefix products inside blocks of 8 consecutive samples (7 batched products
     over all blocks at once), a recursive scan of the block totals, then one batched product
-    applying each block's predecessor total. About 2n products, depth O(log n).
+    applying each block's predecessor total. About 2n products, recursion depth log₈ n.
     """
-    n = q.shape[1]
-    b = _SCAN_BLOCK
-    if n <= 2 * b:
-        return _qscan_small(q)
-    m = n // b
-    head = m * b
-    blk = np.ascontiguousarray(q[:, :head].reshape(4, m, b).transpose(0, 2, 1))  # (4, b, m)
-    for j in range(1, b):
-        _qmul(blk[:, j - 1], blk[:, j], out=blk[:, j])
-    totals = _qscan(np.ascontiguousarray(blk[:, b - 1]))  # (4, m)
-    _qmul(totals[:, None, :-1], blk[:, :, 1:], out=blk[:, :, 1:])
-    out = np.empty_like(q)
-    out[:, :head] = blk.transpose(0, 2, 1).reshape(4, head)
+    n = a.shape[0]
+    bs = _SCAN_BLOCK
+    if n <= 2 * bs:
+        return _qscan_small(a, b)
+    m = n // bs
+    head = m * bs
+    A = a[:head].reshape(m, bs).T.copy()  # (bs, m): row j holds sample j of every block
+    B = b[:head].reshape(m, bs).T.copy()
+    for j in range(1, bs):
+        A[j], B[j] = _cmul(A[j - 1], B[j - 1], A[j], B[j])
+    ta, tb = _qscan(A[bs - 1].copy(), B[bs - 1].copy())
+    A[:, 1:], B[:, 1:] = _cmul(ta[None, :-1], tb[None, :-1], A[:, 1:], B[:, 1:])
+    out_a = np.empty_like(a)
+    out_b = np.empty_like(b)
+    out_a[:head] = A.T.reshape(head)
+    out_b[:head] = B.T.reshape(head)
     if head < n:
-        tail = np.concatenate([out[:, head - 1 : head], q[:, head:]], axis=1)
-        out[:, head:] = _qscan_small(tail)[:, 1:]
-    return out
+        xa, xb = _qscan_small(
+            np.concatenate([out_a[head - 1 : head], a[head:]]),
+            np.concatenate([out_b[head - 1 : head], b[head:]]),
+        )
+        out_a[head:], out_b[head:] = xa[1:], xb[1:]
+    return out_a, out_b
 
 
-def _quat_to_R(q: FloatArray, out: FloatArray) -> FloatArray:
-    w, x, y, z = q
-    s = 2.0 / (w * w + x * x + y * y + z * z)
+def _quat_to_R(a: ComplexArray, b: ComplexArray, out: FloatArray) -> FloatArray:
+    """Rotation matrices (3, 3, n) of quaternions (α, β), normalised on the fly."""
+    w, x, y, z = a.real, a.imag, b.real, b.imag
+    s = 2.0 / (a.real**2 + a.imag**2 + b.real**2 + b.imag**2)
     sx, sy, sz = s * x, s * y, s * z
     xx, yy, zz = sx * x, sy * y, sz * z
     xy, xz, yz = sx * y, sx * z, sy * z
@@ -270,8 +288,13 @@ def _hat(x: FloatArray) -> FloatArray:
     return np.array([[0.0, -x[2], x[1]], [x[2], 0.0, -x[0]], [-x[1], x[0], 0.0]])
 
 
-def _is_isotropic(C: FloatArray) -> bool:
-    return bool(np.all(C == C[0, 0] * np.eye(3)))
+_E = np.array([_hat(e) for e in np.eye(3)])  # [e_b]×, b = 0, 1, 2
+
+
+def _blockdiag3(R: FloatArray) -> FloatArray:
+    T = np.zeros((9, 9))
+    T[0:3, 0:3] = T[3:6, 3:6] = T[6:9, 6:9] = R
+    return T
 
 
 def _weighted_congruence(R9: FloatArray, weights: FloatArray, W: FloatArray) -> FloatArray:
@@ -314,27 +337,20 @@ def _integrate(
 ) -> _Delta:
     """Preintegrate validated samples (N, 3), (N, 3), (N,) with bias estimate ``bias`` (6,).
 
-    Two algebraically identical paths: the general one builds the 9×3 gyro input block of every
-    sample; the fast one (isotropic gyroscope covariance, no lever arm) uses
-    ``J_r J_rᵀ = a I + b θθᵀ`` and ``R [x]× = [R x]× R`` to reduce everything to outer-product
-    sums (matrix products over samples). ``general=True`` forces the general path (tests).
+    Two algebraically identical paths for the gyroscope noise: the general one builds the 9×3
+    input block of every sample; the fast one (isotropic gyroscope covariance, no lever arm) uses
+    ``J_r J_rᵀ = a I + b θθᵀ`` and ``ΔR θ = u`` to reduce it to outer-product sums (matrix
+    products over samples). ``general=True`` forces the general path (tests).
     """
     n = dt.shape[0]
-    a = np.ascontiguousarray((acc - bias[:3]).T)  # (3, n), sensor frame
-    w = np.ascontiguousarray((gyro - bias[3:]).T)
+    a = np.subtract(acc.T, bias[:3, None], out=np.empty((3, n)))  # (3, n), sensor frame
+    w = np.subtract(gyro.T, bias[3:, None], out=np.empty((3, n)))
     bRs = P.body_R_sensor
-    acc_cov, gyro_cov = P.acc_cov, P.gyro_cov
     D = None  # d(corrected acc)/d(unbiased sensor ω), only with a lever arm
     if bRs is not None:
         a = bRs @ a
         w = bRs @ w
-        # body-frame noise (an isotropic covariance is left as it is: rotation keeps it)
-        if not _is_isotropic(acc_cov):
-            acc_cov = bRs @ acc_cov @ bRs.T
-        if P.lever_arm is None:
-            if not _is_isotropic(gyro_cov):
-                gyro_cov = bRs @ gyro_cov @ bRs.T
-        else:
+        if P.lever_arm is not None:
             r = P.lever_arm
             wr = r @ w  # ω·r
             a = a - (w * wr - r[:, None] * np.einsum("in,in->n", w, w))  # ω × (ω × r)
@@ -344,36 +360,41 @@ def _integrate(
             M[1, 1] += wr
             M[2, 2] += wr
             D = -np.einsum("ijn,jk->ikn", M, bRs)
-    general = general or D is not None or not _is_isotropic(gyro_cov)
+    general = general or not P.fast
 
     # rotation increments Exp(θ_k) as quaternions; J_r(θ) = c0 I − B [θ]× + C θθᵀ with
     # c0 = sin θ/θ, B = (1 − cos θ)/θ² = ½ sinc(θ/2)², C = (1 − c0)/θ² (C cancels for small θ,
     # but it only multiplies θθᵀ, so the absolute error of J_r stays ~ eps)
     theta = w * dt
     th2 = np.einsum("in,in->n", theta, theta)
-    half = 0.5 * np.sqrt(th2)
+    half = np.sqrt(th2)
+    half *= 0.5
     sh = np.sin(half)
     ch = np.cos(half) if half.max() > 0.5 else np.sqrt(1.0 - sh * sh)
     sinc_h = np.divide(sh, half, out=np.ones(n), where=half > 0.0)  # sin(θ/2)/(θ/2)
-    q = np.empty((4, n))
-    q[0] = ch
-    np.multiply(0.5 * sinc_h, theta, out=q[1:])
+    s = 0.5 * sinc_h
+    qa = np.empty(n, dtype=np.complex128)
+    qb = np.empty(n, dtype=np.complex128)
+    qa.real = ch
+    np.multiply(s, theta[0], out=qa.imag)
+    np.multiply(s, theta[1], out=qb.real)
+    np.multiply(s, theta[2], out=qb.imag)
     c0 = sinc_h * ch
-    B = 0.5 * sinc_h * sinc_h
+    B = s * sinc_h
     C = np.divide(1.0 - c0, th2, out=np.full(n, 1.0 / 6.0), where=th2 > 0.0)
 
     R_all = np.empty((3, 3, n + 1))  # ΔR_0 … ΔR_N
     R_all[:, :, 0] = np.eye(3)
-    _quat_to_R(_qscan(q), out=R_all[:, :, 1:])
+    _quat_to_R(*_qscan(qa, qb), out=R_all[:, :, 1:])
     R_prev, R_next = R_all[:, :, :-1], R_all[:, :, 1:]
     R9_prev = R_all.reshape(9, n + 1)[:, :-1]
     R9_next = R_all.reshape(9, n + 1)[:, 1:]
 
     # Δv, Δp (frame i), and the carry-to-the-end quantities τ_k, ṽ_k, p̃_k, α_k
-    a_i = _mv(R_prev, a, np.empty((3, n)))
-    dv = a_i * dt
+    dv = _mv(R_prev, a)  # acceleration in frame i …
+    dv *= dt  # … times dt
     v_next = np.cumsum(dv, axis=1)
-    dp = 0.5 * dt * dv
+    dp = dv * (0.5 * dt)
     dp[:, 1:] += v_next[:, :-1] * dt[1:]
     p_next = np.cumsum(dp, axis=1)
     t_next = np.cumsum(dt)
@@ -384,16 +405,14 @@ def _integrate(
     np.subtract(v_next[:, -1:], v_next, out=v_tilde)
     np.subtract(p_next[:, -1:], p_next, out=p_tilde)
     p_tilde -= tau * v_next
-    alpha = dt * (tau + 0.5 * dt)
+    alpha = tau + 0.5 * dt
+    alpha *= dt
 
     # gyro input carried to the end, frame i: [Y; −[p̃]× Y; −[ṽ]× Y], Y = ΔR_{k+1} J_r dt
-    Jr = np.empty((3, 3, n))
-    Ct = (C * dt) * theta
-    for i in range(3):
-        for j in range(3):
-            np.multiply(Ct[i], theta[j], out=Jr[i, j])
-        Jr[i, i] += c0 * dt
-    Bt = (B * dt) * theta
+    c0dt, Bdt, Cdt = c0 * dt, B * dt, C * dt
+    Jr = (Cdt * theta)[:, None, :] * theta[None, :, :]
+    Jr.reshape(9, n)[0::4] += c0dt  # the diagonal
+    Bt = Bdt * theta
     Jr[0, 1] += Bt[2]
     Jr[0, 2] -= Bt[1]
     Jr[1, 0] -= Bt[2]
@@ -414,33 +433,37 @@ def _integrate(
             Jg = -(G.reshape(27, n) @ np.ones(n)).reshape(9, 3)
         else:
             Jg = _sum_carried(Y, pv_tilde)
-        if _is_isotropic(gyro_cov):
-            GQ = G * (gyro_cov[0, 0] / dt)
+        if _is_isotropic(P.gyro_cov):
+            GQ = G * (P.gyro_cov[0, 0] / dt)
         else:
-            GQ = np.matmul(gyro_cov.T, G) / dt
+            GQ = np.matmul(P.gyro_cov.T, G) / dt
         cov_i = G.reshape(9, 3 * n) @ GQ.reshape(9, 3 * n).T
     else:
         Y = np.einsum("ijn,jkn->ikn", R_next, Jr)
         Jg = _sum_carried(Y, pv_tilde)
-        u = _mv(R_prev, theta, np.empty((3, n)))  # ΔR_k θ_k = ΔR_{k+1} θ_k
-        cov_i = _gyro_covariance(u, pv_tilde, c0, B, C, th2, dt, gyro_cov[0, 0])
+        u = _mv(R_prev, theta)  # ΔR_k θ_k = ΔR_{k+1} θ_k
+        cov_i = _gyro_covariance(u, pv_tilde, c0, B, C, th2, dt, P.gyro_cov[0, 0])
     if bRs is not None and D is None:
         Jg = Jg @ bRs
 
     # accelerometer input [0; α ΔR_k; dt ΔR_k] (times bRs): bias Jacobian and covariance
     Ja = -(R9_prev @ np.stack([alpha, dt], axis=1)).reshape(3, 3, 2)
-    Ja = np.einsum("ijw,jk->wik", Ja, bRs if bRs is not None else np.eye(3)).reshape(6, 3)
-    if _is_isotropic(acc_cov):
-        s = acc_cov[0, 0] * np.array([alpha * alpha @ (1.0 / dt), alpha.sum(), T])
-        pp, pv, vv = (x * np.eye(3) for x in s)
+    Ja = np.concatenate([Ja[:, :, 0], Ja[:, :, 1]])
+    if bRs is not None:
+        Ja = Ja @ bRs
+    if _is_isotropic(P.acc_cov):
+        var = P.acc_cov[0, 0]
+        cov_i[3:6, 3:6] += (var * float(alpha @ (alpha / dt))) * np.eye(3)
+        pv = (var * float(alpha.sum())) * np.eye(3)
+        cov_i[6:9, 6:9] += (var * T) * np.eye(3)
     else:
         pp, pv, vv = _weighted_congruence(
-            R9_prev, np.stack([alpha * alpha / dt, alpha, dt]), acc_cov
+            R9_prev, np.stack([alpha * alpha / dt, alpha, dt]), P.acc_cov
         )
-    cov_i[3:6, 3:6] += pp
+        cov_i[3:6, 3:6] += pp
+        cov_i[6:9, 6:9] += vv
     cov_i[3:6, 6:9] += pv
     cov_i[6:9, 3:6] += pv.T
-    cov_i[6:9, 6:9] += vv
     # integration noise, added to the body-frame position at every step
     if _is_isotropic(P.int_cov):
         cov_i[3:6, 3:6] += (P.int_cov[0, 0] * T) * np.eye(3)
@@ -448,7 +471,7 @@ def _integrate(
         cov_i[3:6, 3:6] += _weighted_congruence(R9_next, dt[None], P.int_cov)[0]
 
     RN = R_all[:, :, -1].copy()
-    Tb = np.kron(np.eye(3), RN)  # frame-i → body-chart coordinates: δ_body = Tbᵀ δ_i
+    Tb = _blockdiag3(RN)  # frame-i → body-chart coordinates: δ_body = Tbᵀ δ_i
     cov = Tb.T @ cov_i @ Tb
     cov = 0.5 * (cov + cov.T)
     J = np.zeros((9, 6))
@@ -458,9 +481,6 @@ def _integrate(
     return _Delta(
         delta_t=T, n=n, R=RN, p=p_next[:, -1].copy(), v=v_next[:, -1].copy(), cov=cov, J=J
     )
-
-
-_E = np.array([_hat(e) for e in np.eye(3)])  # [e_b]×, b = 0, 1, 2
 
 
 def _sum_carried(Y: FloatArray, pv: FloatArray) -> FloatArray:
@@ -495,32 +515,35 @@ def _gyro_covariance(
     ``[x]× u uᵀ [y]×ᵀ = (x×u)(y×u)ᵀ`` and ``[x]× [y]×ᵀ = (x·y) I − y xᵀ``.
     """
     n = u.shape[1]
-    wa = dt * (c0 * c0 + B * B * th2)
-    wb = dt * (2.0 * c0 * C + C * C * th2 - B * B)
-    V = np.empty((9, n))  # u, p̃ × u, ṽ × u
-    V[0:3] = u
-    for r, (x, y) in enumerate(((pv[0:3], u), (pv[3:6], u))):
-        o = V[3 * r + 3 : 3 * r + 6]
-        np.multiply(x[1], y[2], out=o[0])
-        o[0] -= x[2] * y[1]
-        np.multiply(x[2], y[0], out=o[1])
-        o[1] -= x[0] * y[2]
-        np.multiply(x[0], y[1], out=o[2])
-        o[2] -= x[1] * y[0]
-    cov = (V * wb) @ V.T  # Σ wb (·)(·)ᵀ over u, p̃×u, ṽ×u
+    B2 = B * B
+    wa = dt * (c0 * c0 + B2 * th2)
+    wb = dt * (C * (2.0 * c0 + C * th2) - B2)
+    X = np.empty((16, n))  # rows: u, p̃ × u, ṽ × u, p̃, ṽ, 1
+    X[0:3] = u
+    for r in (0, 3):  # p̃ × u, ṽ × u
+        x, o = pv[r : r + 3], X[r + 3 : r + 6]
+        for i, j, k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
+            np.multiply(x[j], u[k], out=o[i])
+            o[i] -= x[k] * u[j]
+    X[9:15] = pv
+    X[15] = 1.0
+    XW = np.empty((15, n))
+    np.multiply(X[0:9], wb, out=XW[0:9])
+    np.multiply(pv, wa, out=XW[9:15])
+    S = XW @ X.T  # (15, 16): Σ wb (·)(·)ᵀ over u, p̃×u, ṽ×u; Σ wa x yᵀ and Σ wa x over p̃, ṽ
+    cov = S[0:9, 0:9].copy()
     cov[3:9, 0:3] *= -1.0
     cov[0:3, 3:9] *= -1.0
-    Ma = (pv * wa) @ pv.T  # Σ wa x yᵀ for x, y ∈ {p̃, ṽ}
-    sa = pv @ wa  # Σ wa p̃, Σ wa ṽ
     I3 = np.eye(3)
-    cov[0:3, 0:3] += wa.sum() * I3
+    cov[0:3, 0:3] += float(wa.sum()) * I3
     for r in range(2):
-        blk = -_hat(sa[3 * r : 3 * r + 3])  # Σ −wa [x]×
-        cov[3 * r + 3 : 3 * r + 6, 0:3] += blk
-        cov[0:3, 3 * r + 3 : 3 * r + 6] += blk.T
+        rr = slice(3 * r + 3, 3 * r + 6)
+        blk = -_hat(S[9 + 3 * r : 12 + 3 * r, 15])  # Σ −wa [x]×
+        cov[rr, 0:3] += blk
+        cov[0:3, rr] += blk.T
         for c in range(2):
-            Mxy = Ma[3 * r : 3 * r + 3, 3 * c : 3 * c + 3]
-            cov[3 * r + 3 : 3 * r + 6, 3 * c + 3 : 3 * c + 6] += np.trace(Mxy) * I3 - Mxy.T
+            Mxy = S[9 + 3 * r : 12 + 3 * r, 9 + 3 * c : 12 + 3 * c]  # Σ wa x yᵀ
+            cov[rr, 3 * c + 3 : 3 * c + 6] += np.trace(Mxy) * I3 - Mxy.T
     return np.asarray(var * cov)
 
 
@@ -532,7 +555,7 @@ def _compose(d1: _Delta, d2: _Delta) -> _Delta:
     F[3:6, 0:3] = -_hat(d2.p)
     F[3:6, 6:9] = T2 * np.eye(3)
     F[6:9, 0:3] = -_hat(d2.v)
-    F = np.kron(np.eye(3), d2.R.T) @ F
+    F = _blockdiag3(d2.R.T) @ F
     cov = F @ d1.cov @ F.T + d2.cov
     J1, J2 = d1.J, d2.J
     D1 = J1[0:3, 3:6]
@@ -551,6 +574,29 @@ def _compose(d1: _Delta, d2: _Delta) -> _Delta:
         cov=0.5 * (cov + cov.T),
         J=J,
     )
+
+
+#: Samples per vectorized block. Blocks are concatenated exactly with :func:`_compose`; the size
+#: keeps the ~30 per-sample work arrays inside the CPU cache (measured: 2-4k samples per block run
+#: about twice as fast per sample as one 40k block).
+_BLOCK = 4096
+
+
+def _integrate_blocks(
+    acc: FloatArray, gyro: FloatArray, dt: FloatArray, bias: FloatArray, P: _Params
+) -> _Delta:
+    n = dt.shape[0]
+    out: _Delta | None = None
+    for s in range(0, n, _BLOCK):
+        e = min(n, s + _BLOCK)
+        if n - e < _BLOCK // 4:  # fold a short tail into the last block
+            e = n
+        d = _integrate(acc[s:e], gyro[s:e], dt[s:e], bias, P)
+        out = d if out is None else _compose(out, d)
+        if e == n:
+            break
+    assert out is not None
+    return out
 
 
 # --------------------------------------------------------------------------------------------
@@ -782,17 +828,17 @@ def preintegrate(acc: Any, gyro: Any, dt: Any, *, bias: Any, params: Any) -> Pre
     b = _read_bias(bias)
     if b.shape != (6,):
         raise ValueError(f"bias: expected one bias (6,), got shape {b.shape}")
-    return PreintegratedImu._from_delta(_integrate(acc_, gyro_, dt_, b, P), b, P.gravity)
+    return PreintegratedImu._from_delta(_integrate_blocks(acc_, gyro_, dt_, b, P), b, P.gravity)
 
 
 class ImuPreintegrator:
     """Incremental preintegration for online use.
 
     Samples given to :meth:`integrate` are validated immediately and buffered; they are
-    integrated in one vectorized block when a result is requested, and blocks are concatenated
+    integrated in one vectorized pass when a result is requested, and passes are concatenated
     exactly (``ΔR = ΔR₁ΔR₂``, covariance and bias Jacobians by the chain rule). Feeding one sample
-    at a time and asking for :meth:`result` at keyframes therefore costs about as much as one
-    :func:`preintegrate` call on the whole window.
+    at a time (a few µs each: a tuple is appended) and asking for :meth:`result` at keyframes
+    therefore costs about as much as one :func:`preintegrate` call on the whole window.
 
     Parameters
     ----------
@@ -801,7 +847,6 @@ class ImuPreintegrator:
     """
 
     def __init__(self, params: Any, bias: Any = None) -> None:
-        self._params_obj = params
         self._P = _read_params(params)
         self.reset(bias)
 
@@ -813,7 +858,8 @@ class ImuPreintegrator:
                 raise ValueError(f"bias: expected one bias (6,), got shape {b.shape}")
             self._bias = b
         self._done: _Delta | None = None
-        self._buf: list[tuple[FloatArray, FloatArray, FloatArray]] = []
+        self._blocks: list[tuple[FloatArray, FloatArray, FloatArray]] = []
+        self._rows: list[list[float]] = []  # single samples: [ax, ay, az, wx, wy, wz, dt]
         self._buffered = 0
 
     @property
@@ -827,31 +873,48 @@ class ImuPreintegrator:
         return (self._done.n if self._done is not None else 0) + self._buffered
 
     def integrate(self, acc: Any, gyro: Any, dt: Any) -> None:
-        """Add one sample ``(3,), (3,), scalar`` or a block ``(N, 3), (N, 3), (N,) or scalar``."""
-        acc_a = v.as_float_array(acc, "acc")
-        gyro_a = v.as_float_array(gyro, "gyro")
-        if acc_a.ndim == 1 and gyro_a.ndim == 1:
-            acc_a, gyro_a = acc_a[None], gyro_a[None]
-            dt = np.reshape(v.as_float_array(dt, "dt"), (-1,))
-        a, g, d = _read_samples(acc_a, gyro_a, dt)
-        self._buf.append((a.copy(), g.copy(), d.copy()))
-        self._buffered += d.shape[0]
+        """Add one sample ``(3,), (3,), scalar`` or a block ``(N, 3), (N, 3), (N,) or scalar``.
+
+        Raises ``ValueError`` naming the argument, the sample index (counted from the last
+        :meth:`reset`) and the offending value; a rejected call adds nothing.
+        """
+        if np.ndim(dt) == 0 and np.ndim(acc) == 1 and np.ndim(gyro) == 1:
+            row = [*_sample3(acc, "acc"), *_sample3(gyro, "gyro"), float(dt)]
+            if not all(map(math.isfinite, row)) or not row[6] > 0.0:
+                _reject_sample(row, self.n_samples)
+            self._rows.append(row)
+            self._buffered += 1
+            return
+        try:
+            a, g, d_ = _read_samples(acc, gyro, dt)
+        except ValueError as exc:
+            raise ValueError(f"{exc} (block starting at sample {self.n_samples})") from None
+        self._stash_rows()
+        self._blocks.append((a.copy(), g.copy(), d_.copy()))
+        self._buffered += d_.shape[0]
+
+    def _stash_rows(self) -> None:
+        if self._rows:
+            rows = np.array(self._rows)
+            self._blocks.append((rows[:, 0:3], rows[:, 3:6], rows[:, 6].copy()))
+            self._rows = []
 
     def _flush(self) -> None:
-        if not self._buf:
+        self._stash_rows()
+        if not self._blocks:
             return
-        a = np.concatenate([b[0] for b in self._buf])
-        g = np.concatenate([b[1] for b in self._buf])
-        d = np.concatenate([b[2] for b in self._buf])
-        block = _integrate(a, g, d, self._bias, self._P)
+        a = np.concatenate([b[0] for b in self._blocks])
+        g = np.concatenate([b[1] for b in self._blocks])
+        d = np.concatenate([b[2] for b in self._blocks])
+        block = _integrate_blocks(a, g, d, self._bias, self._P)
         self._done = block if self._done is None else _compose(self._done, block)
-        self._buf, self._buffered = [], 0
+        self._blocks, self._buffered = [], 0
 
     @property
     def delta_t(self) -> float:
         """Integrated time so far (s)."""
-        done = self._done.delta_t if self._done is not None else 0.0
-        return done + float(sum(float(b[2].sum()) for b in self._buf))
+        self._flush()
+        return self._done.delta_t if self._done is not None else 0.0
 
     def result(self) -> PreintegratedImu:
         """Return the preintegrated measurements of every sample so far (raises if none)."""
@@ -859,3 +922,22 @@ class ImuPreintegrator:
         if self._done is None:
             raise ValueError("ImuPreintegrator.result: no samples integrated yet")
         return PreintegratedImu._from_delta(self._done, self._bias, self._P.gravity)
+
+
+def _sample3(x: Any, name: str) -> list[float]:
+    """One 3-vector sample as a list of floats (cheap: no numpy array is built)."""
+    try:
+        vals = x.tolist() if isinstance(x, np.ndarray) else [float(c) for c in x]
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"{name}: expected a numeric 3-vector ({exc})") from None
+    if len(vals) != 3:
+        raise ValueError(f"{name}: expected shape (3,) or (N, 3), got ({len(vals)},)")
+    return [float(c) for c in vals] if not isinstance(vals[0], float) else vals
+
+
+def _reject_sample(row: list[float], index: int) -> None:
+    for name, off in (("acc", 0), ("gyro", 3)):
+        for i in range(3):
+            if not math.isfinite(row[off + i]):
+                raise ValueError(f"{name}: contains NaN or Inf at sample {index}, entry {i}")
+    raise ValueError(f"dt: must be finite and > 0, got {row[6]:.6g} at sample {index}")
