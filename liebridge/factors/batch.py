@@ -1,0 +1,105 @@
+"""Batched evaluation of liebridge's pose factors: one numpy pass for all factors of a kind.
+
+A spec holds what a factor needs (keys, measurement, convention, square-root information);
+:func:`linearize_batch` evaluates every spec of a group with the same batched formulas as the
+single-factor callbacks in :mod:`liebridge.factors.pose_factors` (same ``Convention._local`` and
+``_local_jacobian``), whitens them with ``R`` (``RᵀR = Σ⁻¹``) and returns GTSAM
+``JacobianFactor``s with unit noise — the same linear system GTSAM's ``linearize`` would build.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import gtsam
+import numpy as np
+import numpy.typing as npt
+
+from .._validate import FloatArray
+from ..conventions import Convention
+from ..lie import se3
+
+
+@dataclass(frozen=True)
+class PoseFactorSpec:
+    """One between (``j`` set) or prior (``j`` None) factor on ``Pose3`` keys."""
+
+    conv: Convention
+    i: int
+    j: int | None
+    Z: FloatArray
+    sqrt_info: FloatArray  # upper-triangular R with RᵀR = Σ⁻¹ (GTSAM's noiseModel.R())
+
+
+IntArray = npt.NDArray[np.int64]
+
+
+def poses_of(values: Any) -> tuple[IntArray, FloatArray]:
+    """All ``Pose3`` entries of ``values`` as sorted keys ``(N,)`` and matrices ``(N, 4, 4)``."""
+    keys = np.asarray(list(gtsam.utilities.allPose3s(values).keys()), dtype=np.int64)
+    m = np.asarray(gtsam.utilities.extractPose3(values), dtype=np.float64)
+    T = np.zeros((len(keys), 4, 4))
+    T[:, :3, :3] = m[:, :9].reshape(-1, 3, 3)
+    T[:, :3, 3] = m[:, 9:]
+    T[:, 3, 3] = 1.0
+    return keys, T
+
+
+def _rows(keys: IntArray, wanted: IntArray) -> IntArray:
+    idx = np.searchsorted(keys, wanted)
+    idx = np.clip(idx, 0, len(keys) - 1)
+    missing = keys[idx] != wanted
+    if missing.any():
+        raise ValueError(f"values: no Pose3 for key {int(wanted[missing][0])}")
+    return np.asarray(idx, dtype=np.int64)
+
+
+class PoseFactorGroup:
+    """Factors of one kind (between or prior) and one convention, stacked for numpy."""
+
+    def __init__(self, specs: list[PoseFactorSpec]) -> None:
+        self.specs = specs
+        self.conv = specs[0].conv
+        self.between = specs[0].j is not None
+        self.i = np.array([s.i for s in specs], dtype=np.int64)
+        self.j = np.array([s.j if s.j is not None else -1 for s in specs], dtype=np.int64)
+        self.Z = np.stack([s.Z for s in specs])
+        self.R = np.stack([s.sqrt_info for s in specs])
+
+    def _residuals(self, keys: IntArray, T: FloatArray) -> tuple[FloatArray, FloatArray]:
+        Ti = T[_rows(keys, self.i)]
+        H = se3._inverse(Ti) @ T[_rows(keys, self.j)] if self.between else Ti
+        return H, self.conv._local(self.Z, H)
+
+    def error(self, keys: IntArray, T: FloatArray) -> float:
+        """``½ Σ ‖R e‖²`` over the group."""
+        _, e = self._residuals(keys, T)
+        w = np.einsum("kij,kj->ki", self.R, e)
+        return 0.5 * float(np.sum(w * w))
+
+    def linearize(self, keys: IntArray, T: FloatArray) -> list[Any]:
+        """Whitened ``JacobianFactor``s (unit noise), one per factor, in GTSAM's tangents."""
+        H, e = self._residuals(keys, T)
+        JH = self.conv._local_jacobian(self.Z, H) @ self.conv._from_canonical(H)
+        b = -np.einsum("kij,kj->ki", self.R, e)
+        Aj = self.R @ JH
+        unit = gtsam.noiseModel.Unit.Create(6)
+        if not self.between:
+            return [
+                gtsam.JacobianFactor(int(k), A, bb, unit)
+                for k, A, bb in zip(self.i, Aj, b, strict=True)
+            ]
+        Ai = -Aj @ se3._adjoint(se3._inverse(H))
+        return [
+            gtsam.JacobianFactor(int(ki), A1, int(kj), A2, bb, unit)
+            for ki, kj, A1, A2, bb in zip(self.i, self.j, Ai, Aj, b, strict=True)
+        ]
+
+
+def group_specs(specs: list[PoseFactorSpec]) -> list[PoseFactorGroup]:
+    """Group specs by (kind, convention) so each group is one batched evaluation."""
+    groups: dict[tuple[bool, Convention], list[PoseFactorSpec]] = {}
+    for s in specs:
+        groups.setdefault((s.j is not None, s.conv), []).append(s)
+    return [PoseFactorGroup(g) for g in groups.values()]
