@@ -2,7 +2,13 @@
 
 The canonical form is GTSAM's: poses ``(..., 4, 4)``, rotation-first twists ``ξ = (ω, v)``,
 right perturbation ``X·Exp(ξ)``, true SE(3) exponential.
+
+The numpy core (``lie``, ``conventions``, the conversion functions, ``poses``, ``g2o`` reading,
+``trajectory_io``, ``check``) does not import gtsam; ``gtsam_glue``, ``marginals``,
+``ConventionGraph``, ``gtsam_convention`` and ``factors`` load it on first access.
 """
+
+from typing import Any
 
 from . import check, conventions, lie
 from .adapters import (
@@ -10,8 +16,11 @@ from .adapters import (
     convert_information,
     convert_jacobian,
     convert_tangent,
+    g2o,
     is_exactly_linear,
+    poses,
     tangent_map,
+    trajectory_io,
 )
 from .conventions import Convention, detect_convention
 
@@ -19,6 +28,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Convention",
+    "ConventionGraph",
     "__version__",
     "check",
     "conventions",
@@ -27,7 +37,32 @@ __all__ = [
     "convert_jacobian",
     "convert_tangent",
     "detect_convention",
+    "factors",
+    "g2o",
+    "gtsam_convention",
+    "gtsam_glue",
     "is_exactly_linear",
     "lie",
+    "marginals",
+    "poses",
     "tangent_map",
+    "trajectory_io",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    """Load the GTSAM-dependent parts on first access."""
+    import importlib
+
+    lazy = {
+        "gtsam_glue": ("liebridge.adapters.gtsam_glue", None),
+        "factors": ("liebridge.factors", None),
+        "ConventionGraph": ("liebridge.adapters.graph", "ConventionGraph"),
+        "marginals": ("liebridge.adapters.marginals", "marginals"),
+        "gtsam_convention": ("liebridge.adapters.gtsam_build", "gtsam_convention"),
+    }
+    if name not in lazy:
+        raise AttributeError(f"module 'liebridge' has no attribute {name!r}")
+    module, attr = lazy[name]
+    mod = importlib.import_module(module)
+    return mod if attr is None else getattr(mod, attr)

@@ -3,6 +3,7 @@
 The conversion functions are re-exported at the top level (``liebridge.tangent_map`` ...).
 """
 
+from . import g2o, poses, trajectory_io
 from .convert import (
     convert_covariance,
     convert_information,
@@ -17,6 +18,9 @@ __all__ = [
     "convert_information",
     "convert_jacobian",
     "convert_tangent",
+    "g2o",
     "is_exactly_linear",
+    "poses",
     "tangent_map",
+    "trajectory_io",
 ]

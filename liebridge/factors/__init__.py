@@ -1,14 +1,28 @@
-"""GTSAM factors written in any convention, and IMU preintegration."""
+"""GTSAM factors written in any convention, and IMU preintegration.
+
+``between``/``prior`` take covariances in any convention (native GTSAM factors where the
+conversion is exact, custom factors with exact analytic Jacobians otherwise); ``optimize`` runs
+Levenberg–Marquardt without GTSAM's per-callback ``Values`` copy and evaluates liebridge's pose
+factors in one batched pass.
+"""
 
 # IMU preintegration (Forster et al.) and its factor
 from .imu import imu, imu_residual
+
+# pose factors in any convention, and the optimizer that keeps them fast
+from .optimize import OptimizeResult, optimize
+from .pose_factors import between, prior
 from .preintegration import ImuDelta, ImuPreintegrator, PreintegratedImu, preintegrate
 
 __all__ = [
     "ImuDelta",
     "ImuPreintegrator",
+    "OptimizeResult",
     "PreintegratedImu",
+    "between",
     "imu",
     "imu_residual",
+    "optimize",
     "preintegrate",
+    "prior",
 ]

@@ -29,7 +29,8 @@ import numpy as np
 from .. import _validate as v
 from .._validate import FloatArray
 from ..adapters.convert import convert_covariance, is_exactly_linear
-from ..conventions import GTSAM, Convention, ConventionLike, get
+from ..adapters.gtsam_build import gtsam_convention
+from ..conventions import Convention, ConventionLike, get
 from ..lie import se3
 from .batch import PoseFactorSpec
 from .custom import make_custom_factor
@@ -92,9 +93,10 @@ def between(
         raise ValueError(f"measured: expected one pose (4, 4), got {Z.shape}")
     cov = v.covariance(cov, "cov", 6)
     if native:
-        if not is_exactly_linear(conv, GTSAM):
+        hub = gtsam_convention()
+        if not is_exactly_linear(conv, hub):
             _warn_first_order(conv)
-        cov_g = convert_covariance(cov, Z, conv, GTSAM)
+        cov_g = convert_covariance(cov, Z, conv, hub)
         return gtsam.BetweenFactorPose3(i, j, gtsam.Pose3(Z), _noise(cov_g))
 
     Zc = Z.copy()
@@ -138,10 +140,11 @@ def prior(
         raise ValueError(f"pose: expected one pose (4, 4), got {Z.shape}")
     cov = v.covariance(cov, "cov", 6)
     if native:
-        if not is_exactly_linear(conv, GTSAM):
+        hub = gtsam_convention()
+        if not is_exactly_linear(conv, hub):
             _warn_first_order(conv)
         return gtsam.PriorFactorPose3(
-            i, gtsam.Pose3(Z), _noise(convert_covariance(cov, Z, conv, GTSAM))
+            i, gtsam.Pose3(Z), _noise(convert_covariance(cov, Z, conv, hub))
         )
     Zc = Z.copy()
 

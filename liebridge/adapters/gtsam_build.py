@@ -1,0 +1,52 @@
+"""Which convention the *installed* GTSAM implements — measured once, never assumed.
+
+GTSAM's ``Pose3`` chart depends on build flags: the PyPI wheel retracts with the SE(3)
+exponential (preset ``gtsam``); builds with ``GTSAM_POSE3_EXPMAP=OFF`` (the default before
+mid-2020) use the decoupled Cayley chart (preset ``gtsam_cayley``). :func:`gtsam_convention`
+runs :func:`liebridge.detect_convention` on ``gtsam.Pose3.retract`` at first use and caches the
+answer; the factor glue, marginals and :class:`~liebridge.adapters.graph.ConventionGraph` use it as
+"GTSAM's tangent". Both charts agree to first order, so Jacobians are unaffected; what changes is
+whether a side/order conversion is *exact* and what a marginal covariance means at second order.
+"""
+
+from __future__ import annotations
+
+import functools
+import warnings
+
+import gtsam
+import numpy as np
+
+from .._validate import FloatArray
+from ..conventions import GTSAM, GTSAM_CAYLEY, Convention, detect_convention
+
+__all__ = ["gtsam_convention"]
+
+
+def _pose3_retract(X: FloatArray, d: FloatArray) -> FloatArray:
+    return np.asarray(gtsam.Pose3(X).retract(d).matrix(), dtype=np.float64)
+
+
+@functools.lru_cache(maxsize=1)
+def gtsam_convention() -> Convention:
+    """Return the preset matching the installed ``gtsam.Pose3.retract`` (measured, cached).
+
+    Raises
+    ------
+    liebridge.conventions.ConventionNotDetected
+        If the installed GTSAM implements neither known chart (the message says what it does).
+    """
+    found = detect_convention(_pose3_retract, prefer="gtsam")
+    if found.fields == GTSAM.fields:
+        return GTSAM
+    if found.fields == GTSAM_CAYLEY.fields:
+        warnings.warn(
+            "liebridge: the installed GTSAM retracts Pose3 with the decoupled Cayley chart "
+            "(built with GTSAM_POSE3_EXPMAP=OFF); using preset 'gtsam_cayley' as GTSAM's tangent",
+            stacklevel=2,
+        )
+        return GTSAM_CAYLEY
+    raise ValueError(
+        f"the installed GTSAM's Pose3.retract implements {found.describe()}, which is neither "
+        f"'gtsam' nor 'gtsam_cayley'"
+    )
