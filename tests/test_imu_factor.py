@@ -187,6 +187,19 @@ def test_jacobians_equal_finite_differences_of_own_error() -> None:
         assert np.allclose(T, _pose_retract(args[0], np.full(6, 0.1)), atol=1e-12)
 
 
+def test_predict_is_batched() -> None:
+    rng = np.random.default_rng(8)
+    states = [random_state(rng) for _ in range(3)]
+    biases = np.array([random_bias(rng).vector() for _ in range(3)])
+    Ti = np.array([s[0].matrix() for s in states])
+    vi = np.array([s[1] for s in states])
+    Tj, vj = OURS.predict(Ti, vi, biases)
+    assert Tj.shape == (3, 4, 4) and vj.shape == (3, 3)
+    for k in range(3):
+        T1, v1 = OURS.predict(Ti[k], vi[k], biases[k])
+        assert np.allclose(Tj[k], T1, atol=1e-12) and np.allclose(vj[k], v1, atol=1e-12)
+
+
 def test_residual_is_batched() -> None:
     rng = np.random.default_rng(4)
     states = [random_state(rng) for _ in range(4)]
@@ -203,6 +216,25 @@ def test_residual_is_batched() -> None:
         assert np.allclose(e[k], e1, rtol=0, atol=1e-14)
         for a, b in zip(H, H1, strict=True):
             assert np.allclose(a[k], b, rtol=0, atol=1e-13)
+
+
+def test_relation_to_forster_residual() -> None:
+    """e = −blockdiag(I, R_jᵀR_i, R_jᵀR_i) r_Forster, as the module docstring says."""
+    rng = np.random.default_rng(6)
+    pose_i, vel_i, pose_j, vel_j = random_state(rng)
+    bias = random_bias(rng)
+    Ri, Rj = pose_i.rotation().matrix(), pose_j.rotation().matrix()
+    pi, pj = pose_i.translation(), pose_j.translation()
+    dR, dp, dv = OURS.bias_corrected(bias)
+    T, g = OURS.delta_t, PARAMS.n_gravity
+    r_R = gtsam.Rot3.Logmap(gtsam.Rot3(dR.T @ Ri.T @ Rj))
+    r_v = Ri.T @ (vel_j - vel_i - g * T) - dv
+    r_p = Ri.T @ (pj - pi - vel_i * T - 0.5 * g * T * T) - dp
+    e, _ = F.imu_residual(pose_i.matrix(), vel_i, pose_j.matrix(), vel_j, bias, OURS)
+    M = Rj.T @ Ri
+    assert np.allclose(e[0:3], -r_R, atol=1e-12)
+    assert np.allclose(e[3:6], -M @ r_p, atol=1e-9)
+    assert np.allclose(e[6:9], -M @ r_v, atol=1e-12)
 
 
 def test_zero_error_at_the_prediction() -> None:

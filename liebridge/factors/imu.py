@@ -8,8 +8,8 @@ The residual is the one of ``gtsam.ImuFactor`` with ``ImuFactorErrorMode.Compone
 
     e_R = Log(R_jᵀ R̂)          e_p = R_jᵀ (p̂ − p_j)          e_v = R_jᵀ (v̂ − v_j)
 
-in the order (rot, pos, vel). This is Forster et al.'s residual (TRO 2017, eq. 45) written as
-"predicted ⊖ actual" in frame ``j``: ``e = −blockdiag(I, R_jᵀR_i, R_jᵀR_i) r_Forster``
+in the order (rot, pos, vel). This is Forster et al.'s preintegrated IMU residual (TRO 2017)
+written as "predicted ⊖ actual" in frame ``j``: ``e = −blockdiag(I, R_jᵀR_i, R_jᵀR_i) r_Forster``
 (``r_ΔR = Log(ΔR(b)ᵀ R_iᵀ R_j)``, ``r_Δp = R_iᵀ(p_j − p_i − v_i Δt − ½gΔt²) − Δp(b)``, …), so
 both vanish together and carry the same information. GTSAM's default error mode in 4.3 is
 ``Logmap`` (the NavState group logarithm), which differs at second order; this factor is not that.
