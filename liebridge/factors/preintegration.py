@@ -447,7 +447,9 @@ def _integrate(
         cov_i = G.reshape(9, 3 * n) @ GQ.reshape(9, 3 * n).T
     else:
         Y = np.einsum("ijn,jkn->ikn", R_next, Jr)
-        Jg = _sum_carried(Y, pv_tilde)
+        del Jr  # large per-sample arrays are dropped as soon as possible: the block's working
+        Jg = _sum_carried(Y, pv_tilde)  # set then stays closer to the cache size
+        del Y
         u = _mv(R_prev, theta)  # ΔR_k θ_k = ΔR_{k+1} θ_k
         cov_i = _gyro_covariance(u, pv_tilde, c0, B, C, th2, dt, P.gyro_cov[0, 0])
     if bRs is not None and D is None:
