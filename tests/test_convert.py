@@ -214,3 +214,14 @@ def test_batched_conversions():
 def test_bad_input_messages(call, match):
     with pytest.raises((ValueError, TypeError), match=match):
         call(pose(20))
+
+
+def test_check_monte_carlo_covariance_is_a_reference_for_conversions():
+    X = pose(21)
+    cov = random_cov(22, scale=1e-4)
+    emp = lb.check.monte_carlo_covariance(X, cov, "gtsam", "ros", n=40000)
+    lin = lb.convert_covariance(cov, X, "gtsam", "ros")
+    Li = np.linalg.inv(np.linalg.cholesky(lin))
+    assert np.abs(Li @ emp @ Li.T - np.eye(6)).max() < 0.05  # 40k samples: ~1.5 % per entry
+    with pytest.raises(ValueError, match="one pose"):
+        lb.check.monte_carlo_covariance(np.stack([X, X]), cov, "gtsam", "ros")

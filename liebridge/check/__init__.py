@@ -6,5 +6,6 @@ note's lesson: finite differences through raw matrix addition test nothing).
 """
 
 from .jacobian import assert_jacobian, numerical_jacobian
+from .montecarlo import monte_carlo_covariance
 
-__all__ = ["assert_jacobian", "numerical_jacobian"]
+__all__ = ["assert_jacobian", "monte_carlo_covariance", "numerical_jacobian"]

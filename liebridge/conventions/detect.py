@@ -18,7 +18,7 @@ from typing import Any, Literal
 import numpy as np
 
 from .._validate import FloatArray
-from ..check import numerical_jacobian
+from ..check.jacobian import numerical_jacobian
 from ..lie import se3
 from .convention import CANONICAL, CHARTS, ORDERS, SIDES, Convention
 from .registry import get, matching_presets
