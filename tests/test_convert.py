@@ -225,3 +225,19 @@ def test_check_monte_carlo_covariance_is_a_reference_for_conversions():
     assert np.abs(Li @ emp @ Li.T - np.eye(6)).max() < 0.05  # 40k samples: ~1.5 % per entry
     with pytest.raises(ValueError, match="one pose"):
         lb.check.monte_carlo_covariance(np.stack([X, X]), cov, "gtsam", "ros")
+
+
+def test_numerical_jacobian_convention_shorthand():
+    A, X = pose(23), pose(24)
+
+    def f(T):
+        return A @ T
+
+    J1 = lb.check.numerical_jacobian(f, X, in_convention="sophus", out_convention="barfoot")
+    J2 = numerical_jacobian(f, X, retract=C.SOPHUS.retract, out_local=C.BARFOOT.local)
+    np.testing.assert_array_equal(J1, J2)
+    np.testing.assert_allclose(
+        lb.convert_jacobian(J1, "sophus", "gtsam", at_input=X),
+        numerical_jacobian(f, X, retract=C.GTSAM.retract, out_local=C.BARFOOT.local),
+        atol=1e-7,
+    )

@@ -34,6 +34,8 @@ def numerical_jacobian(
     out_local: Local | str | None = None,
     dim: int | None = None,
     eps: float = 1e-6,
+    in_convention: Any = None,
+    out_convention: Any = None,
 ) -> FloatArray:
     """Central-difference Jacobian ``J_out_in`` of ``f`` at ``x``.
 
@@ -60,11 +62,24 @@ def numerical_jacobian(
         Input tangent dimension; inferred as 3 for ``(3, 3)``, 6 for ``(4, 4)``, else ``n``.
     eps : float
         Step. The default 1e-6 gives errors around 1e-9 for O(1) second derivatives.
+    in_convention, out_convention : Convention or str, optional
+        Shorthands: ``in_convention=c`` sets ``retract=c.retract`` (and ``local=c.local``);
+        ``out_convention=c`` sets ``out_local=c.local``. A Jacobian is then exactly the object
+        ``liebridge.convert_jacobian`` converts between conventions.
 
     Returns
     -------
     ndarray, shape (..., m, dim)
     """
+    if in_convention is not None or out_convention is not None:
+        from ..conventions import get  # conventions import this module: import lazily
+
+        if in_convention is not None:
+            cin = get(in_convention)
+            retract = retract if retract is not None else cin.retract
+            local = local if local is not None else cin.local
+        if out_convention is not None:
+            out_local = out_local if out_local is not None else get(out_convention).local
     x_arr = np.asarray(x, dtype=np.float64)
     if retract is None:
         # Euclidean input: always a batch of vectors, even when shaped (..., 3, 3) or (..., 4, 4)
