@@ -320,6 +320,26 @@ def _weighted_congruence(R9: FloatArray, weights: FloatArray, W: FloatArray) -> 
 # the kernel
 
 
+class _Workspace:
+    """Scratch buffers reused by the blocks of one call.
+
+    Arrays above glibc's mmap threshold (128 KiB: the 9-row per-sample arrays of a 4,096-sample
+    block) are otherwise mapped afresh and page-faulted for every block; measured, that was a
+    quarter of the CPU time.
+    """
+
+    def __init__(self) -> None:
+        self._bufs: dict[str, FloatArray] = {}
+
+    def get(self, name: str, shape: tuple[int, ...]) -> FloatArray:
+        size = math.prod(shape)
+        buf = self._bufs.get(name)
+        if buf is None or buf.size < size:
+            buf = np.empty(size)
+            self._bufs[name] = buf
+        return buf[:size].reshape(shape)
+
+
 @dataclasses.dataclass(frozen=True)
 class _Delta:
     """Preintegrated numbers of one block of samples, integrated from identity."""
@@ -341,6 +361,7 @@ def _integrate(
     P: _Params,
     *,
     general: bool = False,
+    ws: _Workspace | None = None,
 ) -> _Delta:
     """Preintegrate validated samples (N, 3), (N, 3), (N,) with bias estimate ``bias`` (6,).
 
@@ -350,6 +371,7 @@ def _integrate(
     products over samples). ``general=True`` forces the general path (tests).
     """
     n = dt.shape[0]
+    ws = ws if ws is not None else _Workspace()
     a = np.subtract(acc.T, bias[:3, None], out=np.empty((3, n)))  # (3, n), sensor frame
     w = np.subtract(gyro.T, bias[3:, None], out=np.empty((3, n)))
     bRs = P.body_R_sensor
@@ -390,7 +412,7 @@ def _integrate(
     B = s * sinc_h
     C = np.divide(1.0 - c0, th2, out=np.full(n, 1.0 / 6.0), where=th2 > 0.0)
 
-    R_all = np.empty((3, 3, n + 1))  # ΔR_0 … ΔR_N
+    R_all = ws.get("R", (3, 3, n + 1))  # ΔR_0 … ΔR_N
     R_all[:, :, 0] = np.eye(3)
     _quat_to_R(*_qscan(qa, qb), out=R_all[:, :, 1:])
     R_prev, R_next = R_all[:, :, :-1], R_all[:, :, 1:]
@@ -417,7 +439,7 @@ def _integrate(
 
     # gyro input carried to the end, frame i: [Y; −[p̃]× Y; −[ṽ]× Y], Y = ΔR_{k+1} J_r dt
     c0dt, Bdt, Cdt = c0 * dt, B * dt, C * dt
-    Jr = (Cdt * theta)[:, None, :] * theta[None, :, :]
+    Jr = np.multiply((Cdt * theta)[:, None, :], theta[None, :, :], out=ws.get("Jr", (3, 3, n)))
     Jr.reshape(9, n)[0::4] += c0dt  # the diagonal
     Bt = Bdt * theta
     Jr[0, 1] += Bt[2]
@@ -427,7 +449,7 @@ def _integrate(
     Jr[2, 0] += Bt[1]
     Jr[2, 1] -= Bt[0]
     if general:
-        G = np.empty((9, 3, n))
+        G = ws.get("G", (9, 3, n))
         Y = np.einsum("ijn,jkn->ikn", R_next, Jr, out=G[0:3])
         _cols_cross(Y, p_tilde, out=G[3:6])
         _cols_cross(Y, v_tilde, out=G[6:9])
@@ -446,12 +468,10 @@ def _integrate(
             GQ = np.matmul(P.gyro_cov.T, G) / dt
         cov_i = G.reshape(9, 3 * n) @ GQ.reshape(9, 3 * n).T
     else:
-        Y = np.einsum("ijn,jkn->ikn", R_next, Jr)
-        del Jr  # large per-sample arrays are dropped as soon as possible: the block's working
-        Jg = _sum_carried(Y, pv_tilde)  # set then stays closer to the cache size
-        del Y
+        Y = np.einsum("ijn,jkn->ikn", R_next, Jr, out=ws.get("Y", (3, 3, n)))
+        Jg = _sum_carried(Y, pv_tilde)
         u = _mv(R_prev, theta)  # ΔR_k θ_k = ΔR_{k+1} θ_k
-        cov_i = _gyro_covariance(u, pv_tilde, c0, B, C, th2, dt, P.gyro_cov[0, 0])
+        cov_i = _gyro_covariance(u, pv_tilde, c0, B, C, th2, dt, P.gyro_cov[0, 0], ws)
     if bRs is not None and D is None:
         Jg = Jg @ bRs
 
@@ -515,6 +535,7 @@ def _gyro_covariance(
     th2: FloatArray,
     dt: FloatArray,
     var: float,
+    ws: _Workspace,
 ) -> FloatArray:
     """Frame-i covariance of isotropic gyro noise (variance density ``var``) carried to the end.
 
@@ -527,7 +548,7 @@ def _gyro_covariance(
     B2 = B * B
     wa = dt * (c0 * c0 + B2 * th2)
     wb = dt * (C * (2.0 * c0 + C * th2) - B2)
-    X = np.empty((16, n))  # rows: u, p̃ × u, ṽ × u, p̃, ṽ, 1
+    X = ws.get("X", (16, n))  # rows: u, p̃ × u, ṽ × u, p̃, ṽ, 1
     X[0:3] = u
     for r in (0, 3):  # p̃ × u, ṽ × u
         x, o = pv[r : r + 3], X[r + 3 : r + 6]
@@ -536,7 +557,7 @@ def _gyro_covariance(
             o[i] -= x[k] * u[j]
     X[9:15] = pv
     X[15] = 1.0
-    XW = np.empty((15, n))
+    XW = ws.get("XW", (15, n))
     np.multiply(X[0:9], wb, out=XW[0:9])
     np.multiply(pv, wa, out=XW[9:15])
     S = XW @ X.T  # (15, 16): Σ wb (·)(·)ᵀ over u, p̃×u, ṽ×u; Σ wa x yᵀ and Σ wa x over p̃, ṽ
@@ -545,14 +566,14 @@ def _gyro_covariance(
     cov[0:3, 3:9] *= -1.0
     I3 = np.eye(3)
     cov[0:3, 0:3] += float(wa.sum()) * I3
-    for r in range(2):
-        rr = slice(3 * r + 3, 3 * r + 6)
-        blk = -_hat(S[9 + 3 * r : 12 + 3 * r, 15])  # Σ −wa [x]×
-        cov[rr, 0:3] += blk
-        cov[0:3, rr] += blk.T
-        for c in range(2):
-            Mxy = S[9 + 3 * r : 12 + 3 * r, 9 + 3 * c : 12 + 3 * c]  # Σ wa x yᵀ
-            cov[rr, 3 * c + 3 : 3 * c + 6] += np.trace(Mxy) * I3 - Mxy.T
+    hats = -np.einsum("rb,bij->rij", S[9:15, 15].reshape(2, 3), _E).reshape(6, 3)  # Σ −wa [x]×
+    cov[3:9, 0:3] += hats
+    cov[0:3, 3:9] += hats.T
+    M4 = S[9:15, 9:15].reshape(2, 3, 2, 3)  # [r, i, c, j] = Σ wa x_r[i] x_c[j]
+    tr = np.einsum("rici->rc", M4)
+    cov[3:9, 3:9] += (
+        tr[:, None, :, None] * I3[None, :, None, :] - M4.transpose(0, 3, 2, 1)
+    ).reshape(6, 6)
     return np.asarray(var * cov)
 
 
@@ -596,11 +617,12 @@ def _integrate_blocks(
 ) -> _Delta:
     n = dt.shape[0]
     out: _Delta | None = None
+    ws = _Workspace()
     for s in range(0, n, _BLOCK):
         e = min(n, s + _BLOCK)
         if n - e < _BLOCK // 4:  # fold a short tail into the last block
             e = n
-        d = _integrate(acc[s:e], gyro[s:e], dt[s:e], bias, P)
+        d = _integrate(acc[s:e], gyro[s:e], dt[s:e], bias, P, ws=ws)
         out = d if out is None else _compose(out, d)
         if e == n:
             break
