@@ -86,6 +86,49 @@ def assemble(R: Any, t: Any) -> np.ndarray:
     return T
 
 
+# --------------------------------------------------------------------------- oracle accuracy
+
+EPS = float(np.finfo(np.float64).eps)
+
+
+def gtsam_near_pi_allowance(theta: float) -> float:
+    """Extra error of GTSAM 4.3's ``LogmapDerivative`` / ``Logmap`` (SE(3)) / ``slerp`` near π.
+
+    GTSAM replaces D(θ) = 1/θ² − (1 + cos θ)/(2θ sin θ) by its first-order Taylor polynomial
+    about π when ``(π − θ)² < 1e-6`` (``gtsam/geometry/SO3.cpp``, ``DexpFunctor::D``). The
+    neglected term is ``D''(π)/2 · δ² · θ² = 0.054 δ²`` (δ = π − θ, from mpmath): 5.4e-8 at
+    δ = 1e-3. Allowance ``0.06 δ²`` (relative to the translation scale for SE(3)).
+    """
+    delta = max(PI - theta, 0.0)
+    return 0.06 * delta * delta if delta * delta < 1e-6 else 0.0
+
+
+def pinocchio_allowance(what: str, theta: float) -> float:
+    """Extra error of Pinocchio 4.1 functions, measured against 60-digit mpmath.
+
+    * ``log3`` / ``log6`` (also inside ``Jlog3`` / ``Jlog6``): ≤ 4.5·eps/δ² for δ = π − θ between
+      3.5e-3 and 1 (4.7e-11 at δ = 3.75e-3); below δ ≈ 3e-3 another branch is exact to 1e-15.
+      Allowance ``8 eps/δ²`` for 2e-3 ≤ δ ≤ 1 (beyond δ = 1 it would be below 2e-15 anyway).
+    * ``Jlog3`` (also ``Jlog6``) near 0: ≤ 0.5·eps/θ² for θ between 1.2e-4 and 2.5e-3 (3e-9 at
+      θ = 1.9e-4). Allowance ``eps/θ²`` for 1e-4 ≤ θ ≤ 1e-2.
+    * ``Jexp6`` / ``Jlog6`` translation block: series below θ ≈ eps^(1/4) ≈ 1.2e-4, closed form
+      above, losing ≤ 0.5·eps/θ³ (4e-5 at θ = 1.26e-4, 7e-8 at 1e-3). Allowance ``eps/θ³``
+      for θ ≥ 1e-4.
+
+    The kernel itself is checked against mpmath at these angles (``test_lie_so3`` and
+    ``test_lie_se3``: ``*_matches_mpmath``), and against GTSAM at 1e-12.
+    """
+    delta = PI - theta
+    extra = 0.0
+    if what in ("log3", "log6", "Jlog3", "Jlog6") and 2e-3 <= delta <= 1.0:
+        extra += 8.0 * EPS / delta**2
+    if what in ("Jlog3", "Jlog6") and 1e-4 <= theta <= 1e-2:
+        extra += EPS / theta**2
+    if what in ("Jexp6", "Jlog6") and theta >= 1e-4:
+        extra += EPS / theta**3
+    return extra
+
+
 # --------------------------------------------------------------------------- hypothesis
 
 
