@@ -470,8 +470,7 @@ def _integrate(
     else:
         Y = np.einsum("ijn,jkn->ikn", R_next, Jr, out=ws.get("Y", (3, 3, n)))
         Jg = _sum_carried(Y, pv_tilde)
-        u = _mv(R_prev, theta)  # ΔR_k θ_k = ΔR_{k+1} θ_k
-        cov_i = _gyro_covariance(u, pv_tilde, c0, B, C, th2, dt, P.gyro_cov[0, 0], ws)
+        cov_i = _gyro_covariance(R_prev, theta, pv_tilde, c0, B, C, th2, dt, P.gyro_cov[0, 0], ws)
     if bRs is not None and D is None:
         Jg = Jg @ bRs
 
@@ -527,7 +526,8 @@ def _sum_carried(Y: FloatArray, pv: FloatArray) -> FloatArray:
 
 
 def _gyro_covariance(
-    u: FloatArray,
+    R: FloatArray,
+    theta: FloatArray,
     pv: FloatArray,
     c0: FloatArray,
     B: FloatArray,
@@ -540,36 +540,32 @@ def _gyro_covariance(
     """Frame-i covariance of isotropic gyro noise (variance density ``var``) carried to the end.
 
     Per sample ``Y Q Yᵀ/dt = var·dt·ΔR J_r J_rᵀ ΔRᵀ = var·dt (a I + b u uᵀ)`` with
-    ``a = c0² + B²θ²``, ``b = 2 c0 C + C²θ² − B²``; the blocks ``S Z Sᵀ`` with
+    ``u = ΔR_k θ_k``, ``a = c0² + B²θ²``, ``b = 2 c0 C + C²θ² − B²``; the blocks ``S Z Sᵀ`` with
     ``S = [I; −[p̃]×; −[ṽ]×]`` then only need outer-product sums, using
     ``[x]× u uᵀ [y]×ᵀ = (x×u)(y×u)ᵀ`` and ``[x]× [y]×ᵀ = (x·y) I − y xᵀ``.
     """
-    n = u.shape[1]
+    n = theta.shape[1]
     B2 = B * B
     wa = dt * (c0 * c0 + B2 * th2)
     wb = dt * (C * (2.0 * c0 + C * th2) - B2)
-    X = ws.get("X", (16, n))  # rows: u, p̃ × u, ṽ × u, p̃, ṽ, 1
-    X[0:3] = u
-    for r in (0, 3):  # p̃ × u, ṽ × u
-        x, o = pv[r : r + 3], X[r + 3 : r + 6]
+    V = ws.get("V", (9, n))  # rows: u, p̃ × u, ṽ × u
+    u = np.einsum("ijn,jn->in", R, theta, out=V[0:3])
+    for r in (0, 3):
+        x, o = pv[r : r + 3], V[r + 3 : r + 6]
         for i, j, k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
             np.multiply(x[j], u[k], out=o[i])
             o[i] -= x[k] * u[j]
-    X[9:15] = pv
-    X[15] = 1.0
-    XW = ws.get("XW", (15, n))
-    np.multiply(X[0:9], wb, out=XW[0:9])
-    np.multiply(pv, wa, out=XW[9:15])
-    S = XW @ X.T  # (15, 16): Σ wb (·)(·)ᵀ over u, p̃×u, ṽ×u; Σ wa x yᵀ and Σ wa x over p̃, ṽ
-    cov = S[0:9, 0:9].copy()
+    VW = np.multiply(V, wb, out=ws.get("VW", (9, n)))
+    cov = VW @ V.T  # Σ wb (·)(·)ᵀ over u, p̃ × u, ṽ × u
     cov[3:9, 0:3] *= -1.0
     cov[0:3, 3:9] *= -1.0
+    PW = np.multiply(pv, wa, out=ws.get("PW", (6, n)))
+    M4 = (PW @ pv.T).reshape(2, 3, 2, 3)  # [r, i, c, j] = Σ wa x_r[i] x_c[j], x ∈ {p̃, ṽ}
     I3 = np.eye(3)
     cov[0:3, 0:3] += float(wa.sum()) * I3
-    hats = -np.einsum("rb,bij->rij", S[9:15, 15].reshape(2, 3), _E).reshape(6, 3)  # Σ −wa [x]×
-    cov[3:9, 0:3] += hats
+    hats = -np.einsum("rb,bij->rij", PW.sum(axis=1).reshape(2, 3), _E).reshape(6, 3)
+    cov[3:9, 0:3] += hats  # Σ −wa [x]×
     cov[0:3, 3:9] += hats.T
-    M4 = S[9:15, 9:15].reshape(2, 3, 2, 3)  # [r, i, c, j] = Σ wa x_r[i] x_c[j]
     tr = np.einsum("rici->rc", M4)
     cov[3:9, 3:9] += (
         tr[:, None, :, None] * I3[None, :, None, :] - M4.transpose(0, 3, 2, 1)
