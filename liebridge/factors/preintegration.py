@@ -728,7 +728,8 @@ class PreintegratedImu:
         ΔR·H2[3:6]``, ``dv_db = ΔR·H2[6:9]`` (GTSAM's NavState chart rotates position and
         velocity rows into the predicted frame). For a tangent preintegration the bias correction
         of the result is Forster's (manifold) rule, which agrees with GTSAM's tangent rule to first
-        order in the bias change only.
+        order in the bias change only. With a rotated ``body_P_sensor`` GTSAM's bias Jacobians
+        lack the sensor rotation (see the module docstring); they are read as GTSAM reports them.
 
         Parameters
         ----------
