@@ -271,6 +271,33 @@ def test_custom_factor_in_a_gtsam_optimizer() -> None:
     assert graph.error(result) < 1e-8
 
 
+def test_custom_factor_with_liebridge_optimize() -> None:
+    """The same two-keyframe problem through liebridge.factors.optimize (no Values copies)."""
+    key_pi, key_vi, key_pj, key_vj, key_b = 20, 21, 22, 23, 24
+    pose_i = gtsam.Pose3(gtsam.Rot3.Ypr(-0.2, 0.1, 0.3), np.array([-1.0, 0.5, 2.0]))
+    vel_i = np.array([1.0, 0.5, -0.2])
+    T_j, v_j = OURS.predict(pose_i.matrix(), vel_i, BIAS_HAT)
+    graph = gtsam.NonlinearFactorGraph()
+    graph.add(F.imu(key_pi, key_vi, key_pj, key_vj, key_b, OURS))
+    graph.add(gtsam.PriorFactorPose3(key_pi, pose_i, gtsam.noiseModel.Isotropic.Sigma(6, 1e-3)))
+    graph.add(gtsam.PriorFactorVector(key_vi, vel_i, gtsam.noiseModel.Isotropic.Sigma(3, 1e-3)))
+    graph.add(
+        gtsam.PriorFactorConstantBias(key_b, BIAS_HAT, gtsam.noiseModel.Isotropic.Sigma(6, 1e-3))
+    )
+    initial = gtsam.Values()
+    initial.insert(key_pi, pose_i)
+    initial.insert(key_vi, vel_i)
+    initial.insert(key_pj, gtsam.Pose3(T_j).retract(np.full(6, 0.1)))
+    initial.insert(key_vj, v_j + 0.4)
+    initial.insert(key_b, gtsam.imuBias.ConstantBias())
+    result = F.optimize(graph, initial, progress=False)
+    assert result.converged
+    assert np.abs(result.values.atPose3(key_pj).matrix() - T_j).max() < 1e-6
+    assert np.abs(result.values.atVector(key_vj) - v_j).max() < 1e-6
+    reference = gtsam.LevenbergMarquardtOptimizer(graph, initial).optimize()
+    assert abs(graph.error(result.values) - graph.error(reference)) < 1e-9
+
+
 def test_bad_inputs() -> None:
     with pytest.raises(TypeError, match="preintegrated: expected a PreintegratedImu"):
         F.imu(1, 2, 3, 4, 5, PIM_MANIFOLD)

@@ -6,12 +6,14 @@ Levenberg–Marquardt without GTSAM's per-callback ``Values`` copy and evaluates
 factors in one batched pass.
 """
 
-# IMU preintegration (Forster et al.) and its factor
+# the IMU factor (GTSAM's ComponentWise ImuFactor residual)
 from .imu import imu, imu_residual
 
 # pose factors in any convention, and the optimizer that keeps them fast
 from .optimize import OptimizeResult, optimize
 from .pose_factors import between, prior
+
+# on-manifold IMU preintegration (Forster et al.), vectorized over samples
 from .preintegration import ImuDelta, ImuPreintegrator, PreintegratedImu, preintegrate
 
 __all__ = [
