@@ -4,8 +4,8 @@ Tolerances (all absolute, on O(1) quantities: rotations, rotation vectors with �
 Jacobians whose entries are bounded by 2 on [0, π]):
 
 * ``ORACLE_TOL = 1e-12`` — agreement with another double-precision implementation. The kernel is
-  measured at ≤ 1e-15 against GTSAM; Pinocchio's ``log3`` uses ``acos`` and is measured at
-  ≈ 3e-14 near θ = 3 (``acos`` amplifies rounding by 1/sin θ there), well inside the bound.
+  measured at ≤ 1e-15 against GTSAM outside its near-π Taylor branch (``python
+  tests/test_lie_se3.py`` prints the table for SO(3) and SE(3)).
 * Where GTSAM or Pinocchio are measurably less accurate than that (GTSAM's near-π Taylor
   polynomial in ``LogmapDerivative``; Pinocchio's ``log3`` and ``Jlog3`` cancellation), the
   documented, measured allowances of ``_strategies.gtsam_near_pi_allowance`` and
