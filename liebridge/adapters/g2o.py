@@ -89,6 +89,8 @@ from .. import _validate as v
 from .._validate import FloatArray
 from ..lie import quaternion as quat
 from . import poses as _layouts
+from .convert import tangent_map
+from .trajectory_io import _is_float
 
 __all__ = ["G2OGraph", "read", "write"]
 
@@ -116,22 +118,10 @@ def _g2o_error_map() -> FloatArray:
     ``Λ_gtsam = Mᵀ Λ_g2o M`` (and back with ``M⁻¹ = [[0, 2I], [I, 0]]``); with entries 0, 1, ½
     and one nonzero per column both maps are exact in floating point.
 
-    This must equal liebridge's ``tangent_map(I, GTSAM, G2O)`` in the DESIGN's definition
-    (``δ_dst = M δ_src``, here src = GTSAM, dst = G2O; ``tangent_map(I, G2O, GTSAM)`` is its
-    inverse) once the conversion core exists; the two are to be unified into one.
+    It is the conversion core's ``tangent_map(Z, "gtsam", "g2o")`` (``δ_dst = M δ_src``), which
+    for these two presets does not depend on ``Z``: the ``g2o`` preset *is* this error's chart.
     """
-    M = np.zeros((6, 6))
-    M[:3, 3:] = np.eye(3)
-    M[3:, :3] = 0.5 * np.eye(3)
-    return M
-
-
-def _is_float(s: str) -> bool:
-    try:
-        float(s)
-    except ValueError:
-        return False
-    return True
+    return tangent_map(np.eye(4), "gtsam", "g2o")
 
 
 def _rpy_matrix(rpy: FloatArray) -> FloatArray:

@@ -51,6 +51,14 @@ def _warn_first_order(conv: Convention) -> None:
         )
 
 
+def _native_noise(conv: Convention, Z: FloatArray, cov: FloatArray) -> Any:
+    """GTSAM noise model of a native factor: ``cov`` converted to GTSAM's tangent at ``Z``."""
+    hub = gtsam_convention()
+    if not is_exactly_linear(conv, hub):
+        _warn_first_order(conv)
+    return _noise(convert_covariance(cov, Z, conv, hub))
+
+
 def _noise(cov: FloatArray) -> Any:
     return gtsam.noiseModel.Gaussian.Covariance(np.ascontiguousarray(cov))
 
@@ -93,11 +101,7 @@ def between(
         raise ValueError(f"measured: expected one pose (4, 4), got {Z.shape}")
     cov = v.covariance(cov, "cov", 6)
     if native:
-        hub = gtsam_convention()
-        if not is_exactly_linear(conv, hub):
-            _warn_first_order(conv)
-        cov_g = convert_covariance(cov, Z, conv, hub)
-        return gtsam.BetweenFactorPose3(i, j, gtsam.Pose3(Z), _noise(cov_g))
+        return gtsam.BetweenFactorPose3(i, j, gtsam.Pose3(Z), _native_noise(conv, Z, cov))
 
     Zc = Z.copy()
 
@@ -140,12 +144,7 @@ def prior(
         raise ValueError(f"pose: expected one pose (4, 4), got {Z.shape}")
     cov = v.covariance(cov, "cov", 6)
     if native:
-        hub = gtsam_convention()
-        if not is_exactly_linear(conv, hub):
-            _warn_first_order(conv)
-        return gtsam.PriorFactorPose3(
-            i, gtsam.Pose3(Z), _noise(convert_covariance(cov, Z, conv, hub))
-        )
+        return gtsam.PriorFactorPose3(i, gtsam.Pose3(Z), _native_noise(conv, Z, cov))
     Zc = Z.copy()
 
     def evaluate(values: Any, want: bool) -> tuple[FloatArray, list[FloatArray] | None]:
