@@ -48,7 +48,7 @@ def resolve_dataset(name: str | None) -> Path:
 
         try:
             return Path(gtsam.findExampleDataFile(name))
-        except (RuntimeError, ValueError, IndexError):
+        except (OSError, RuntimeError, ValueError, IndexError):
             pass
     raise CLIError(f"FILE: no such file: {name} (nor in GTSAM's example data)")
 
