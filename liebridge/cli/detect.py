@@ -42,6 +42,7 @@ from ._common import CLIError
 
 __all__ = [
     "LIBRARIES",
+    "CLIError",
     "Library",
     "Probe",
     "ProbeResult",
