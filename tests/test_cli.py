@@ -424,6 +424,13 @@ def _bad_cases(tmp: Path) -> dict[str, tuple[list[str], str, dict[str, str] | No
         "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nVERTEX_SE3:QUAT 1 1 0 0 0 0 0 1\n"
         f"EDGE_SE3:QUAT 0 1 1 0 0 0 0 0 1 {info}\n"
     )
+    disconnected = tmp / "disconnected.g2o"
+    edge_info = " ".join(repr(float(x)) for x in np.eye(6)[np.triu_indices(6)])
+    disconnected.write_text(
+        "".join(f"VERTEX_SE3:QUAT {k} {k} 0 0 0 0 0 1\n" for k in range(4))
+        + f"EDGE_SE3:QUAT 0 1 1 0 0 0 0 0 1 {edge_info}\n"
+        + f"EDGE_SE3:QUAT 2 3 1 0 0 0 0 0 1 {edge_info}\n"
+    )
     not_spd = np.eye(6)
     not_spd[0, 0] = -1e-2
     pose = ["--pose", POSE_XYZQ, "--layout", "xyz_qxyzw"]
@@ -495,6 +502,11 @@ def _bad_cases(tmp: Path) -> dict[str, tuple[list[str], str, dict[str, str] | No
             None,
         ),
         "optimize-bad-file": (["optimize", str(bad_file)], "bad.g2o:3: not a number: 'oops'", None),
+        "optimize-disconnected": (
+            ["optimize", str(disconnected), "--marginals", str(tmp / "m.npy")],
+            "the graph is not connected: 2 vertices (2, 3) have no path of edges",
+            None,
+        ),
         "optimize-unknown-convention": (
             ["optimize", "pose3example.txt", "--convention", "barfot"],
             "--convention: unknown name 'barfot'; did you mean 'barfoot'?",

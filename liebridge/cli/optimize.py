@@ -77,6 +77,35 @@ def _gauge_keys(g: Any) -> list[int]:
     return list(g.fixed) if g.fixed else [int(g.vertex_ids[0])]
 
 
+def _check_connected(g: Any) -> None:
+    """Fail clearly (before GTSAM does, deep inside) if some vertex is not tied to the gauge."""
+    ids = g.vertex_ids.tolist()
+    neighbours: dict[int, list[int]] = {k: [] for k in ids}
+    for i, j in g.edges.tolist():
+        neighbours[i].append(j)
+        neighbours[j].append(i)
+    seen = set(_gauge_keys(g))
+    stack = list(seen)
+    while stack:
+        for m in neighbours[stack.pop()]:
+            if m not in seen:
+                seen.add(m)
+                stack.append(m)
+    loose = [k for k in ids if k not in seen]
+    if loose:
+        shown = ", ".join(str(k) for k in loose[:5]) + (", ..." if len(loose) > 5 else "")
+        raise CLIError(
+            f"the graph is not connected: {len(loose)} vertices ({shown}) have no path of edges "
+            f"to the gauge vertex {', '.join(str(k) for k in _gauge_keys(g))}; their poses and "
+            "marginals are undetermined (add edges, or FIX one vertex of each part)"
+        )
+
+
+def _gtsam_error(exc: RuntimeError, during: str) -> CLIError:
+    lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+    return CLIError(f"GTSAM failed during {during}: {' '.join(lines[:2]) or type(exc).__name__}")
+
+
 def _build(g: Any, conv: Any) -> Any:
     """Build a ConventionGraph holding ``g`` in ``conv``, with the gauge prior."""
     from ..adapters.convert import convert_covariance, convert_information
@@ -168,6 +197,7 @@ def _run(args: argparse.Namespace) -> int:
         + (f" (EDGE3 numbers: {args.edge3})" if args.information == "g2o" else "")
     )
     print(f"convention: {conv.name} — {_factor_kind(conv)}")
+    _check_connected(g)
     gauge = ", ".join(str(k) for k in _gauge_keys(g))
     print(f"gauge: prior on vertex {gauge} (σ = {PRIOR_SIGMA:g})")
     if args.dry_run:
@@ -186,7 +216,10 @@ def _run(args: argparse.Namespace) -> int:
         f"optimizing {n} poses, {m} edges (Levenberg–Marquardt, at most {args.max_iterations} "
         "iterations) ..."
     )
-    result = cg.optimize(_params(args.max_iterations), progress=progress)
+    try:
+        result = cg.optimize(_params(args.max_iterations), progress=progress)
+    except RuntimeError as exc:  # e.g. a factor that cannot be evaluated
+        raise _gtsam_error(exc, "the optimization") from None
     print(f"initial error: {result.initial_error:.6f}")
     print(f"final error: {result.final_error:.6f}")
     print(f"iterations: {result.iterations} (converged: {'yes' if result.converged else 'no'})")
@@ -196,7 +229,10 @@ def _run(args: argparse.Namespace) -> int:
     if args.marginals is not None:
         t0 = time.perf_counter()
         say(f"marginal covariances of {n} poses (gtsam.Marginals), in {conv.name}'s tangent ...")
-        cov = cg.marginal_covariances(keys)
+        try:
+            cov = cg.marginal_covariances(keys)
+        except RuntimeError as exc:  # an ill-conditioned system at the optimum
+            raise _gtsam_error(exc, "the marginal covariances") from None
         np.save(args.marginals, cov)
         timings.append(f"marginals {time.perf_counter() - t0:.2f} s")
         print(
