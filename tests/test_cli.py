@@ -130,6 +130,10 @@ def test_conventions_one_preset_in_full(capsys: pytest.CaptureFixture[str]) -> N
     assert "ros: side=left, order=trans_first, chart=so3xr3_world" in out
     assert "linear to first order only" in out
     assert lb.conventions.ROS.source in out
+    code, out, _ = call(capsys, "conventions", "symforce", "--format", "json")
+    assert code == 0
+    d = json.loads(out)
+    assert (d["name"], d["chart"], d["order"]) == ("symforce", "so3xr3_world", "rot_first")
 
 
 # --------------------------------------------------------------------------- detect

@@ -194,7 +194,11 @@ def _run(args: argparse.Namespace) -> int:
     print(f"graph: {n} poses, {m} edges; initial values {origin}")
     print(
         f"information: read as {args.information!r}"
-        + (f" (EDGE3 numbers: {args.edge3})" if args.information == "g2o" else "")
+        + (
+            f" (the format's definition; EDGE3 numbers, if any, as {args.edge3.replace('_', ' ')})"
+            if args.information == "g2o"
+            else " (as gtsam.readG2o reads it)"
+        )
     )
     print(f"convention: {conv.name} — {_factor_kind(conv)}")
     _check_connected(g)

@@ -74,23 +74,22 @@ def rows() -> list[dict[str, str]]:
     return [_row(c) for c in PRESETS]
 
 
+def _as_dict(c: Convention) -> dict[str, Any]:
+    return {
+        "name": c.name,
+        "side": c.side,
+        "order": c.order,
+        "chart": c.chart,
+        "rotation": c.rotation,
+        "quat_order": c.quat_order,
+        "source": c.source,
+        "notes": c.notes,
+        "evidence": evidence_summary(c.source),
+    }
+
+
 def _json() -> str:
-    out: list[dict[str, Any]] = []
-    for c in PRESETS:
-        out.append(
-            {
-                "name": c.name,
-                "side": c.side,
-                "order": c.order,
-                "chart": c.chart,
-                "rotation": c.rotation,
-                "quat_order": c.quat_order,
-                "source": c.source,
-                "notes": c.notes,
-                "evidence": evidence_summary(c.source),
-            }
-        )
-    return json.dumps(out, indent=2, ensure_ascii=False)
+    return json.dumps([_as_dict(c) for c in PRESETS], indent=2, ensure_ascii=False)
 
 
 def _markdown() -> str:
@@ -154,7 +153,11 @@ def _run(args: argparse.Namespace) -> int:
     if args.name:
         from ._common import convention_arg
 
-        print(_describe_one(convention_arg(args.name, "NAME")))
+        conv = convention_arg(args.name, "NAME")
+        if args.format == "json":
+            print(json.dumps(_as_dict(conv), indent=2, ensure_ascii=False))
+        else:
+            print(_describe_one(conv))
         return 0
     print(render(args.format))
     return 0
@@ -170,7 +173,12 @@ def add_parser(sub: Any) -> None:
         "coordinates, quaternion storage order and evidence (V = checked by running the "
         "library, S = its source, D = documentation). With NAME, show one preset in full.",
     )
-    p.add_argument("name", nargs="?", metavar="NAME", help="show one preset in full")
+    p.add_argument(
+        "name",
+        nargs="?",
+        metavar="NAME",
+        help="show one preset in full (with --format json: as JSON)",
+    )
     p.add_argument(
         "--format",
         choices=("table", "markdown", "json"),
