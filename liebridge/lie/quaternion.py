@@ -15,7 +15,6 @@ from __future__ import annotations
 from typing import Any, Literal
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from .. import _validate as v
 from .._validate import FloatArray
@@ -77,6 +76,8 @@ def from_matrix(R: Any, *, order: QuatOrder) -> FloatArray:
     _check_order(order)
     R = v.rotation(R, "R")
     flat = R.reshape(-1, 3, 3)
+    from scipy.spatial.transform import Rotation  # lazy: importing scipy.spatial costs ~0.8 s
+
     q = Rotation.from_matrix(flat).as_quat()  # xyzw
     q = canonical(q, order="xyzw").reshape((*R.shape[:-2], 4))
     return _from_wxyz(np.roll(q, 1, axis=-1), order)
