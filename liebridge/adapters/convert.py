@@ -25,6 +25,7 @@ import numpy as np
 from .. import _validate as v
 from .._validate import FloatArray
 from ..conventions import Convention, ConventionLike, get, group_input
+from ..conventions.convention import pair_map
 
 __all__ = [
     "convert_covariance",
@@ -36,6 +37,17 @@ __all__ = [
 ]
 
 _LINEAR_ROTATIONS = {"exp", "half_exp"}
+_BY_NAME: dict[str, Convention] = {}
+
+
+def _get(c: ConventionLike) -> Convention:
+    """:func:`liebridge.conventions.get`, remembering the names already resolved."""
+    if type(c) is str:
+        hit = _BY_NAME.get(c)
+        if hit is None:
+            hit = _BY_NAME[c] = get(c)
+        return hit
+    return get(c)
 
 
 def _chart_family(c: Convention) -> str:
@@ -50,17 +62,15 @@ def is_exactly_linear(src: ConventionLike, dst: ConventionLike) -> bool:
     ``se3`` ↔ ``so3xr3`` or when one side uses ``quat_vec``/``cayley`` and the other does not.
     Exactness holds within the charts' common domain (rotation angle below π).
     """
-    a, b = get(src), get(dst)
+    a, b = _get(src), _get(dst)
     if _chart_family(a) != _chart_family(b):
         return False
     return a.rotation == b.rotation or {a.rotation, b.rotation} <= _LINEAR_ROTATIONS
 
 
 def _map(X: FloatArray, a: Convention, b: Convention) -> FloatArray:
-    if a.fields == b.fields:
-        n = 3 if X.shape[-2:] == (3, 3) else 6
-        return np.broadcast_to(np.eye(n), (*X.shape[:-2], n, n)).copy()
-    return np.asarray(b._from_canonical(X) @ a._to_canonical(X), dtype=np.float64)
+    """``M(X) = b.from_canonical(X) @ a.to_canonical(X)`` from a table built once per pair."""
+    return pair_map(a, b, X.shape[-1] == 3)(X)
 
 
 def tangent_map(X: Any, src: ConventionLike, dst: ConventionLike) -> FloatArray:
@@ -78,7 +88,7 @@ def tangent_map(X: Any, src: ConventionLike, dst: ConventionLike) -> FloatArray:
     ndarray, shape (..., 6, 6) or (..., 3, 3)
         ``M = ∂/∂d dst.local(X, src.retract(X, d)) |_{d=0}``, closed form.
     """
-    return _map(group_input(X), get(src), get(dst))
+    return _map(group_input(X), _get(src), _get(dst))
 
 
 def convert_tangent(
@@ -90,7 +100,7 @@ def convert_tangent(
     ``dst``'s chart); ``exact=False`` the first-order ``tangent_map(X, src, dst) @ d``. They agree
     whenever :func:`is_exactly_linear` holds.
     """
-    a, b = get(src), get(dst)
+    a, b = _get(src), _get(dst)
     Xa = group_input(X)
     d = v.vector(d, "d", 3 if Xa.shape[-2:] == (3, 3) else 6)
     if exact:
@@ -132,13 +142,15 @@ def convert_covariance(
     -------
     ndarray, shape (..., n, n)
     """
-    a, b = get(src), get(dst)
+    a, b = _get(src), _get(dst)
     Xa = group_input(X)
-    n = 3 if Xa.shape[-2:] == (3, 3) else 6
+    rotation = Xa.shape[-1] == 3
+    n = 3 if rotation else 6
     cov = v.covariance(cov, "cov", n)
     if method == "linear":
-        M = _map(Xa, a, b)
-        return np.asarray(M @ cov @ np.swapaxes(M, -1, -2), dtype=np.float64)
+        M = pair_map(a, b, rotation)(Xa)
+        out: FloatArray = M @ cov @ M.swapaxes(-1, -2)
+        return out
     if method != "unscented":
         raise ValueError(f"method: expected 'linear' or 'unscented', got {method!r}")
     pts, w = _sigma5(n)
@@ -183,7 +195,7 @@ def convert_information(info: Any, X: Any, src: ConventionLike, dst: ConventionL
     ``M⁻¹ = tangent_map(X, dst, src)`` in closed form.
     Works for singular (rank-deficient) information: nothing is inverted.
     """
-    a, b = get(src), get(dst)
+    a, b = _get(src), _get(dst)
     Xa = group_input(X)
     n = 3 if Xa.shape[-2:] == (3, 3) else 6
     info = v.covariance(info, "info", n)
@@ -216,7 +228,7 @@ def convert_jacobian(
     -------
     ndarray, shape (..., m, n)
     """
-    a, b = get(src), get(dst)
+    a, b = _get(src), _get(dst)
     Jm = v.as_float_array(J, "J")
     if Jm.ndim < 2:
         raise ValueError(f"J: expected shape (..., m, n), got {Jm.shape}")
