@@ -27,7 +27,14 @@ import numpy as np
 from .. import _validate as v
 from .._validate import FloatArray
 from . import so3
-from ._series import one_minus_cos_over_t2, q_coeff2, q_coeff3, sinc, t_minus_sin_over_t3
+from ._series import (
+    jinv_coeff,
+    one_minus_cos_over_t2,
+    q_coeff2,
+    q_coeff3,
+    sinc,
+    t_minus_sin_over_t3,
+)
 
 __all__ = [
     "act",
@@ -45,6 +52,9 @@ __all__ = [
     "log",
     "vee",
 ]
+
+
+_BOTTOM = np.array([0.0, 0.0, 0.0, 1.0])
 
 
 def _assemble(R: FloatArray, t: FloatArray) -> FloatArray:
@@ -67,22 +77,39 @@ def _blocks(a: FloatArray, b: FloatArray, c: FloatArray, d: FloatArray) -> Float
 
 
 def _exp(xi: FloatArray) -> FloatArray:
-    w, u = xi[..., :3], xi[..., 3:]
-    th = np.linalg.norm(w, axis=-1)
-    W = so3._hat(w)
-    W2 = W @ W
+    """``Exp(ξ)`` written entry by entry on batch-length vectors (see ``so3._poly_into``).
 
+    ``R = I + A·hat(ω) + B·hat(ω)²``; ``t = V(ω)·v = A·v + B·ω × v + C·(ω·v)·ω`` (from
+    ``V = I + B·hat(ω) + C·hat(ω)²``, ``hat(ω)² = ωωᵀ − θ²I`` and ``1 − Cθ² = A``).
+    """
+    w, v0, v1, v2 = xi[..., :3], xi[..., 3], xi[..., 4], xi[..., 5]
+    w0, w1, w2 = xi[..., 0], xi[..., 1], xi[..., 2]
+    th = np.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
     A, B, C = sinc(th), one_minus_cos_over_t2(th), t_minus_sin_over_t3(th)
-    eye = np.eye(3)
-    R = eye + A[..., None, None] * W + B[..., None, None] * W2
-    V = eye + B[..., None, None] * W + C[..., None, None] * W2
-    return _assemble(R, np.einsum("...ij,...j->...i", V, u))
+    T = np.empty((*xi.shape[:-1], 4, 4))
+    so3._poly_into(T[..., :3, :3], w, A, B)
+    Bw0, Bw1, Bw2 = B * w0, B * w1, B * w2
+    Cd = C * (w0 * v0 + w1 * v1 + w2 * v2)
+    T[..., 0, 3] = A * v0 + (Bw1 * v2 - Bw2 * v1) + Cd * w0
+    T[..., 1, 3] = A * v1 + (Bw2 * v0 - Bw0 * v2) + Cd * w1
+    T[..., 2, 3] = A * v2 + (Bw0 * v1 - Bw1 * v0) + Cd * w2
+    T[..., 3, :] = _BOTTOM
+    return T
 
 
 def _log(T: FloatArray) -> FloatArray:
+    """``(ω, V(ω)⁻¹ t)``; ``V⁻¹ t = t − ½·ω × t + D·ω × (ω × t)`` on batch-length vectors."""
     w = so3._log(T[..., :3, :3])
-    u = np.einsum("...ij,...j->...i", so3._jl_inv(w), T[..., :3, 3])
-    return np.concatenate([w, u], axis=-1)
+    w0, w1, w2 = w[..., 0], w[..., 1], w[..., 2]
+    t0, t1, t2 = T[..., 0, 3], T[..., 1, 3], T[..., 2, 3]
+    D = jinv_coeff(np.sqrt(w0 * w0 + w1 * w1 + w2 * w2))
+    c0, c1, c2 = w1 * t2 - w2 * t1, w2 * t0 - w0 * t2, w0 * t1 - w1 * t0  # ω × t
+    out = np.empty((*T.shape[:-2], 6))
+    out[..., :3] = w
+    out[..., 3] = t0 - 0.5 * c0 + D * (w1 * c2 - w2 * c1)
+    out[..., 4] = t1 - 0.5 * c1 + D * (w2 * c0 - w0 * c2)
+    out[..., 5] = t2 - 0.5 * c2 + D * (w0 * c1 - w1 * c0)
+    return out
 
 
 def _inverse(T: FloatArray) -> FloatArray:

@@ -49,11 +49,35 @@ def _hat(w: FloatArray) -> FloatArray:
     return out
 
 
+def _poly_into(out: FloatArray, w: FloatArray, a: FloatArray | float, b: FloatArray) -> None:
+    """Write ``I + a·hat(w) + b·hat(w)²`` into ``out`` ``(..., 3, 3)``, entry by entry.
+
+    ``hat(w)² = w wᵀ − ‖w‖² I``: off the diagonal ``b·w_i w_j ± a·w_k``, on it
+    ``1 − b·(w_j² + w_k²)``. Each entry is a few operations on whole batch-length vectors, the
+    layout numpy evaluates fastest (an ``(N, 3)`` operand would loop over its length-3 rows).
+    """
+    w0, w1, w2 = w[..., 0], w[..., 1], w[..., 2]
+    a_ = np.asarray(a)
+    aw0, aw1, aw2 = a_ * w0, a_ * w1, a_ * w2
+    bw0, bw1 = b * w0, b * w1
+    p01, p02, p12 = bw0 * w1, bw0 * w2, bw1 * w2
+    s0, s1, s2 = w0 * w0, w1 * w1, w2 * w2
+    out[..., 0, 0] = 1.0 - b * (s1 + s2)
+    out[..., 1, 1] = 1.0 - b * (s0 + s2)
+    out[..., 2, 2] = 1.0 - b * (s0 + s1)
+    out[..., 0, 1] = p01 - aw2
+    out[..., 1, 0] = p01 + aw2
+    out[..., 0, 2] = p02 + aw1
+    out[..., 2, 0] = p02 - aw1
+    out[..., 1, 2] = p12 - aw0
+    out[..., 2, 1] = p12 + aw0
+
+
 def _poly(w: FloatArray, a: FloatArray | float, b: FloatArray) -> FloatArray:
     """``I + a·hat(w) + b·hat(w)²`` with scalar-per-batch coefficients ``a`` and ``b``."""
-    W = _hat(w)
-    a_ = np.asarray(a)[..., None, None]
-    return np.eye(3) + a_ * W + b[..., None, None] * (W @ W)
+    out = np.empty((*np.broadcast_shapes(w.shape[:-1], np.shape(a), np.shape(b)), 3, 3))
+    _poly_into(out, w, a, b)
+    return out
 
 
 def _exp(w: FloatArray) -> FloatArray:
@@ -117,30 +141,27 @@ def exp(w: Any) -> FloatArray:
 
 
 def _log(R: FloatArray) -> FloatArray:
-    s = 0.5 * np.stack(
-        [R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]],
-        axis=-1,
-    )  # = sin θ · u
-    c = 0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1.0)  # = cos θ
-    sn = np.linalg.norm(s, axis=-1)
-    theta = np.arctan2(sn, c)
+    # s = vee((R − Rᵀ)/2) = sin θ · u and c = (tr R − 1)/2 = cos θ, as batch-length vectors
+    s0 = 0.5 * (R[..., 2, 1] - R[..., 1, 2])
+    s1 = 0.5 * (R[..., 0, 2] - R[..., 2, 0])
+    s2 = 0.5 * (R[..., 1, 0] - R[..., 0, 1])
+    c = 0.5 * (R[..., 0, 0] + R[..., 1, 1] + R[..., 2, 2] - 1.0)
+    theta = np.arctan2(np.sqrt(s0 * s0 + s1 * s1 + s2 * s2), c)
     # generic and small angles: ω = θ/sin θ · s (series through sinc)
-    near_pi = c < _NEAR_PI_COS
-    w = s / np.where(near_pi, 1.0, sinc(theta))[..., None]
-    if np.any(near_pi):
+    near_pi = np.asarray(c < _NEAR_PI_COS)
+    k = 1.0 / np.where(near_pi, 1.0, sinc(theta))
+    w = np.empty((*R.shape[:-2], 3))
+    w[..., 0], w[..., 1], w[..., 2] = s0 * k, s1 * k, s2 * k
+    if near_pi.any():  # only on those entries (a boolean gather, then a scatter)
+        Rn, cn, thn = R[near_pi], c[near_pi], theta[near_pi]
+        sn_ = np.stack([s0[near_pi], s1[near_pi], s2[near_pi]], axis=-1)
         # axis from the symmetric part: (R + Rᵀ)/2 − cos θ·I = (1 − cos θ) u uᵀ
-        S = 0.5 * (R + np.swapaxes(R, -1, -2)) - c[..., None, None] * np.eye(3)
-        diag = np.diagonal(S, axis1=-2, axis2=-1)
-        k = np.argmax(diag, axis=-1)
-        idx = np.broadcast_to(k[..., None, None], (*S.shape[:-1], 1))
-        col = np.take_along_axis(S, idx, axis=-1)[..., 0]
-        # only the near-π entries are used; the others may have a zero column (R = I), so
-        # divide by 1 there rather than produce 0/0 warnings that np.where would discard
-        norm = np.where(near_pi, np.linalg.norm(col, axis=-1), 1.0)[..., None]
-        u = col / norm
-        sign = np.where(np.einsum("...i,...i->...", u, s) < 0.0, -1.0, 1.0)
-        w_pi = (sign * theta)[..., None] * u
-        w = np.where(near_pi[..., None], w_pi, w)
+        S = 0.5 * (Rn + np.swapaxes(Rn, -1, -2)) - cn[:, None, None] * np.eye(3)
+        k = np.argmax(np.diagonal(S, axis1=-2, axis2=-1), axis=-1)
+        col = np.take_along_axis(S, k[:, None, None], axis=-1)[..., 0]  # the largest column
+        u = col / np.linalg.norm(col, axis=-1)[:, None]
+        sign = np.where(np.einsum("...i,...i->...", u, sn_) < 0.0, -1.0, 1.0)
+        w[near_pi] = (sign * thn)[:, None] * u
     return w
 
 
