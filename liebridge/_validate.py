@@ -10,6 +10,7 @@ Tolerances (module constants, each check takes its own ``tol`` too):
   :func:`liebridge.lie.so3.project` otherwise; nothing projects silently);
 * pose: its rotation block as above, its bottom row exactly ``[0, 0, 0, 1]``;
 * unit quaternion: ``| ‖q‖ − 1 | ≤`` :data:`QUATERNION_TOL`;
+* tangent: the norm of its rotation part at most :data:`MAX_ANGLE` (1e12 rad);
 * covariance / information: relative asymmetry ``max|A − Aᵀ| / max|A| ≤`` :data:`COVARIANCE_TOL`
   and smallest eigenvalue ``≥ −COVARIANCE_TOL · max|A|`` (positive semi-definite up to rounding).
 
@@ -37,6 +38,9 @@ ROTATION_TOL = 1e-6
 QUATERNION_TOL = 1e-6
 #: Relative tolerance on the asymmetry and the negative eigenvalues of a covariance.
 COVARIANCE_TOL = 1e-9
+#: Largest norm of the rotation part of a tangent (rotation vector, increment), in radians.
+MAX_ANGLE = 1e12
+_MAX_COMPONENT = MAX_ANGLE / math.sqrt(3.0)  # every component below it: the norm is too
 
 _F64 = np.dtype(np.float64)
 #: dtype kinds that are not numbers (bytes, str, void, datetime, timedelta).
@@ -58,6 +62,8 @@ def as_float_array(x: Any, name: str) -> FloatArray:
     """
     if type(x) is np.ndarray and x.dtype is _F64:
         return x
+    if x is None:  # numpy would make it NaN
+        raise TypeError(f"{name}: expected a numeric array, got None")
     try:
         arr = np.asarray(x)
     except (TypeError, ValueError) as exc:
@@ -104,6 +110,28 @@ def vector(x: Any, name: str, dim: int) -> FloatArray:
     return arr
 
 
+def tangent(x: Any, name: str, dim: int, rot: slice = slice(0, 3)) -> FloatArray:
+    """Validate a batch of tangents ``(..., dim)`` whose entries ``rot`` are rotation coordinates.
+
+    On top of :func:`vector`: the rotation part's norm must not exceed :data:`MAX_ANGLE` (beyond,
+    float64 cannot place the angle — its spacing there is 1e-4 rad — and the series and closed
+    forms of the kernel would overflow).
+    """
+    arr = vector(x, name, dim)
+    r = arr if dim == 3 else arr[..., rot]
+    if not (np.abs(r) <= _MAX_COMPONENT).all():
+        m = np.maximum(np.abs(r).max(axis=-1), 1e-300)
+        norm = m * np.sqrt(np.einsum("...i,...i->...", r / m[..., None], r / m[..., None]))
+        bad = ~(norm <= MAX_ANGLE)
+        if bad.any():
+            i = _batch_index(np.asarray(bad))
+            raise ValueError(
+                f"{name}: rotation part of norm {float(norm[i]):.3g} at batch index {i} exceeds "
+                f"{MAX_ANGLE:g} rad (float64 cannot represent such an angle to 1e-4 rad)"
+            )
+    return arr
+
+
 def _check_square_shape(arr: FloatArray, name: str, dim: int) -> None:
     if arr.ndim < 2 or arr.shape[-2:] != (dim, dim):
         raise ValueError(f"{name}: expected shape (..., {dim}, {dim}), got {arr.shape}")
@@ -115,6 +143,34 @@ def square(x: Any, name: str, dim: int) -> FloatArray:
     _check_square_shape(arr, name, dim)
     check_finite(arr, name, core_ndim=2)
     return arr
+
+
+def batch_shape(*named: tuple[str, tuple[int, ...]]) -> tuple[int, ...]:
+    """Broadcast the batch shapes of several arguments; raise naming them if they do not."""
+    first = named[0][1]
+    if all(shape == first for _, shape in named):
+        return first
+    try:
+        return tuple(np.broadcast_shapes(*(shape for _, shape in named)))
+    except ValueError:
+        desc = ", ".join(f"{name} {shape}" for name, shape in named)
+        raise ValueError(f"batch shapes do not broadcast: {desc}") from None
+
+
+def finite_output(out: FloatArray, name: str) -> FloatArray:
+    """Return ``out`` if it is finite; raise rather than return Inf/NaN from finite input.
+
+    Finite input can still overflow float64 inside a computation (a rotation vector of norm
+    1e200, translations near 1e308); the result is then reported, with its first batch index,
+    instead of being returned. (Not ``out.sum()``: a sum of large finite entries overflows.)
+    """
+    if np.isfinite(out).all():
+        return out
+    idx = _batch_index(~np.isfinite(out))
+    raise ValueError(
+        f"{name}: the result overflows float64 (entry {idx} is not finite): the input magnitudes "
+        "are too large for this computation"
+    )
 
 
 # ----------------------------------------------------------------------------- rotations, poses

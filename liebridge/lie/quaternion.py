@@ -84,12 +84,13 @@ def from_matrix(R: Any, *, order: QuatOrder) -> FloatArray:
 
 
 def multiply(q1: Any, q2: Any, *, order: QuatOrder) -> FloatArray:
-    """Hamilton product ``q1 ⊗ q2`` (broadcast).
+    """Hamilton product ``q1 ⊗ q2`` of unit quaternions (broadcast).
 
     ``to_matrix(q1 ⊗ q2) = to_matrix(q1) @ to_matrix(q2)``.
     """
-    a = _to_wxyz(v.vector(q1, "q1", 4), order)
-    b = _to_wxyz(v.vector(q2, "q2", 4), order)
+    a = _to_wxyz(v.quaternion(q1, "q1"), order)
+    b = _to_wxyz(v.quaternion(q2, "q2"), order)
+    v.batch_shape(("q1", a.shape[:-1]), ("q2", b.shape[:-1]))
     w1, x1, y1, z1 = np.moveaxis(a, -1, 0)
     w2, x2, y2, z2 = np.moveaxis(b, -1, 0)
     out = np.stack(
@@ -105,15 +106,15 @@ def multiply(q1: Any, q2: Any, *, order: QuatOrder) -> FloatArray:
 
 
 def conjugate(q: Any, *, order: QuatOrder) -> FloatArray:
-    """Conjugate ``(w, −u)``: the inverse of a unit quaternion."""
-    q = _to_wxyz(v.vector(q, "q", 4), order) * np.array([1.0, -1.0, -1.0, -1.0])
+    """Conjugate ``(w, −u)``: the inverse of a unit quaternion (the norm is checked)."""
+    q = _to_wxyz(v.quaternion(q, "q"), order) * np.array([1.0, -1.0, -1.0, -1.0])
     return _from_wxyz(q, order)
 
 
 def canonical(q: Any, *, order: QuatOrder) -> FloatArray:
-    """Choose the sign with ``w ≥ 0`` (``q`` and ``−q`` are the same rotation)."""
+    """Choose the sign with ``w ≥ 0`` (``q`` and ``−q`` are the same unit-quaternion rotation)."""
     _check_order(order)
-    q = v.vector(q, "q", 4)
+    q = v.quaternion(q, "q")
     w = q[..., 0] if order == "wxyz" else q[..., 3]
     return np.where((w < 0)[..., None], -q, q)
 
@@ -129,6 +130,7 @@ def slerp(q0: Any, q1: Any, tau: Any, *, order: QuatOrder) -> FloatArray:
     b = v.quaternion(q1, "q1")
     t = v.as_float_array(tau, "tau")
     v.check_finite(t, "tau", core_ndim=0)
+    v.batch_shape(("q0", a.shape[:-1]), ("q1", b.shape[:-1]), ("tau", t.shape))
     dot = np.einsum("...i,...i->...", a, b)
     b = np.where((dot < 0)[..., None], -b, b)
     dot = np.clip(np.abs(dot), -1.0, 1.0)
@@ -136,10 +138,13 @@ def slerp(q0: Any, q1: Any, tau: Any, *, order: QuatOrder) -> FloatArray:
     s = np.sin(theta)
     small = s < 1e-12
     s_ = np.where(small, 1.0, s)
-    w0 = np.where(small, 1.0 - t, np.sin((1.0 - t) * theta) / s_)
-    w1 = np.where(small, t, np.sin(t * theta) / s_)
-    out = w0[..., None] * a + w1[..., None] * b
-    return np.asarray(out / np.linalg.norm(out, axis=-1, keepdims=True), dtype=np.float64)
+    w0 = (np.sin((1.0 - t) * theta) / s_)[..., None]
+    w1 = (np.sin(t * theta) / s_)[..., None]
+    # (nearly) equal inputs: the chord a + τ·(b − a), normalised below, exact for a = b at any τ
+    # ((1 − τ)·a + τ·b cancels to 0 for a large τ)
+    out = np.where(small[..., None], a + t[..., None] * (b - a), w0 * a + w1 * b)
+    out = out / np.linalg.norm(out, axis=-1, keepdims=True)
+    return v.finite_output(np.asarray(out, dtype=np.float64), "quaternion.slerp")
 
 
 def jpl_to_hamilton(q_jpl: Any, *, order: QuatOrder) -> FloatArray:

@@ -174,7 +174,7 @@ def exp(xi: Any) -> FloatArray:
 
     ``Exp(ξ) = [[Exp(ω), V(ω) v], [0, 1]]`` with ``V = so3.jl``. GTSAM ``Pose3.Expmap``.
     """
-    return _exp(v.vector(xi, "xi", 6))
+    return v.finite_output(_exp(v.tangent(xi, "xi", 6)), "se3.exp")
 
 
 def log(T: Any) -> FloatArray:
@@ -183,24 +183,28 @@ def log(T: Any) -> FloatArray:
     ``ω = so3.log(R)``, ``v = V(ω)⁻¹ t`` with ``V⁻¹ = so3.jl_inv`` (finite up to θ = π).
     GTSAM ``Pose3.Logmap``.
     """
-    return _log(v.pose(T, "T"))
+    return v.finite_output(_log(v.pose(T, "T")), "se3.log")
 
 
 def inverse(T: Any) -> FloatArray:
     """Group inverse ``[[Rᵀ, −Rᵀ t], [0, 1]]``: ``inverse(T_world_body) = T_body_world``."""
-    return _inverse(v.pose(T, "T"))
+    return v.finite_output(_inverse(v.pose(T, "T")), "se3.inverse")
 
 
 def compose(T1: Any, T2: Any) -> FloatArray:
     """Group product ``T1·T2`` (broadcast): ``compose(T_a_b, T_b_c) = T_a_c``."""
-    return np.asarray(v.pose(T1, "T1") @ v.pose(T2, "T2"), dtype=np.float64)
+    A, B = v.pose(T1, "T1"), v.pose(T2, "T2")
+    v.batch_shape(("T1", A.shape[:-2]), ("T2", B.shape[:-2]))
+    return v.finite_output(np.asarray(A @ B, dtype=np.float64), "se3.compose")
 
 
 def act(T: Any, p: Any) -> FloatArray:
     """Apply ``T`` to points: ``R p + t``; ``act(T_world_body, p_body) = p_world``, ``(..., 3)``."""
     T = v.pose(T, "T")
     p = v.vector(p, "p", 3)
-    return np.asarray(np.einsum("...ij,...j->...i", T[..., :3, :3], p) + T[..., :3, 3])
+    v.batch_shape(("T", T.shape[:-2]), ("p", p.shape[:-1]))
+    out = np.einsum("...ij,...j->...i", T[..., :3, :3], p) + T[..., :3, 3]
+    return v.finite_output(np.asarray(out, dtype=np.float64), "se3.act")
 
 
 def adjoint(T: Any) -> FloatArray:
@@ -209,7 +213,7 @@ def adjoint(T: Any) -> FloatArray:
     Defining identity: ``T·Exp(ξ)·T⁻¹ = Exp(Ad_T ξ)``; ``Ad_{T1 T2} = Ad_{T1} Ad_{T2}``.
     GTSAM ``Pose3.AdjointMap``.
     """
-    return _adjoint(v.pose(T, "T"))
+    return v.finite_output(_adjoint(v.pose(T, "T")), "se3.adjoint")
 
 
 def ad(xi: Any) -> FloatArray:
@@ -224,22 +228,22 @@ def ad(xi: Any) -> FloatArray:
 
 def jr(xi: Any) -> FloatArray:
     """Right Jacobian ``Exp(ξ + δ) ≈ Exp(ξ)·Exp(jr(ξ) δ)``, ``(..., 6, 6)``; ``jr(ξ) = jl(−ξ)``."""
-    return _jl(-v.vector(xi, "xi", 6))
+    return v.finite_output(_jl(-v.tangent(xi, "xi", 6)), "se3.jr")
 
 
 def jl(xi: Any) -> FloatArray:
     """Left Jacobian ``Exp(ξ + δ) ≈ Exp(jl(ξ) δ)·Exp(ξ)``, ``(..., 6, 6)``, Barfoot's Q-form."""
-    return _jl(v.vector(xi, "xi", 6))
+    return v.finite_output(_jl(v.tangent(xi, "xi", 6)), "se3.jl")
 
 
 def jr_inv(xi: Any) -> FloatArray:
     """Inverse right Jacobian (closed-form block inverse); GTSAM ``Pose3.LogmapDerivative``."""
-    return _jl_inv(-v.vector(xi, "xi", 6))
+    return v.finite_output(_jl_inv(-v.tangent(xi, "xi", 6)), "se3.jr_inv")
 
 
 def jl_inv(xi: Any) -> FloatArray:
     """Inverse left Jacobian (closed-form block inverse), ``(..., 6, 6)``."""
-    return _jl_inv(v.vector(xi, "xi", 6))
+    return v.finite_output(_jl_inv(v.tangent(xi, "xi", 6)), "se3.jl_inv")
 
 
 def interpolate(T0: Any, T1: Any, tau: Any) -> FloatArray:
@@ -252,5 +256,7 @@ def interpolate(T0: Any, T1: Any, tau: Any) -> FloatArray:
     T1 = v.pose(T1, "T1")
     tau_ = v.as_float_array(tau, "tau")
     v.check_finite(tau_, "tau", core_ndim=0)
-    xi = _log(_inverse(T0) @ T1)
-    return np.asarray(T0 @ _exp(tau_[..., None] * xi), dtype=np.float64)
+    v.batch_shape(("T0", T0.shape[:-2]), ("T1", T1.shape[:-2]), ("tau", tau_.shape))
+    xi = v.tangent(tau_[..., None] * _log(_inverse(T0) @ T1), "tau·Log(T0⁻¹T1)", 6)
+    out = np.asarray(T0 @ _exp(xi), dtype=np.float64)
+    return v.finite_output(out, "se3.interpolate")

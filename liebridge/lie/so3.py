@@ -126,10 +126,11 @@ def vee(W: Any) -> FloatArray:
     Uses ``(W − Wᵀ)/2`` so that a slightly non-skew input gives its nearest skew matrix's vector.
     """
     W = v.square(W, "W", 3)
-    return 0.5 * np.stack(
+    w = 0.5 * np.stack(
         [W[..., 2, 1] - W[..., 1, 2], W[..., 0, 2] - W[..., 2, 0], W[..., 1, 0] - W[..., 0, 1]],
         axis=-1,
     )
+    return v.finite_output(w, "so3.vee")
 
 
 def exp(w: Any) -> FloatArray:
@@ -137,7 +138,7 @@ def exp(w: Any) -> FloatArray:
 
     ``Exp(ω) = I + (sin θ/θ) hat(ω) + ((1 − cos θ)/θ²) hat(ω)²``, Taylor series near 0.
     """
-    return _exp(v.vector(w, "w", 3))
+    return v.finite_output(_exp(v.tangent(w, "w", 3)), "so3.exp")
 
 
 def _log(R: FloatArray) -> FloatArray:
@@ -179,22 +180,22 @@ def log(R: Any) -> FloatArray:
 
 def jr(w: Any) -> FloatArray:
     """Right Jacobian of SO(3): ``I − B hat(ω) + C hat(ω)²``; ``Exp(ω+δ) ≈ Exp(ω) Exp(jr δ)``."""
-    return _jr(v.vector(w, "w", 3))
+    return v.finite_output(_jr(v.tangent(w, "w", 3)), "so3.jr")
 
 
 def jl(w: Any) -> FloatArray:
     """Left Jacobian of SO(3): ``I + B hat(ω) + C hat(ω)²`` ``= jr(−ω)``; also SE(3)'s ``V(ω)``."""
-    return _jl(v.vector(w, "w", 3))
+    return v.finite_output(_jl(v.tangent(w, "w", 3)), "so3.jl")
 
 
 def jr_inv(w: Any) -> FloatArray:
     """Inverse right Jacobian, closed form ``I + ½ hat(ω) + D hat(ω)²``, finite up to θ = π."""
-    return _jr_inv(v.vector(w, "w", 3))
+    return v.finite_output(_jr_inv(v.tangent(w, "w", 3)), "so3.jr_inv")
 
 
 def jl_inv(w: Any) -> FloatArray:
     """Inverse left Jacobian ``I − ½ hat(ω) + D hat(ω)²`` ``= jr_inv(−ω)``; SE(3)'s ``V(ω)⁻¹``."""
-    return _jl_inv(v.vector(w, "w", 3))
+    return v.finite_output(_jl_inv(v.tangent(w, "w", 3)), "so3.jl_inv")
 
 
 def adjoint(R: Any) -> FloatArray:
