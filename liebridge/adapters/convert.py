@@ -88,7 +88,7 @@ def tangent_map(X: Any, src: ConventionLike, dst: ConventionLike) -> FloatArray:
     ndarray, shape (..., 6, 6) or (..., 3, 3)
         ``M = ∂/∂d dst.local(X, src.retract(X, d)) |_{d=0}``, closed form.
     """
-    return _map(group_input(X), _get(src), _get(dst))
+    return v.finite_output(_map(group_input(X), _get(src), _get(dst)), "tangent_map")
 
 
 def convert_tangent(
@@ -102,10 +102,13 @@ def convert_tangent(
     """
     a, b = _get(src), _get(dst)
     Xa = group_input(X)
-    d = v.vector(d, "d", 3 if Xa.shape[-2:] == (3, 3) else 6)
+    d = a._increment(d, Xa.shape[-1] == 3)
+    v.batch_shape(("d", d.shape[:-1]), ("X", Xa.shape[:-2]))
     if exact:
-        return b._local(Xa, a._retract(Xa, d))
-    return np.einsum("...ij,...j->...i", _map(Xa, a, b), d)
+        out = b._local(Xa, a._retract(Xa, d))
+    else:
+        out = np.einsum("...ij,...j->...i", _map(Xa, a, b), d)
+    return v.finite_output(np.asarray(out, dtype=np.float64), "convert_tangent")
 
 
 def _sqrt_psd(cov: FloatArray) -> FloatArray:
@@ -147,21 +150,24 @@ def convert_covariance(
     rotation = Xa.shape[-1] == 3
     n = 3 if rotation else 6
     cov = v.covariance(cov, "cov", n)
+    if cov.shape[:-2] != Xa.shape[:-2]:
+        v.batch_shape(("cov", cov.shape[:-2]), ("X", Xa.shape[:-2]))
     if method == "linear":
         M = pair_map(a, b, rotation)(Xa)
-        out: FloatArray = M @ cov @ M.swapaxes(-1, -2)
-        return out
+        return v.finite_output(M @ cov @ M.swapaxes(-1, -2), "convert_covariance")
     if method != "unscented":
         raise ValueError(f"method: expected 'linear' or 'unscented', got {method!r}")
     pts, w = _sigma5(n)
     S = _sqrt_psd(cov)  # (..., n, n), S Sᵀ = Σ
     deltas = np.einsum("...ij,kj->...ki", S, pts)  # (..., K, n)
+    a._increment(deltas, rotation, "cov (its sigma points)")  # increments the kernel can evaluate
     Xb = Xa[..., None, :, :]
     y = b._local(Xb, a._retract(Xb, deltas))
     mean = np.einsum("k,...ki->...i", w, y)
     dy = y - mean[..., None, :]
     out = np.einsum("k,...ki,...kj->...ij", w, dy, dy)
-    return np.asarray(0.5 * (out + np.swapaxes(out, -1, -2)), dtype=np.float64)
+    out = np.asarray(0.5 * (out + np.swapaxes(out, -1, -2)), dtype=np.float64)
+    return v.finite_output(out, "convert_covariance")
 
 
 def _sigma5(n: int) -> tuple[FloatArray, FloatArray]:
@@ -199,8 +205,10 @@ def convert_information(info: Any, X: Any, src: ConventionLike, dst: ConventionL
     Xa = group_input(X)
     n = 3 if Xa.shape[-2:] == (3, 3) else 6
     info = v.covariance(info, "info", n)
+    v.batch_shape(("info", info.shape[:-2]), ("X", Xa.shape[:-2]))
     Mi = _map(Xa, b, a)
-    return np.asarray(np.swapaxes(Mi, -1, -2) @ info @ Mi, dtype=np.float64)
+    out = np.asarray(np.swapaxes(Mi, -1, -2) @ info @ Mi, dtype=np.float64)
+    return v.finite_output(out, "convert_information")
 
 
 def convert_jacobian(
@@ -232,17 +240,21 @@ def convert_jacobian(
     Jm = v.as_float_array(J, "J")
     if Jm.ndim < 2:
         raise ValueError(f"J: expected shape (..., m, n), got {Jm.shape}")
-    v.check_finite(Jm, "J")
+    v.check_finite(Jm, "J", core_ndim=2)
+    if at_input is None and at_output is None:
+        return np.array(Jm, dtype=np.float64, copy=True)  # nothing to convert; never an alias
     if at_input is not None:
         X = group_input(at_input, "at_input")
+        v.batch_shape(("J", Jm.shape[:-2]), ("at_input", X.shape[:-2]))
         Mi = _map(X, b, a)
         if Jm.shape[-1] != Mi.shape[-1]:
             raise ValueError(f"J: {Jm.shape[-1]} columns, but the input tangent has {Mi.shape[-1]}")
         Jm = Jm @ Mi
     if at_output is not None:
         Y = group_input(at_output, "at_output")
+        v.batch_shape(("J", Jm.shape[:-2]), ("at_output", Y.shape[:-2]))
         Mo = _map(Y, a, b)
         if Jm.shape[-2] != Mo.shape[-1]:
             raise ValueError(f"J: {Jm.shape[-2]} rows, but the output tangent has {Mo.shape[-1]}")
         Jm = Mo @ Jm
-    return np.asarray(Jm, dtype=np.float64)
+    return v.finite_output(np.asarray(Jm, dtype=np.float64), "convert_jacobian")

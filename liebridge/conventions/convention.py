@@ -72,6 +72,16 @@ def group_input(X: Any, name: str = "X") -> FloatArray:
     )
 
 
+def _group_pair(X: Any, Y: Any) -> tuple[FloatArray, FloatArray]:
+    """Validate two group elements of the same kind with broadcastable batch shapes."""
+    X = group_input(X)
+    Y = group_input(Y, "Y")
+    if X.shape[-2:] != Y.shape[-2:]:
+        raise ValueError(f"Y: shape {Y.shape} does not match X {X.shape}")
+    v.batch_shape(("X", X.shape[:-2]), ("Y", Y.shape[:-2]))
+    return X, Y
+
+
 @dataclass(frozen=True)
 class Convention:
     """A Lie-group convention as data. See the module docstring for the fields' meaning.
@@ -133,6 +143,12 @@ class Convention:
         )
 
     # ----------------------------------------------------------------- retraction
+    def _increment(self, d: Any, rotation: bool, name: str = "d") -> FloatArray:
+        """Validate an increment in this convention (rotation part bounded, see ``v.tangent``)."""
+        if rotation:
+            return v.tangent(d, name, 3)
+        return v.tangent(d, name, 6, slice(0, 3) if self.order == "rot_first" else slice(3, 6))
+
     def _split(self, d: FloatArray) -> tuple[FloatArray, FloatArray]:
         if self.order == "rot_first":
             return d[..., :3], d[..., 3:]
@@ -194,16 +210,14 @@ class Convention:
         ndarray, same kind as ``X``
         """
         X = group_input(X)
-        d = v.vector(d, "d", 3 if _is_rotation(X) else 6)
-        return self._retract(X, d)
+        d = self._increment(d, _is_rotation(X))
+        v.batch_shape(("X", X.shape[:-2]), ("d", d.shape[:-1]))
+        return v.finite_output(self._retract(X, d), f"{self.name}.retract")
 
     def local(self, X: Any, Y: Any) -> FloatArray:
         """Inverse of :meth:`retract`: the ``d`` with ``retract(X, d) == Y`` (principal branch)."""
-        X = group_input(X)
-        Y = group_input(Y, "Y")
-        if X.shape[-2:] != Y.shape[-2:]:
-            raise ValueError(f"Y: shape {Y.shape} does not match X {X.shape}")
-        return self._local(X, Y)
+        X, Y = _group_pair(X, Y)
+        return v.finite_output(self._local(X, Y), f"{self.name}.local")
 
     def _local_jacobian(self, X: FloatArray, Y: FloatArray) -> FloatArray:
         s = self.rotation_scale
@@ -239,9 +253,8 @@ class Convention:
         to GTSAM's perturbation of ``Y`` instead, multiply by ``tangent_map(Y, "gtsam", self)``.
         False: ``J = I`` (true only at ``Y = X``: the textbook approximation that moves optima).
         """
-        X = group_input(X)
-        Y = group_input(Y, "Y")
-        return self._local_jacobian(X, Y)
+        X, Y = _group_pair(X, Y)
+        return v.finite_output(self._local_jacobian(X, Y), f"{self.name}.local_jacobian")
 
     # ----------------------------------------------------------------- first-order maps
     def _to_canonical(self, X: FloatArray) -> FloatArray:
@@ -255,11 +268,12 @@ class Convention:
 
         It is the derivative at ``d = 0`` of ``GTSAM.local(X, self.retract(X, d))``.
         """
-        return self._to_canonical(group_input(X))
+        return v.finite_output(self._to_canonical(group_input(X)), f"{self.name}.to_canonical")
 
     def from_canonical(self, X: Any) -> FloatArray:
         """Inverse of :meth:`to_canonical` (closed form, no matrix inversion)."""
-        return self._from_canonical(group_input(X))
+        out = self._from_canonical(group_input(X))
+        return v.finite_output(out, f"{self.name}.from_canonical")
 
 
 #: The canonical tangent (GTSAM's): right, rotation first, SE(3) exponential.
@@ -281,9 +295,10 @@ CANONICAL = Convention(
 # coefficient) terms. The grid is the one description of the math; it is evaluated two ways:
 #
 # * small batches (one pose in a factor callback): as one product with a constant table. A pose map
-#   is linear in the 64 products F(X) = X[:, 3] ⊗ vec(X) (the last column of X is (t, 1), so F holds
-#   t_i·X_jk, vec(X) itself and, as X₃₃·X₃₃, the constant 1); a rotation map in (vec(R), 1). So
-#   G(X) = F(X) @ K with K built once from the grid: a handful of numpy calls.
+#   is linear in the 48 products F(X) = (t, 1) ⊗ vec([R; 0]) (the last column of X is (t, 1): F
+#   holds t_i·R_jk and R_jk, never t_i·t_j, which could overflow) and a constant; a rotation map in
+#   vec(R) and a constant. So G(X) = F(X) @ K + K₀ with K, K₀ built once from the grid: a handful
+#   of numpy calls.
 # * large batches: block by block (views of R, one hat(t)·R), memory-bound instead of a dense
 #   product that is mostly zeros.
 #
@@ -307,10 +322,10 @@ _Grid = tuple[tuple[_Block, ...], ...]
 
 def _block_entries(prim: str, r: int, c: int, rotation: bool) -> list[tuple[int, float]]:
     """Features and weights of entry ``(r, c)`` of a 3×3 block ``prim``."""
-    one = 9 if rotation else 63  # rotation: (vec R, 1); pose: X₃₃·X₃₃
+    one = 9 if rotation else 48  # the constant feature (the last)
 
-    def lin(j: int, k: int) -> int:  # R_jk (pose: X₃₃·X_jk)
-        return 3 * j + k if rotation else 48 + 4 * j + k
+    def lin(j: int, k: int) -> int:  # R_jk (pose: 1·R_jk)
+        return 3 * j + k if rotation else 36 + 3 * j + k
 
     if prim == "I":
         return [(one, 1.0)] if r == c else []
@@ -320,16 +335,16 @@ def _block_entries(prim: str, r: int, c: int, rotation: bool) -> list[tuple[int,
         return [(lin(c, r), 1.0)]
     ks = range(3)
     if prim == "tR":  # (hat(t)·R)_rc = Σ_lk −ε_rlk t_k R_lc
-        return [(16 * k + 4 * m + c, -_EPS[r, m, k]) for m in ks for k in ks if _EPS[r, m, k]]
+        return [(12 * k + 3 * m + c, -_EPS[r, m, k]) for m in ks for k in ks if _EPS[r, m, k]]
     if prim == "mRtt":  # (−Rᵀ·hat(t))_rc = Σ_lk ε_lck t_k R_lr
-        return [(16 * k + 4 * m + r, _EPS[m, c, k]) for m in ks for k in ks if _EPS[m, c, k]]
+        return [(12 * k + 3 * m + r, _EPS[m, c, k]) for m in ks for k in ks if _EPS[m, c, k]]
     raise AssertionError(prim)
 
 
 def _grid_table(grid: _Grid, rotation: bool) -> FloatArray:
     """Build the table ``(features, n, n)`` of a grid."""
     n = 3 * len(grid)
-    K = np.zeros((10 if rotation else 64, n, n))
+    K = np.zeros((10 if rotation else 49, n, n))
     for bi, row in enumerate(grid):
         for bj, block in enumerate(row):
             for prim, coef in block:
@@ -362,23 +377,26 @@ class _GridMap:
         self.rotation = rotation
         K = _grid_table(grid, rotation)
         self.n = n = K.shape[-1]
-        one = 9 if rotation else 63
+        one = K.shape[0] - 1  # the constant feature
         used = np.flatnonzero(np.abs(K).reshape(K.shape[0], n * n).max(axis=1))
-        self.const = None
+        self.const = K[one].copy() if K[one].any() else None
         if (used == one).all():  # also when nothing is used (a zero map)
             self.kind = "const"
             self.const = K[one].copy()
             self.table = np.zeros((0, n * n))
-        elif rotation:  # vec(R) @ K, plus a constant if there is one
+        elif rotation:  # vec(R) @ K (+ K₀)
             self.kind = "lin"
             self.table = K[:9].reshape(9, n * n).copy()
-            self.const = K[one].copy() if K[one].any() else None
-        elif used.min() >= 48:  # vec(X) @ K; the constant enters through X₃₃ = 1
+        elif used.min() >= 36:  # vec(X) @ K: R_jk is X_jk and the constant enters through X₃₃ = 1
             self.kind = "lin"
-            self.table = K[48:].reshape(16, n * n).copy()
-        else:
+            K16 = np.zeros((4, 4, n * n))
+            K16[:3, :3] = K[36:45].reshape(3, 3, n * n)
+            K16[3, 3] = K[one].reshape(n * n)
+            self.table = K16.reshape(16, n * n)
+            self.const = None
+        else:  # ((t, 1) ⊗ vec([R; 0])) @ K (+ K₀)
             self.kind = "bilin"
-            self.table = K.reshape(64, n * n).copy()
+            self.table = K[:48].reshape(48, n * n).copy()
 
     @property
     def is_constant(self) -> bool:
@@ -394,11 +412,11 @@ class _GridMap:
             return out
         if X.size > _TABLE_MAX_BATCH * X.shape[-1] * X.shape[-1]:
             return self._blockwise(X)
-        if self.kind == "bilin":  # X[..., :, 3:] is the column (t, 1)
-            F = X[..., 3:] * X.reshape((*b, 1, 16))
-            G: FloatArray = (F.reshape((*b, 64)) @ self.table).reshape((*b, n, n))
-            return G
-        G = (X.reshape((*b, X.shape[-1] * X.shape[-1])) @ self.table).reshape((*b, n, n))
+        if self.kind == "bilin":  # X[..., :, 3:] is the column (t, 1), X[..., :, :3] is [R; 0]
+            F = X[..., 3:] * X[..., :3].reshape((*b, 1, 12))
+            G: FloatArray = (F.reshape((*b, 48)) @ self.table).reshape((*b, n, n))
+        else:
+            G = (X.reshape((*b, X.shape[-1] * X.shape[-1])) @ self.table).reshape((*b, n, n))
         if self.const is not None:
             G += self.const
         return G
