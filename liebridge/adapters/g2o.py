@@ -90,7 +90,7 @@ from .._validate import FloatArray
 from ..lie import quaternion as quat
 from . import poses as _layouts
 from .convert import tangent_map
-from .trajectory_io import _is_float
+from .trajectory_io import _is_float, text_lines
 
 __all__ = ["G2OGraph", "read", "write"]
 
@@ -432,64 +432,59 @@ def read(
     e_euler: list[bool] = []
     e_lines: list[int] = []
     fixed: list[int] = []
-    with open(path, encoding="utf-8") as fh:
-        for lineno, line in enumerate(fh, start=1):
-            fields = line.split("#", 1)[0].split()
-            if not fields:
-                continue
-            tag = fields[0]
-            if tag in ("VERTEX_SE3:QUAT", "VERTEX3"):
-                if len(fields) < 2:
-                    raise P.fail(lineno, f"{tag} without an id")
-                k = P.vertex_id(lineno, fields[1])
-                if k in v_line:
-                    raise P.fail(lineno, f"vertex {k} already defined on line {v_line[k]}")
-                if tag == "VERTEX_SE3:QUAT":
-                    x = P.numbers(lineno, tag, fields[2:], 7, "x y z qx qy qz qw")
-                    x = x[:3] + P.unit_quaternion(lineno, fields[5:9], x[3:])
-                else:
-                    x = [*P.numbers(lineno, tag, fields[2:], 6, "x y z roll pitch yaw"), 0.0]
-                v_ids.append(k)
-                v_raw.append(x)
-                v_euler.append(tag == "VERTEX3")
-                v_line[k] = lineno
-            elif tag in ("EDGE_SE3:QUAT", "EDGE3"):
-                if len(fields) < 3:
-                    raise P.fail(lineno, f"{tag} without two vertex ids")
-                i, j = P.vertex_id(lineno, fields[1]), P.vertex_id(lineno, fields[2])
-                if i == j:
-                    raise P.fail(lineno, f"{tag} from vertex {i} to itself")
-                if tag == "EDGE_SE3:QUAT":
-                    x = P.numbers(lineno, tag, fields[3:], 28, "x y z qx qy qz qw + 21 information")
-                    x = x[:3] + P.unit_quaternion(lineno, fields[6:10], x[3:7]) + x[7:]
-                else:
-                    x = P.numbers(
-                        lineno, tag, fields[3:], 27, "x y z roll pitch yaw + 21 information"
-                    )
-                    if information == "g2o" and abs(np.cos(x[4])) < 1e-9:
-                        raise P.fail(
-                            lineno, "pitch = ±π/2: the Euler-angle information is singular"
-                        )
-                    x = [*x[:6], 0.0, *x[6:]]
-                e_ids.append((i, j))
-                e_raw.append(x)
-                e_euler.append(tag == "EDGE3")
-                e_lines.append(lineno)
-            elif tag == "FIX":
-                if len(fields) < 2:
-                    raise P.fail(lineno, "FIX without an id")
-                fixed.extend(P.vertex_id(lineno, f) for f in fields[1:])
-            elif tag in _2D_TAGS:
-                raise P.fail(
-                    lineno,
-                    f"2D type {tag} is not supported; use gtsam.readG2o(path, is3D=False)",
-                )
+    for lineno, line in text_lines(path):
+        fields = line.split("#", 1)[0].split()
+        if not fields:
+            continue
+        tag = fields[0]
+        if tag in ("VERTEX_SE3:QUAT", "VERTEX3"):
+            if len(fields) < 2:
+                raise P.fail(lineno, f"{tag} without an id")
+            k = P.vertex_id(lineno, fields[1])
+            if k in v_line:
+                raise P.fail(lineno, f"vertex {k} already defined on line {v_line[k]}")
+            if tag == "VERTEX_SE3:QUAT":
+                x = P.numbers(lineno, tag, fields[2:], 7, "x y z qx qy qz qw")
+                x = x[:3] + P.unit_quaternion(lineno, fields[5:9], x[3:])
             else:
-                raise P.fail(
-                    lineno,
-                    f"unsupported tag {tag!r} (supported: VERTEX_SE3:QUAT, EDGE_SE3:QUAT, "
-                    "VERTEX3, EDGE3, FIX)",
-                )
+                x = [*P.numbers(lineno, tag, fields[2:], 6, "x y z roll pitch yaw"), 0.0]
+            v_ids.append(k)
+            v_raw.append(x)
+            v_euler.append(tag == "VERTEX3")
+            v_line[k] = lineno
+        elif tag in ("EDGE_SE3:QUAT", "EDGE3"):
+            if len(fields) < 3:
+                raise P.fail(lineno, f"{tag} without two vertex ids")
+            i, j = P.vertex_id(lineno, fields[1]), P.vertex_id(lineno, fields[2])
+            if i == j:
+                raise P.fail(lineno, f"{tag} from vertex {i} to itself")
+            if tag == "EDGE_SE3:QUAT":
+                x = P.numbers(lineno, tag, fields[3:], 28, "x y z qx qy qz qw + 21 information")
+                x = x[:3] + P.unit_quaternion(lineno, fields[6:10], x[3:7]) + x[7:]
+            else:
+                x = P.numbers(lineno, tag, fields[3:], 27, "x y z roll pitch yaw + 21 information")
+                if information == "g2o" and abs(np.cos(x[4])) < 1e-9:
+                    raise P.fail(lineno, "pitch = ±π/2: the Euler-angle information is singular")
+                x = [*x[:6], 0.0, *x[6:]]
+            e_ids.append((i, j))
+            e_raw.append(x)
+            e_euler.append(tag == "EDGE3")
+            e_lines.append(lineno)
+        elif tag == "FIX":
+            if len(fields) < 2:
+                raise P.fail(lineno, "FIX without an id")
+            fixed.extend(P.vertex_id(lineno, f) for f in fields[1:])
+        elif tag in _2D_TAGS:
+            raise P.fail(
+                lineno,
+                f"2D type {tag} is not supported; use gtsam.readG2o(path, is3D=False)",
+            )
+        else:
+            raise P.fail(
+                lineno,
+                f"unsupported tag {tag!r} (supported: VERTEX_SE3:QUAT, EDGE_SE3:QUAT, "
+                "VERTEX3, EDGE3, FIX)",
+            )
 
     # batch conversion
     vraw = np.array(v_raw, dtype=np.float64).reshape(-1, 7)

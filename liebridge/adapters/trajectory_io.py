@@ -26,6 +26,7 @@ written with ``w ≥ 0``.
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -39,15 +40,37 @@ __all__ = ["read_kitti", "read_tum", "write_kitti", "write_tum"]
 PathLike = str | os.PathLike[str]
 
 
+def text_lines(path: PathLike) -> Iterator[tuple[int, str]]:
+    """Yield ``(line_number, line)`` of a UTF-8 text file (1-based).
+
+    A byte sequence that is not UTF-8 raises ``ValueError`` naming the file and the line that
+    holds it (found by a binary re-scan, since text decoding runs ahead in chunks).
+    """
+    lineno = 0
+    try:
+        with open(path, encoding="utf-8") as fh:
+            for lineno, line in enumerate(fh, start=1):
+                yield lineno, line
+    except UnicodeDecodeError as exc:
+        bad = lineno + 1
+        with open(path, "rb") as fb:
+            for k, raw in enumerate(fb, start=1):
+                try:
+                    raw.decode("utf-8")
+                except UnicodeDecodeError:
+                    bad = k
+                    break
+        raise ValueError(f"{path}:{bad}: not UTF-8 text ({exc.reason})") from None
+
+
 def _data_lines(path: PathLike) -> list[tuple[int, list[str]]]:
     """Non-empty, non-comment lines of ``path`` as ``(line_number, fields)``."""
     out = []
-    with open(path, encoding="utf-8") as fh:
-        for lineno, line in enumerate(fh, start=1):
-            body = line.split("#", 1)[0].replace(",", " ")
-            fields = body.split()
-            if fields:
-                out.append((lineno, fields))
+    for lineno, line in text_lines(path):
+        body = line.split("#", 1)[0].replace(",", " ")
+        fields = body.split()
+        if fields:
+            out.append((lineno, fields))
     return out
 
 

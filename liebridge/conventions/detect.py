@@ -17,6 +17,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from .. import _validate as v
 from .._validate import FloatArray
 from ..check.jacobian import numerical_jacobian
 from ..lie import se3
@@ -44,10 +45,13 @@ def _candidates(group: str) -> list[Convention]:
     ]
 
 
-def _as_matrix(y: Any) -> FloatArray:
+def _as_matrix(y: Any, what: str = "retract(X, d)") -> FloatArray:
+    """Validate what a retraction returned (an array, or an object with ``.matrix()``)."""
     if hasattr(y, "matrix"):
         y = y.matrix()
-    return np.asarray(y, dtype=np.float64)
+    arr = v.as_float_array(y, what)
+    v.check_finite(arr, what)
+    return arr
 
 
 def detect_convention(
@@ -89,6 +93,8 @@ def detect_convention(
         When nothing in the model matches; the message gives the measured first-order map and the
         closest candidate.
     """
+    if not callable(retract):
+        raise TypeError(f"retract: expected a callable retract(X, d), got {type(retract).__name__}")
     rng = rng or np.random.default_rng(20261122)
     n = 6 if group == "se3" else 3
     if group not in ("se3", "so3"):
@@ -97,10 +103,19 @@ def detect_convention(
     if group == "so3":
         X = X[:3, :3].copy()
     D = rng.uniform(-0.3, 0.3, size=(8, n))
-    Y = np.stack([_as_matrix(retract(X.copy(), d.copy())) for d in D])
-    if Y.shape[1:] != X.shape:
-        raise ConventionNotDetected(f"retract returned shape {Y.shape[1:]}, expected {X.shape}")
-    Y0 = _as_matrix(retract(X.copy(), np.zeros(n)))
+    results = [
+        _as_matrix(retract(X.copy(), d.copy()), f"retract(X, d) at probe {k}")
+        for k, d in enumerate(D)
+    ]
+    for k, y in enumerate(results):
+        if y.shape != X.shape:
+            raise ConventionNotDetected(
+                f"retract(X, d) at probe {k} returned shape {y.shape}, expected {X.shape}"
+            )
+    Y = np.stack(results)
+    Y0 = _as_matrix(retract(X.copy(), np.zeros(n)), "retract(X, 0)")
+    if Y0.shape != X.shape:
+        raise ConventionNotDetected(f"retract(X, 0) returned shape {Y0.shape}, expected {X.shape}")
     if np.abs(Y0 - X).max() > tol:
         raise ConventionNotDetected(
             f"retract(X, 0) != X (max |diff| {np.abs(Y0 - X).max():.3g}): not a retraction"
