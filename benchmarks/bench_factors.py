@@ -17,6 +17,7 @@ Usage: ``python benchmarks/bench_factors.py [--out benchmarks/results/factors.js
 from __future__ import annotations
 
 import argparse
+import importlib.metadata
 import json
 import platform
 import time
@@ -138,7 +139,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         "benchmark": "sphere2500",
         "machine": platform.processor() or platform.machine(),
         "python": platform.python_version(),
-        "gtsam": gtsam.__version__,
+        "gtsam": importlib.metadata.version("gtsam"),
         "rows": rows,
     }
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
