@@ -162,8 +162,11 @@ def finite_output(out: FloatArray, name: str) -> FloatArray:
 
     Finite input can still overflow float64 inside a computation (a rotation vector of norm
     1e200, translations near 1e308); the result is then reported, with its first batch index,
-    instead of being returned. (Not ``out.sum()``: a sum of large finite entries overflows.)
+    instead of being returned. A small result is summed in Python floats (a non-finite sum means
+    a non-finite entry or a sum beyond float64; numpy's sum would warn about the latter).
     """
+    if out.size <= 64 and math.isfinite(sum(out.ravel().tolist())):
+        return out
     if np.isfinite(out).all():
         return out
     idx = _batch_index(~np.isfinite(out))
@@ -186,20 +189,18 @@ def _rotation_certified(
     r22: float,
     tol: float,
 ) -> bool:
-    """Sufficient test that one rotation is valid: ``Σ|RᵀR − I|_ij (i ≤ j) ≤ tol`` and det > 0.
+    """Sufficient test that one rotation is valid: ``‖RᵀR − I‖_F ≤ tol`` and ``det R > 0``.
 
-    The sum bounds the maximum, so this never accepts what :func:`check_rotation` rejects; NaN and
-    Inf make the sum non-finite and fail the comparison.
+    The Frobenius norm bounds the maximum entry, so this never accepts what
+    :func:`check_rotation` rejects; NaN and Inf make the sum non-finite and fail the comparison.
     """
-    s = (
-        abs(r00 * r00 + r10 * r10 + r20 * r20 - 1.0)
-        + abs(r01 * r01 + r11 * r11 + r21 * r21 - 1.0)
-        + abs(r02 * r02 + r12 * r12 + r22 * r22 - 1.0)
-        + abs(r00 * r01 + r10 * r11 + r20 * r21)
-        + abs(r00 * r02 + r10 * r12 + r20 * r22)
-        + abs(r01 * r02 + r11 * r12 + r21 * r22)
-    )
-    if not s <= tol:
+    e0 = r00 * r00 + r10 * r10 + r20 * r20 - 1.0
+    e1 = r01 * r01 + r11 * r11 + r21 * r21 - 1.0
+    e2 = r02 * r02 + r12 * r12 + r22 * r22 - 1.0
+    e3 = r00 * r01 + r10 * r11 + r20 * r21
+    e4 = r00 * r02 + r10 * r12 + r20 * r22
+    e5 = r01 * r02 + r11 * r12 + r21 * r22
+    if not e0 * e0 + e1 * e1 + e2 * e2 + 2.0 * (e3 * e3 + e4 * e4 + e5 * e5) <= tol * tol:
         return False
     det = (
         r00 * (r11 * r22 - r12 * r21)
@@ -266,9 +267,13 @@ def check_rotation(R: FloatArray, name: str, tol: float = ROTATION_TOL) -> None:
 
 def checked_rotation(arr: FloatArray, name: str, tol: float = ROTATION_TOL) -> FloatArray:
     """Validate a float64 array as rotations ``(..., 3, 3)``; return it (see :func:`rotation`)."""
-    _check_square_shape(arr, name, 3)
-    if arr.size == 9 and _rotation_list_certified(arr.ravel().tolist(), tol):
+    if (
+        arr.size == 9
+        and arr.shape[-2:] == (3, 3)
+        and _rotation_list_certified(arr.ravel().tolist(), tol)
+    ):
         return arr
+    _check_square_shape(arr, name, 3)
     check_finite(arr, name, core_ndim=2)
     check_rotation(arr, name, tol)
     return arr
@@ -289,9 +294,9 @@ def _pose_certified(a: list[float], tol: float) -> bool:
 
 def checked_pose(arr: FloatArray, name: str, tol: float = ROTATION_TOL) -> FloatArray:
     """Validate a float64 array as poses ``(..., 4, 4)`` and return it (see :func:`pose`)."""
-    _check_square_shape(arr, name, 4)
-    if arr.size == 16 and _pose_certified(arr.ravel().tolist(), tol):
+    if arr.size == 16 and arr.shape[-2:] == (4, 4) and _pose_certified(arr.ravel().tolist(), tol):
         return arr
+    _check_square_shape(arr, name, 4)
     check_finite(arr, name, core_ndim=2)
     check_rotation(arr[..., :3, :3], name, tol)
     bottom = arr[..., 3, :] != _E4
@@ -332,7 +337,7 @@ def _psd_certified(arr: FloatArray) -> bool:
         # bitwise symmetry first (cheap); ±0 or NaN payload differences fall through to ==
         if arr.tobytes() != arr.T.tobytes() and not (arr == arr.T).all():
             return False
-        c, info = dpotrf(arr, lower=1, clean=0)
+        c, info = dpotrf(arr, 1, 0)  # lower, no clean-up (positional: cheaper to parse)
         return bool(info == 0 and math.isfinite(sum(c.diagonal().tolist())))
     if not (arr == arr.swapaxes(-1, -2)).all():
         return False

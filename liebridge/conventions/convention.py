@@ -413,7 +413,7 @@ class _GridMap:
         if X.size > _TABLE_MAX_BATCH * X.shape[-1] * X.shape[-1]:
             return self._blockwise(X)
         if self.kind == "bilin":  # X[..., :, 3:] is the column (t, 1), X[..., :, :3] is [R; 0]
-            F = X[..., 3:] * X[..., :3].reshape((*b, 1, 12))
+            F = X[..., 3:, None] * X[..., None, :, :3]  # (..., 4, 4, 3), no copy of X
             G: FloatArray = (F.reshape((*b, 48)) @ self.table).reshape((*b, n, n))
         else:
             G = (X.reshape((*b, X.shape[-1] * X.shape[-1])) @ self.table).reshape((*b, n, n))
