@@ -14,6 +14,8 @@ Checked against 50-digit arithmetic in ``tests/test_lie_series.py``.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import numpy.typing as npt
 
@@ -98,47 +100,57 @@ def _horner(t2: FloatArray, c: tuple[float, ...]) -> FloatArray:
     return acc
 
 
-def _split(theta: FloatArray) -> tuple[FloatArray, FloatArray, npt.NDArray[np.bool_]]:
-    """Return ``θ²``, θ with the small entries replaced by 1 (no division by 0), and the mask."""
+def _where_small(
+    theta: FloatArray, coeffs: tuple[float, ...], closed: Callable[[FloatArray], FloatArray]
+) -> FloatArray:
+    """``closed(θ)`` for ``θ ≥ SMALL_ANGLE``, the Maclaurin series below it.
+
+    The closed form is evaluated with the small entries replaced by 1 (no division by 0) and the
+    series only on the small entries (a boolean gather): no work, and no overflow of high powers
+    of a large θ, in a branch that is thrown away.
+    """
+    theta = np.asarray(theta, dtype=np.float64)
     small = theta < SMALL_ANGLE
-    return theta * theta, np.where(small, 1.0, theta), small
+    out = np.array(closed(np.where(small, 1.0, theta)), dtype=np.float64)
+    if small.any():
+        t = theta[small]
+        out[small] = _horner(t * t, coeffs)
+    return out
 
 
 def sinc(theta: FloatArray) -> FloatArray:
     """``A(θ) = sin θ / θ``."""
-    t2, s, small = _split(theta)
-    return np.where(small, _horner(t2, _SINC), np.sin(s) / s)
+    return _where_small(theta, _SINC, lambda s: np.sin(s) / s)
 
 
 def one_minus_cos_over_t2(theta: FloatArray) -> FloatArray:
     """``B(θ) = (1 − cos θ) / θ²``."""
-    t2, s, small = _split(theta)
-    return np.where(small, _horner(t2, _ONE_MINUS_COS_OVER_T2), 2.0 * (np.sin(0.5 * s) / s) ** 2)
+    return _where_small(theta, _ONE_MINUS_COS_OVER_T2, lambda s: 2.0 * (np.sin(0.5 * s) / s) ** 2)
 
 
 def t_minus_sin_over_t3(theta: FloatArray) -> FloatArray:
     """``C(θ) = (θ − sin θ) / θ³``."""
-    t2, s, small = _split(theta)
-    return np.where(small, _horner(t2, _T_MINUS_SIN_OVER_T3), (s - np.sin(s)) / s**3)
+    return _where_small(theta, _T_MINUS_SIN_OVER_T3, lambda s: (s - np.sin(s)) / s**3)
 
 
 def jinv_coeff(theta: FloatArray) -> FloatArray:
     """``D(θ) = 1/θ² − (1 + cos θ)/(2θ sin θ) = 1/θ² − cot(θ/2)/(2θ)``; finite at θ = π (1/π²)."""
-    t2, s, small = _split(theta)
-    half = 0.5 * s
-    closed = 1.0 / (s * s) - np.cos(half) / (2.0 * s * np.sin(half))
-    return np.where(small, _horner(t2, _JINV_COEFF), closed)
+    return _where_small(
+        theta, _JINV_COEFF, lambda s: 1.0 / (s * s) - np.cos(0.5 * s) / (2.0 * s * np.sin(0.5 * s))
+    )
 
 
 def q_coeff2(theta: FloatArray) -> FloatArray:
     """``(θ² + 2 cos θ − 2) / (2θ⁴)`` of Barfoot's SE(3) Q-matrix."""
-    t2, s, small = _split(theta)
-    closed = (s * s - 4.0 * np.sin(0.5 * s) ** 2) / (2.0 * s**4)
-    return np.where(small, _horner(t2, _Q_COEFF2), closed)
+    return _where_small(
+        theta, _Q_COEFF2, lambda s: (s * s - 4.0 * np.sin(0.5 * s) ** 2) / (2.0 * s**4)
+    )
 
 
 def q_coeff3(theta: FloatArray) -> FloatArray:
     """``(2θ − 3 sin θ + θ cos θ) / (2θ⁵)`` of Barfoot's SE(3) Q-matrix."""
-    t2, s, small = _split(theta)
-    closed = (2.0 * s - 3.0 * np.sin(s) + s * np.cos(s)) / (2.0 * s**5)
-    return np.where(small, _horner(t2, _Q_COEFF3), closed)
+    return _where_small(
+        theta,
+        _Q_COEFF3,
+        lambda s: (2.0 * s - 3.0 * np.sin(s) + s * np.cos(s)) / (2.0 * s**5),
+    )
