@@ -20,6 +20,7 @@ eq. 7.86, written there for (ρ, φ) = (v, ω)), rearranged to (ω, v):
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -76,7 +77,42 @@ def _blocks(a: FloatArray, b: FloatArray, c: FloatArray, d: FloatArray) -> Float
     return out
 
 
+#: Batch elements per block in :func:`_blocked` (the temporaries of a block stay in cache).
+_BLOCK = 4096
+
+
+def _blocked(
+    kernel: Callable[[FloatArray], FloatArray],
+    x: FloatArray,
+    core_in: int,
+    core_out: tuple[int, ...],
+) -> FloatArray:
+    """Apply ``kernel`` to a large batch in blocks of :data:`_BLOCK` elements.
+
+    The same kernel, evaluated on cache-sized slices of the flattened batch and written into one
+    output: its many whole-vector operations then run on data in cache instead of streaming
+    the full batch through memory each time. Small batches call the kernel directly.
+    """
+    batch = x.shape[: x.ndim - core_in]
+    n = x.size // max(1, int(np.prod(x.shape[x.ndim - core_in :])))
+    if n <= 2 * _BLOCK:
+        return kernel(x)
+    flat = x.reshape((n, *x.shape[x.ndim - core_in :]))
+    out = np.empty((n, *core_out))
+    for start in range(0, n, _BLOCK):
+        out[start : start + _BLOCK] = kernel(flat[start : start + _BLOCK])
+    return out.reshape((*batch, *core_out))
+
+
 def _exp(xi: FloatArray) -> FloatArray:
+    return _blocked(_exp_block, xi, 1, (4, 4))
+
+
+def _log(T: FloatArray) -> FloatArray:
+    return _blocked(_log_block, T, 2, (6,))
+
+
+def _exp_block(xi: FloatArray) -> FloatArray:
     """``Exp(ξ)`` written entry by entry on batch-length vectors (see ``so3._poly_into``).
 
     ``R = I + A·hat(ω) + B·hat(ω)²``; ``t = V(ω)·v = A·v + B·ω × v + C·(ω·v)·ω`` (from
@@ -97,7 +133,7 @@ def _exp(xi: FloatArray) -> FloatArray:
     return T
 
 
-def _log(T: FloatArray) -> FloatArray:
+def _log_block(T: FloatArray) -> FloatArray:
     """``(ω, V(ω)⁻¹ t)``; ``V⁻¹ t = t − ½·ω × t + D·ω × (ω × t)`` on batch-length vectors."""
     w = so3._log(T[..., :3, :3])
     w0, w1, w2 = w[..., 0], w[..., 1], w[..., 2]

@@ -153,16 +153,27 @@ def _log(R: FloatArray) -> FloatArray:
     k = 1.0 / np.where(near_pi, 1.0, sinc(theta))
     w = np.empty((*R.shape[:-2], 3))
     w[..., 0], w[..., 1], w[..., 2] = s0 * k, s1 * k, s2 * k
-    if near_pi.any():  # only on those entries (a boolean gather, then a scatter)
-        Rn, cn, thn = R[near_pi], c[near_pi], theta[near_pi]
-        sn_ = np.stack([s0[near_pi], s1[near_pi], s2[near_pi]], axis=-1)
-        # axis from the symmetric part: (R + Rᵀ)/2 − cos θ·I = (1 − cos θ) u uᵀ
-        S = 0.5 * (Rn + np.swapaxes(Rn, -1, -2)) - cn[:, None, None] * np.eye(3)
-        k = np.argmax(np.diagonal(S, axis1=-2, axis2=-1), axis=-1)
-        col = np.take_along_axis(S, k[:, None, None], axis=-1)[..., 0]  # the largest column
-        u = col / np.linalg.norm(col, axis=-1)[:, None]
-        sign = np.where(np.einsum("...i,...i->...", u, sn_) < 0.0, -1.0, 1.0)
-        w[near_pi] = (sign * thn)[:, None] * u
+    if near_pi.any():  # only on those entries: gathered once by index, then scattered back
+        idx = np.nonzero(near_pi) if near_pi.ndim else near_pi  # (0-d: the mask itself)
+        r = R[idx].reshape(-1, 9)  # rows r00 r01 r02 r10 ... r22
+        cn, thn = c[idx], theta[idx]
+        # axis from the symmetric part S = (R + Rᵀ)/2 − cos θ·I = (1 − cos θ) u uᵀ: its column
+        # with the largest diagonal entry (the first of equal ones), sign from s = sin θ·u
+        d0, d1, d2 = r[:, 0] - cn, r[:, 4] - cn, r[:, 8] - cn
+        s01, s02, s12 = (
+            0.5 * (r[:, 1] + r[:, 3]),
+            0.5 * (r[:, 2] + r[:, 6]),
+            0.5 * (r[:, 5] + r[:, 7]),
+        )
+        k0 = (d0 >= d1) & (d0 >= d2)
+        k1 = ~k0 & (d1 >= d2)
+        u0 = np.where(k0, d0, np.where(k1, s01, s02))
+        u1 = np.where(k0, s01, np.where(k1, d1, s12))
+        u2 = np.where(k0, s02, np.where(k1, s12, d2))
+        norm = np.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
+        dot = u0 * s0[idx] + u1 * s1[idx] + u2 * s2[idx]
+        scale = np.where(dot < 0.0, -thn, thn) / norm
+        w[idx] = np.stack([scale * u0, scale * u1, scale * u2], axis=-1)
     return w
 
 
