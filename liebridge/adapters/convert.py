@@ -154,7 +154,9 @@ def convert_covariance(
         v.batch_shape(("cov", cov.shape[:-2]), ("X", Xa.shape[:-2]))
     if method == "linear":
         M = pair_map(a, b, rotation)(Xa)
-        return v.finite_output(M @ cov @ M.swapaxes(-1, -2), "convert_covariance")
+        # a batch: numpy multiplies stacks of small matrices fast only when they are contiguous
+        Mt = M.T if M.ndim == 2 else np.ascontiguousarray(M.swapaxes(-1, -2))
+        return v.finite_output(M @ cov @ Mt, "convert_covariance")
     if method != "unscented":
         raise ValueError(f"method: expected 'linear' or 'unscented', got {method!r}")
     pts, w = _sigma5(n)

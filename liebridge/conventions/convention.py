@@ -364,8 +364,9 @@ def _hat_t_R(X: FloatArray) -> FloatArray:
 class _GridMap:
     """A first-order map ``X ↦ G(X)`` given by a grid (see the comment above)."""
 
-    __slots__ = ("const", "grid", "kind", "n", "rotation", "table")
+    __slots__ = ("const", "grid", "kind", "n", "rotation", "table", "table_max_size")
     const: FloatArray | None
+    table_max_size: int
     grid: _Grid
     kind: str
     n: int
@@ -375,6 +376,7 @@ class _GridMap:
     def __init__(self, grid: _Grid, rotation: bool) -> None:
         self.grid = grid
         self.rotation = rotation
+        self.table_max_size = _TABLE_MAX_BATCH * (9 if rotation else 16)
         K = _grid_table(grid, rotation)
         self.n = n = K.shape[-1]
         one = K.shape[0] - 1  # the constant feature
@@ -410,7 +412,7 @@ class _GridMap:
             out = np.empty((*b, n, n))
             out[...] = self.const
             return out
-        if X.size > _TABLE_MAX_BATCH * X.shape[-1] * X.shape[-1]:
+        if X.size > self.table_max_size:
             return self._blockwise(X)
         if self.kind == "bilin":  # X[..., :, 3:] is the column (t, 1), X[..., :, :3] is [R; 0]
             F = X[..., 3:, None] * X[..., None, :, :3]  # (..., 4, 4, 3), no copy of X
