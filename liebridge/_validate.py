@@ -28,7 +28,6 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-from scipy.linalg.lapack import dpotrf
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -325,6 +324,9 @@ def quaternion(x: Any, name: str, tol: float = QUATERNION_TOL) -> FloatArray:
 
 
 # ----------------------------------------------------------------------------- covariances
+_dpotrf: Any = None  # scipy's LAPACK Cholesky, imported at first use (scipy.linalg takes 0.4 s)
+
+
 def _psd_certified(arr: FloatArray) -> bool:
     """Sufficient test: exactly symmetric, finite and positive definite (Cholesky succeeds).
 
@@ -336,7 +338,10 @@ def _psd_certified(arr: FloatArray) -> bool:
         # bitwise symmetry first (cheap); ±0 or NaN payload differences fall through to ==
         if arr.tobytes() != arr.T.tobytes() and not (arr == arr.T).all():
             return False
-        c, info = dpotrf(arr, 1, 0)  # lower, no clean-up (positional: cheaper to parse)
+        global _dpotrf
+        if _dpotrf is None:
+            from scipy.linalg.lapack import dpotrf as _dpotrf
+        c, info = _dpotrf(arr, 1, 0)  # lower, no clean-up (positional: cheaper to parse)
         return bool(info == 0 and math.isfinite(sum(c.diagonal().tolist())))
     if not (arr == arr.swapaxes(-1, -2)).all():
         return False
