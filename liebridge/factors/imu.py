@@ -29,8 +29,9 @@ import numpy as np
 from .. import _validate as v
 from .._validate import FloatArray
 from ..lie import so3
+from ._imu_inputs import read_bias
 from .custom import make_custom_factor
-from .preintegration import PreintegratedImu, _read_bias
+from .preintegration import PreintegratedImu
 
 __all__ = ["imu", "imu_residual"]
 
@@ -174,7 +175,7 @@ def imu_residual(
         T_j[..., :3, :3],
         T_j[..., :3, 3],
         v.vector(vel_j, "vel_j", 3),
-        _read_bias(bias),
+        read_bias(bias),
         preintegrated,
         jacobians,
     )

@@ -1,0 +1,159 @@
+"""The pieces of the vectorized IMU kernel (liebridge.factors._imu_kernel), each against a plain
+reference: the banded-solve rotation scan against a sequential product, the truncated coefficient
+series against 50-digit arithmetic, the blocked prefix sums against a running sum, and the gyro
+input block against ΔR_{k+1} J_r(θ_k) dt_k."""
+
+from __future__ import annotations
+
+import mpmath
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from liebridge.factors import _imu_kernel as K
+from liebridge.lie import so3
+
+# ------------------------------------------------------------------------------------------------
+# rotation scan
+
+
+def _increments(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    th2 = np.einsum("in,in->n", theta, theta)
+    coef = K._coefficients(th2, K.Workspace())
+    return coef[3], theta * (0.5 * coef[4])
+
+
+@pytest.mark.parametrize("n", [1, 2, 17, 1000])
+@pytest.mark.parametrize("scale", [0.0, 1e-12, 0.02, 1.0, 3.1])
+def test_rotation_scan_equals_sequential_product(n: int, scale: float) -> None:
+    rng = np.random.default_rng(n)
+    theta = rng.normal(size=(3, n)) * scale
+    R9, RN = K._rotation_scan(*_increments(theta), K.Workspace())
+    R = np.eye(3)
+    ref = [R]
+    for k in range(n):
+        R = R @ so3.exp(theta[:, k])
+        ref.append(R)
+    ref_arr = np.array(ref)  # (n + 1, 3, 3)
+    got = R9.reshape(3, 3, n + 1).transpose(2, 0, 1)
+    assert np.abs(got - ref_arr).max() < 1e-13 * max(1.0, n**0.5)
+    assert np.array_equal(RN, got[-1])
+    # normalised on the fly: orthonormal to rounding whatever the length
+    assert np.abs(got[-1] @ got[-1].T - np.eye(3)).max() < 1e-15 * 8
+
+
+def test_rotation_scan_is_forward_substitution_bit_for_bit() -> None:
+    """ztbtrs performs the complex products of a sequential loop in the same order."""
+    rng = np.random.default_rng(3)
+    theta = rng.normal(size=(3, 200)) * 0.05
+    ch, qv = _increments(theta)
+    R9, _ = K._rotation_scan(ch, qv, K.Workspace())
+    alpha, beta = 1.0 + 0j, 0j
+    quats = [(alpha, beta)]
+    for k in range(200):
+        a2, b2 = complex(ch[k], qv[0, k]), complex(qv[1, k], qv[2, k])
+        alpha, beta = alpha * a2 - beta * b2.conjugate(), alpha * b2 + beta * a2.conjugate()
+        quats.append((alpha, beta))
+    q4 = np.array([[a.real, a.imag, b.real, b.imag] for a, b in quats]).T
+    ref, _ = K._quat_to_R9(q4, K.Workspace())
+    assert np.array_equal(R9, ref)
+
+
+# ------------------------------------------------------------------------------------------------
+# coefficients
+
+
+def _mp_coefficients(theta: float) -> list[float]:
+    with mpmath.workdps(50):
+        t = mpmath.mpf(theta)
+        if t == 0:
+            return [1.0, 0.5, 1.0 / 6.0, 1.0, 1.0]
+        h = t / 2
+        return [
+            float(mpmath.sin(t) / t),
+            float((1 - mpmath.cos(t)) / t**2),
+            float((t - mpmath.sin(t)) / t**3),
+            float(mpmath.cos(h)),
+            float(mpmath.sin(h) / h),
+        ]
+
+
+ANGLES = [0.0, 1e-12, 1e-6, 1e-3, 0.01, 0.1, 0.3, 0.4999999, 0.5, 0.5000001, 1.0, 2.0, 3.0, np.pi]
+
+
+@pytest.mark.parametrize("spread", ["alone", "mixed"])
+def test_coefficients_match_50_digit_values(spread: str) -> None:
+    """The number of series terms depends on the block's largest angle: test each angle alone
+    (fewest terms) and all of them in one block (most terms, closed forms on the large ones)."""
+    ref = np.array([_mp_coefficients(t) for t in ANGLES]).T
+    if spread == "alone":
+        got = np.stack(
+            [K._coefficients(np.array([t * t]), K.Workspace())[:, 0] for t in ANGLES], axis=1
+        )
+    else:
+        got = K._coefficients(np.array(ANGLES) ** 2, K.Workspace())
+    rel = np.abs(got - ref) / np.abs(ref)
+    assert rel.max() < 3e-15, (rel.max(), np.unravel_index(rel.argmax(), rel.shape))
+
+
+def test_series_truncation_keeps_terms_for_the_largest_small_angle() -> None:
+    assert K._n_terms(0.0) == 1
+    assert K._n_terms(1e-6) <= 3
+    # the rule: the first omitted term is below 2⁻⁵⁶ relative, up to θ = SMALL_ANGLE
+    for t2 in (1e-8, 1e-4, 1e-2, 0.1, 0.2, 0.25):
+        k = K._n_terms(t2)
+        assert k == 9 or K._TERM[k] * t2**k < 2.0**-56
+
+
+# ------------------------------------------------------------------------------------------------
+# prefix sums
+
+
+@given(n=st.integers(1, 300), rows=st.integers(1, 4), seed=st.integers(0, 2**32 - 1))
+def test_prefix_sum_equals_running_sum(n: int, rows: int, seed: int) -> None:
+    x = np.random.default_rng(seed).normal(size=(rows, n)) * 10.0
+    got = K._prefix_sum(x)
+    ref = np.cumsum(x, axis=1)
+    assert np.abs(got - ref).max() <= 1e-13 * max(1.0, float(np.abs(x).sum(axis=1).max()))
+
+
+@pytest.mark.parametrize("n", [15, 16, 17, 32, 4096, 5003])
+def test_prefix_sum_block_edges(n: int) -> None:
+    x = np.arange(1.0, n + 1.0)[None]  # exact integers: every order of summation is exact
+    assert np.array_equal(K._prefix_sum(x), np.cumsum(x, axis=1))
+
+
+# ------------------------------------------------------------------------------------------------
+# the gyro input block
+
+
+def test_gyro_input_block_is_right_jacobian_carried_by_the_next_rotation() -> None:
+    """Y_k = ΔR_k J_l(θ_k) dt equals ΔR_{k+1} J_r(θ_k) dt (what GTSAM's recursion uses), and the
+    weighted sums S = Σ_k w_k Y_k equal the same sums of the reference blocks."""
+    rng = np.random.default_rng(11)
+    n = 50
+    theta = rng.normal(size=(3, n)) * 0.7  # some above SMALL_ANGLE
+    dt = rng.uniform(0.001, 0.02, n)
+    R9, _ = K._rotation_scan(*_increments(theta), K.Workspace())
+    R = R9.reshape(3, 3, n + 1).transpose(2, 0, 1)
+    ref = np.array([R[k + 1] @ so3.jr(theta[:, k]) * dt[k] for k in range(n)])
+    alt = np.array([R[k] @ so3.jl(theta[:, k]) * dt[k] for k in range(n)])
+    assert np.abs(ref - alt).max() < 1e-15
+    # the kernel's elementwise construction, as integrate() builds it
+    coef = K._coefficients(np.einsum("in,in->n", theta, theta), K.Workspace())
+    R3 = R9[:, :n].reshape(3, 3, n)
+    u = np.einsum("ijn,jn->in", R3, theta)
+    g, Cu = u * (coef[1] * dt), u * (coef[2] * dt)
+    Y = R3 * (coef[0] * dt) + Cu[:, None, :] * theta[None, :, :]
+    for i in range(3):
+        j, k = (i + 1) % 3, (i + 2) % 3
+        Y[i] += R3[k] * g[j] - R3[j] * g[k]
+    assert np.abs(Y.transpose(2, 0, 1) - ref).max() < 1e-15
+
+
+def test_sum_hat_times_is_sum_of_skew_products() -> None:
+    rng = np.random.default_rng(5)
+    M = rng.normal(size=(3, 3, 3))
+    ref = sum(so3.hat(np.eye(3)[b]) @ M[b] for b in range(3))
+    assert np.allclose(K._sum_hat_times(M), ref, atol=1e-15)
