@@ -107,21 +107,28 @@ def test_series_truncation_keeps_terms_for_the_largest_small_angle() -> None:
 
 
 # ------------------------------------------------------------------------------------------------
-# prefix sums
+# suffix sums
 
 
 @given(n=st.integers(1, 300), rows=st.integers(1, 4), seed=st.integers(0, 2**32 - 1))
-def test_prefix_sum_equals_running_sum(n: int, rows: int, seed: int) -> None:
+def test_suffix_sum_equals_running_sum_from_the_end(n: int, rows: int, seed: int) -> None:
     x = np.random.default_rng(seed).normal(size=(rows, n)) * 10.0
-    got = K._prefix_sum(x)
-    ref = np.cumsum(x, axis=1)
-    assert np.abs(got - ref).max() <= 1e-13 * max(1.0, float(np.abs(x).sum(axis=1).max()))
+    got, total = K._suffix_sum(x)
+    inclusive = np.cumsum(x[:, ::-1], axis=1)[:, ::-1]
+    ref = np.concatenate([inclusive[:, 1:], np.zeros((rows, 1))], axis=1)
+    scale = max(1.0, float(np.abs(x).sum(axis=1).max()))
+    assert np.abs(got - ref).max() <= 1e-13 * scale
+    assert np.abs(total - inclusive[:, 0]).max() <= 1e-13 * scale
 
 
-@pytest.mark.parametrize("n", [15, 16, 17, 32, 4096, 5003])
-def test_prefix_sum_block_edges(n: int) -> None:
+@pytest.mark.parametrize("n", [1, 15, 16, 17, 32, 4096, 5003])
+def test_suffix_sum_block_edges(n: int) -> None:
     x = np.arange(1.0, n + 1.0)[None]  # exact integers: every order of summation is exact
-    assert np.array_equal(K._prefix_sum(x), np.cumsum(x, axis=1))
+    out = np.full((1, n), np.nan)
+    got, total = K._suffix_sum(x, out=out)
+    assert got is out
+    assert np.array_equal(got[0], n * (n + 1) / 2 - np.cumsum(x[0]))
+    assert total[0] == n * (n + 1) / 2
 
 
 # ------------------------------------------------------------------------------------------------

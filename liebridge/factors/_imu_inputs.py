@@ -41,9 +41,18 @@ class Params:
     body_R_sensor: FloatArray | None  # (3, 3) or None
     lever_arm: FloatArray | None  # (3,) body frame, None when zero
     fast: bool  # isotropic gyroscope noise and no lever arm
+    # the variance of each isotropic covariance (None when it is not a multiple of I)
+    acc_var: float | None = None
+    gyro_var: float | None = None
+    int_var: float | None = None
+
+
+def _variance(C: FloatArray) -> float | None:
+    return float(C[0, 0]) if is_isotropic(C) else None
 
 
 def read_params(params: Any) -> Params:
+    """Read and check a ``gtsam.PreintegrationParams`` (rejects a non-zero ``omegaCoriolis``)."""
     if not isinstance(params, gtsam.PreintegrationParams):
         raise TypeError(
             f"params: expected a gtsam.PreintegrationParams, got {type(params).__name__}"
@@ -85,6 +94,9 @@ def read_params(params: Any) -> Params:
         body_R_sensor=bRs,
         lever_arm=lever,
         fast=lever is None and is_isotropic(gyro_cov),
+        acc_var=_variance(acc_cov),
+        gyro_var=_variance(gyro_cov),
+        int_var=_variance(int_cov),
     )
 
 
@@ -101,6 +113,7 @@ def read_bias(bias: Any, name: str = "bias") -> FloatArray:
 
 
 def read_samples(acc: Any, gyro: Any, dt: Any) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Check samples (N, 3), (N, 3) and a scalar or (N,) ``dt > 0``; return float64 arrays."""
     acc_ = v.as_float_array(acc, "acc")
     gyro_ = v.as_float_array(gyro, "gyro")
     for arr, name in ((acc_, "acc"), (gyro_, "gyro")):
