@@ -11,6 +11,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from liebridge.factors import _imu_inputs
 from liebridge.factors import _imu_kernel as K
 from liebridge.lie import so3
 
@@ -164,3 +165,138 @@ def test_sum_hat_times_is_sum_of_skew_products() -> None:
     M = rng.normal(size=(3, 3, 3))
     ref = sum(so3.hat(np.eye(3)[b]) @ M[b] for b in range(3))
     assert np.allclose(K._sum_hat_times(M), ref, atol=1e-15)
+
+
+# ------------------------------------------------------------------------------------------------
+# the compiled kernel (liebridge/factors/_imu_ext.c) against the numpy kernel
+
+requires_compiled = pytest.mark.skipif(not K.COMPILED, reason="compiled kernel not built")
+
+
+def test_compiled_kernel_is_built_where_ci_requires_it() -> None:
+    """.ci/run sets LIEBRIDGE_REQUIRE_COMPILED=1: there a silently skipped build is a failure."""
+    import os
+
+    if os.environ.get("LIEBRIDGE_REQUIRE_COMPILED") == "1":
+        assert K.COMPILED
+
+
+def _params(body_rot: bool = False, aniso: bool = False) -> object:
+    import gtsam
+
+    p = gtsam.PreintegrationParams.MakeSharedU(9.81)
+    p.setAccelerometerCovariance(np.diag([1e-4, 2e-4, 3e-4]) if aniso else 1e-4 * np.eye(3))
+    p.setGyroscopeCovariance(3e-8 * np.eye(3))
+    p.setIntegrationCovariance(1e-8 * np.eye(3))
+    if body_rot:
+        p.setBodyPSensor(gtsam.Pose3(gtsam.Rot3.Expmap([0.4, -0.3, 1.0]), np.zeros(3)))
+    return p
+
+
+def _rel(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.abs(a - b).max() / max(np.abs(b).max(), 1e-300))
+
+
+@requires_compiled
+@given(
+    n=st.integers(1, 60),
+    seed=st.integers(0, 2**32 - 1),
+    spin=st.sampled_from([0.0, 0.5, 5.0, 60.0]),
+    body_rot=st.booleans(),
+)
+def test_compiled_equals_numpy_kernel(n: int, seed: int, spin: float, body_rot: bool) -> None:
+    rng = np.random.default_rng(seed)
+    acc = rng.normal(size=(n, 3)) * 3 + [0, 0, 9.8]
+    gyro = rng.normal(size=(n, 3)) * spin  # up to 3 rad per step: closed forms as well as series
+    dt = rng.uniform(1e-3, 0.05, size=n)
+    bias = rng.normal(size=6) * 0.1
+    P = _imu_inputs.read_params(_params(body_rot))
+    assert K.compiled_applies(P)
+    c = K.integrate(acc, gyro, dt, bias, P, compiled=True)
+    nu = K.integrate(acc, gyro, dt, bias, P, compiled=False)
+    assert c.n == nu.n == n
+    assert abs(c.delta_t - nu.delta_t) <= 1e-15 * nu.delta_t
+    for f in ("R", "p", "v", "cov", "J"):
+        assert _rel(getattr(c, f), getattr(nu, f)) < 1e-12, f
+
+
+@requires_compiled
+@pytest.mark.parametrize("n", [K.BLOCK - 1, K.BLOCK + K.BLOCK // 4 + 3, 3 * K.BLOCK + 5])
+def test_compiled_equals_numpy_across_block_boundaries(n: int) -> None:
+    rng = np.random.default_rng(n)
+    acc = rng.normal(size=(n, 3)) + np.array([0.0, 0.0, 9.8])
+    gyro = rng.normal(size=(n, 3)) * 0.3
+    dt = np.full(n, 0.005)
+    P = _imu_inputs.read_params(_params())
+    bias = np.array([0.05, -0.03, 0.1, 2e-3, -1e-3, 3e-3])
+    c = K.integrate_blocks(acc, gyro, dt, bias, P, compiled=True)
+    nu = K.integrate_blocks(acc, gyro, dt, bias, P, compiled=False)
+    for f in ("R", "p", "v", "cov", "J"):
+        assert _rel(getattr(c, f), getattr(nu, f)) < 1e-12, f
+
+
+def test_compiled_switch_and_coverage() -> None:
+    aniso = _imu_inputs.read_params(_params(aniso=True))
+    assert not K.compiled_applies(aniso)  # anisotropic accelerometer noise: numpy only
+    x = np.zeros((5, 3))
+    with pytest.raises(ValueError, match="compiled=True"):
+        K.integrate(x, x, np.full(5, 0.01), np.zeros(6), aniso, compiled=True)
+    d = K.integrate(x, x, np.full(5, 0.01), np.zeros(6), aniso)  # falls back to numpy
+    assert d.n == 5
+
+
+def test_without_the_compiled_kernel_preintegrate_uses_numpy(monkeypatch) -> None:
+    """The extension is optional: with it missing, every result comes from numpy unchanged."""
+    from liebridge.factors import preintegrate
+
+    rng = np.random.default_rng(2)
+    acc, gyro, dt = rng.normal(size=(300, 3)), rng.normal(size=(300, 3)), np.full(300, 0.01)
+    params = _params()
+    with_c = preintegrate(acc, gyro, dt, bias=np.zeros(6), params=params)
+    monkeypatch.setattr(K, "_imu_ext", None)
+    assert not K.compiled_applies(_imu_inputs.read_params(params))
+    without = preintegrate(acc, gyro, dt, bias=np.zeros(6), params=params)
+    assert _rel(with_c.covariance, without.covariance) < 1e-12
+    assert _rel(with_c.bias_jacobian, without.bias_jacobian) < 1e-12
+    assert np.abs(with_c.delta_R - without.delta_R).max() < 1e-15
+
+
+def _imu_inputs_read(params: object) -> object:
+    return _imu_inputs.read_params(params)
+
+
+@requires_compiled
+def test_compiled_kernel_rejects_wrong_buffer_sizes() -> None:
+    from liebridge.factors import _imu_ext
+
+    n = 4
+    args = dict(
+        acc=np.zeros((n, 3)),
+        gyro=np.zeros((n, 3)),
+        dt=np.full(n, 0.01),
+        bias=np.zeros(6),
+        rotate=False,
+        bRs=np.eye(3),
+        coef=K._COEF,
+        K=9,
+        small2=0.25,
+        scratch=np.empty((n, K._C_N_SCRATCH)),
+        out=np.empty(K._C_N_OUT),
+    )
+    _imu_ext.block_sums(*args.values())
+    for name, bad in [
+        ("acc", np.zeros((n, 2))),
+        ("bias", np.zeros(5)),
+        ("bRs", np.eye(2)),
+        ("coef", K._COEF[:4]),
+        ("K", 10),
+        ("scratch", np.empty((n, 3))),
+        ("out", np.empty(5)),
+        ("dt", np.zeros(0)),
+    ]:
+        with pytest.raises(ValueError):
+            _imu_ext.block_sums(*{**args, name: bad}.values())
+    with pytest.raises(TypeError):  # a read-only output buffer
+        out = np.empty(K._C_N_OUT)
+        out.flags.writeable = False
+        _imu_ext.block_sums(*{**args, "out": out}.values())

@@ -83,12 +83,18 @@ SENSOR_ARM = gtsam.Pose3(gtsam.Rot3.Expmap([0.4, -0.3, 1.0]), np.array([0.3, 0.1
 # acceptance: 1000 KITTI samples, non-zero bias
 
 
-@pytest.fixture(scope="module")
-def kitti_1000():
+@pytest.fixture(scope="module", params=["compiled", "numpy"])
+def kitti_1000(request):
+    """Both kernels: the compiled one (the default where it is built) and numpy's."""
     n = 1000
     params = make_params()
     pim = gtsam_manifold(params, BIAS, ACC[:n], GYRO[:n], DT[:n])
-    ours = preintegrate(ACC[:n], GYRO[:n], DT[:n], bias=BIAS, params=params)
+    if request.param == "compiled" and not _imu_kernel.COMPILED:
+        pytest.skip("compiled kernel not built")
+    with pytest.MonkeyPatch.context() as mp:
+        if request.param == "numpy":
+            mp.setattr(_imu_kernel, "_imu_ext", None)
+        ours = preintegrate(ACC[:n], GYRO[:n], DT[:n], bias=BIAS, params=params)
     return params, pim, ours
 
 

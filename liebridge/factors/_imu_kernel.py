@@ -58,6 +58,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import threading
+import types
 from typing import Any
 
 import numpy as np
@@ -66,7 +67,17 @@ from .._validate import FloatArray
 from ..lie import _series
 from ._imu_inputs import Params
 
-__all__ = ["BLOCK", "Delta", "Workspace", "compose", "integrate", "integrate_blocks"]
+__all__ = [
+    "BLOCK",
+    "COMPILED",
+    "Delta",
+    "Workspace",
+    "compiled_applies",
+    "compose",
+    "integrate",
+    "integrate_blocks",
+    "thread_workspace",
+]
 
 #: Samples per vectorized block (see the module docstring for the measurement behind it).
 BLOCK = 8192
@@ -383,6 +394,7 @@ def integrate(
     P: Params,
     *,
     general: bool = False,
+    compiled: bool | None = None,
     ws: Workspace | None = None,
 ) -> Delta:
     """Preintegrate validated samples (N, 3), (N, 3), (N,) with bias estimate ``bias`` (6,).
@@ -390,10 +402,19 @@ def integrate(
     Two algebraically identical paths for the gyroscope noise. The general one builds the 9×3
     input block of every sample. The fast one (isotropic gyroscope covariance, no lever arm) uses
     ``J_r J_rᵀ = a I + b θθᵀ`` and ``ΔR θ = u`` to reduce it to outer-product sums.
-    ``general=True`` forces the general path (tests).
+    ``general=True`` forces the general path (tests). The fast path with isotropic accelerometer
+    and integration noise runs in the compiled kernel when it is built (:data:`COMPILED`);
+    ``compiled=False`` forces numpy, ``compiled=True`` requires the compiled kernel.
     """
     n = dt.shape[0]
     ws = ws if ws is not None else Workspace()
+    if compiled is not False and compiled_applies(P) and not general:
+        return _integrate_compiled(acc, gyro, dt, bias, P, ws)
+    if compiled:
+        raise ValueError(
+            "compiled=True: the compiled kernel is not built or does not cover these params "
+            "(it needs isotropic noise and no lever arm)"
+        )
     a = np.subtract(acc.T, bias[:3, None], out=ws.get("a", (3, n)))  # sensor frame
     w = np.subtract(gyro.T, bias[3:, None], out=ws.get("w", (3, n)))
     bRs = P.body_R_sensor
@@ -453,8 +474,7 @@ def integrate(
         np.multiply(R3[j], g[k], out=t3)
         Y[i] -= t3
     Y9 = Y.reshape(9, n)
-    S = (W @ Y9.T).reshape(7, 3, 3)  # Σ_k w_k Y_k, w ∈ {1, p̃, ṽ}
-    Jg = np.concatenate([-S[0], _sum_hat_times(S[1:4]), _sum_hat_times(S[4:7])])
+    Jg = _gyro_bias_jacobian((W @ Y9.T).reshape(7, 3, 3))  # from Σ_k w_k Y_k, w ∈ {1, p̃, ṽ}
 
     if general:
         G = ws.get("G", (9, 3, n))  # [Y; −[p̃]× Y; −[ṽ]× Y]
@@ -481,28 +501,61 @@ def integrate(
 
     # accelerometer input [0; α ΔR_k; dt ΔR_k] (times bRs): bias Jacobian and covariance
     Ja9 = np.stack([alpha, dt]) @ R9[:, :n].T  # (2, 9)
+    if P.acc_var is not None:
+        acc_blocks = _isotropic_acc_blocks(
+            P.acc_var, float(alpha @ (alpha / dt)), float(alpha.sum()), T
+        )
+    else:
+        acc_blocks = tuple(
+            _weighted_congruence(R9[:, :n], np.stack([alpha * alpha / dt, alpha, dt]), P.acc_cov)
+        )
+    # integration noise, added to the body-frame position at every step
+    if P.int_var is not None:
+        int_block = (P.int_var * T) * _I3
+    else:
+        int_block = _weighted_congruence(R9[:, 1:], dt[None], P.int_cov)[0]
+    return _finish(n, T, RN, delta_p, delta_v, Jg, Ja9, cov_i, acc_blocks, int_block, bRs)
+
+
+def _gyro_bias_jacobian(S: FloatArray) -> FloatArray:
+    """``−Σ_k [Y_k; −[p̃_k]× Y_k; −[ṽ_k]× Y_k]`` (9, 3) from ``S`` = the sums for w ∈ {1, p̃, ṽ}."""
+    return np.concatenate([-S[0], _sum_hat_times(S[1:4]), _sum_hat_times(S[4:7])])
+
+
+def _isotropic_acc_blocks(
+    var: float, sum_a2_dt: float, sum_alpha: float, T: float
+) -> tuple[FloatArray, ...]:
+    """(pos, pos), (pos, vel), (vel, vel) blocks of isotropic accelerometer noise, frame i."""
+    return (var * sum_a2_dt) * _I3, (var * sum_alpha) * _I3, (var * T) * _I3
+
+
+def _finish(
+    n: int,
+    T: float,
+    RN: FloatArray,
+    delta_p: FloatArray,
+    delta_v: FloatArray,
+    Jg: FloatArray,
+    Ja9: FloatArray,
+    cov_i: FloatArray,
+    acc_blocks: tuple[FloatArray, ...],
+    int_block: FloatArray,
+    bRs: FloatArray | None,
+) -> Delta:
+    """Add accelerometer and integration noise, move to the body chart, lay out the Jacobians.
+
+    ``cov_i`` is the gyroscope part of the covariance in frame-i coordinates (modified in place),
+    ``Jg`` (9, 3) the gyroscope bias Jacobian (sensor frame already applied) and ``Ja9`` the sums
+    ``Σ α ΔR``, ``Σ dt ΔR`` (2, 9) of the accelerometer input ``[0; α ΔR_k; dt ΔR_k]``.
+    """
     Ja = -np.concatenate([Ja9[0].reshape(3, 3), Ja9[1].reshape(3, 3)])
     if bRs is not None:
         Ja = Ja @ bRs
-    if P.acc_var is not None:
-        var = P.acc_var
-        cov_i[3:6, 3:6] += (var * float(alpha @ (alpha / dt))) * _I3
-        pv = (var * float(alpha.sum())) * _I3
-        cov_i[6:9, 6:9] += (var * T) * _I3
-    else:
-        pp, pv, vv = _weighted_congruence(
-            R9[:, :n], np.stack([alpha * alpha / dt, alpha, dt]), P.acc_cov
-        )
-        cov_i[3:6, 3:6] += pp
-        cov_i[6:9, 6:9] += vv
+    pp, pv, vv = acc_blocks
+    cov_i[3:6, 3:6] += pp + int_block
     cov_i[3:6, 6:9] += pv
     cov_i[6:9, 3:6] += pv.T
-    # integration noise, added to the body-frame position at every step
-    if P.int_var is not None:
-        cov_i[3:6, 3:6] += (P.int_var * T) * _I3
-    else:
-        cov_i[3:6, 3:6] += _weighted_congruence(R9[:, 1:], dt[None], P.int_cov)[0]
-
+    cov_i[6:9, 6:9] += vv
     Tb = _blockdiag3(RN)  # frame-i → body-chart coordinates: δ_body = Tbᵀ δ_i
     cov = Tb.T @ cov_i @ Tb
     cov = 0.5 * (cov + cov.T)
@@ -511,6 +564,67 @@ def integrate(
     J[3:9, 0:3] = Ja
     J[3:9, 3:6] = Jg[3:9]
     return Delta(delta_t=T, n=n, R=RN, p=delta_p, v=delta_v, cov=cov, J=J)
+
+
+# --------------------------------------------------------------------------------------------
+# the compiled kernel (optional; built from _imu_ext.c with the package)
+
+_imu_ext: types.ModuleType | None
+try:
+    from . import _imu_ext
+except ImportError:  # pragma: no cover - the build skips it where no C compiler is found
+    _imu_ext = None
+
+#: Whether the compiled kernel was built (``liebridge/factors/_imu_ext.c``). Without it the same
+#: numbers come from numpy, about 1.5× slower (``benchmarks/bench_imu.py`` measures both).
+COMPILED = _imu_ext is not None
+
+# layout of the compiled kernel's output (see _imu_ext.c)
+_C_N_OUT = 223
+_C_N_SCRATCH = 21
+
+
+def compiled_applies(P: Params) -> bool:
+    """Whether the compiled kernel is built and covers ``P``.
+
+    It covers isotropic noise densities and no lever arm; a rotated sensor is allowed.
+    """
+    return _imu_ext is not None and P.fast and P.acc_var is not None and P.int_var is not None
+
+
+def _integrate_compiled(
+    acc: FloatArray, gyro: FloatArray, dt: FloatArray, bias: FloatArray, P: Params, ws: Workspace
+) -> Delta:
+    """:func:`integrate`'s fast path with the per-sample sums from the compiled kernel."""
+    assert _imu_ext is not None and P.gyro_var is not None
+    assert P.acc_var is not None and P.int_var is not None
+    n = dt.shape[0]
+    out = np.empty(_C_N_OUT)
+    bRs = P.body_R_sensor
+    _imu_ext.block_sums(
+        np.ascontiguousarray(acc),
+        np.ascontiguousarray(gyro),
+        np.ascontiguousarray(dt),
+        np.ascontiguousarray(bias),
+        bRs is not None,
+        _I3 if bRs is None else np.ascontiguousarray(bRs),
+        _COEF,
+        _COEF.shape[1],
+        _series.SMALL_ANGLE**2,
+        ws.get("c_scratch", (n, _C_N_SCRATCH)),
+        out,
+    )
+    RN, delta_p, delta_v, T = out[0:9].reshape(3, 3), out[9:12], out[12:15], float(out[15])
+    Jg = _gyro_bias_jacobian(out[16:79].reshape(7, 3, 3))
+    if bRs is not None:
+        Jg = Jg @ bRs
+    cov_i = _gyro_cov_from_sums(
+        out[97:178].reshape(9, 9), out[178:214].reshape(6, 6), out[214:220], out[220], P.gyro_var
+    )
+    acc_blocks = _isotropic_acc_blocks(P.acc_var, out[221], out[222], T)
+    int_block = (P.int_var * T) * _I3
+    Ja9 = out[79:97].reshape(2, 9)
+    return _finish(n, T, RN, delta_p, delta_v, Jg, Ja9, cov_i, acc_blocks, int_block, bRs)
 
 
 def _gyro_covariance(
@@ -551,13 +665,24 @@ def _gyro_covariance(
         np.multiply(X[:, k], u[j], out=tmp)
         XU[:, i] -= tmp
     VW = np.multiply(V, wb, out=ws.get("VW", (9, n)))
-    cov = VW @ V.T  # Σ wb (·)(·)ᵀ over u, p̃ × u, ṽ × u
+    PW = np.multiply(pv, wa, out=ws.get("PW", (6, n)))
+    return _gyro_cov_from_sums(VW @ V.T, PW @ pv.T, PW.sum(axis=1), float(wa.sum()), var)
+
+
+def _gyro_cov_from_sums(
+    covV: FloatArray, M6: FloatArray, s: FloatArray, sum_wa: float, var: float
+) -> FloatArray:
+    """Return the gyroscope covariance (frame i) from its sums over samples.
+
+    ``covV = Σ wb V Vᵀ`` (9, 9) with ``V = [u; p̃ × u; ṽ × u]``, ``M6 = Σ wa x xᵀ`` (6, 6) and
+    ``s = Σ wa x`` (6) with ``x = [p̃; ṽ]``, ``sum_wa = Σ wa`` (see :func:`_gyro_covariance`). The
+    result is a new array.
+    """
+    cov = covV.copy()
     cov[3:9, 0:3] *= -1.0
     cov[0:3, 3:9] *= -1.0
-    PW = np.multiply(pv, wa, out=ws.get("PW", (6, n)))
-    M = (PW @ pv.T).reshape(2, 3, 2, 3)  # [r, i, c, j] = Σ wa x_r[i] x_c[j], x ∈ {p̃, ṽ}
-    cov[0:3, 0:3] += float(wa.sum()) * _I3
-    s = PW.sum(axis=1)
+    M = M6.reshape(2, 3, 2, 3)  # [r, i, c, j] = Σ wa x_r[i] x_c[j], x ∈ {p̃, ṽ}
+    cov[0:3, 0:3] += sum_wa * _I3
     hats = np.concatenate([-hat(s[0:3]), -hat(s[3:6])])  # Σ −wa [x]×
     cov[3:9, 0:3] += hats
     cov[0:3, 3:9] += hats.T

@@ -1,0 +1,238 @@
+/*
+ * Optional compiled kernel of liebridge's IMU preintegration: the per-sample sums of one block.
+ *
+ * It computes exactly what the numpy kernel (liebridge/factors/_imu_kernel.py, fast path:
+ * isotropic noise, no lever arm) computes per block, in two passes over the samples instead of
+ * about a hundred numpy passes. The formulas, frames and conventions are those of that module's
+ * docstring; tests/test_imu_kernel.py checks this kernel against the numpy one on every output.
+ *
+ * Forward pass, k = 0 .. n-1 (frame i = body frame at the first sample):
+ *   a_k = bRs (acc_k - b_a), w_k = bRs (gyro_k - b_g), th_k = w_k dt_k,
+ *   R_k = ΔR_k (prefix product of Exp(th_j), j < k, as a unit quaternion, normalised when read),
+ *   ra_k = R_k a_k, u_k = R_k th_k, alpha_k = (tau_k + dt_k/2) dt_k with tau_k = sum_{j>k} dt_j,
+ *   E_k = (ra_k alpha_k, ra_k dt_k), Y_k = R_k J_l(th_k) dt_k = c0 dt R + [B dt u]x R + C dt u th^T,
+ *   wa_k = dt (c0^2 + B^2 th^2), wb_k = dt (C (2 c0 + C th^2) - B^2).
+ * Backward pass, k = n-1 .. 0, with the exclusive suffix sums pt_k = sum_{i>k} E_i (p~, v~):
+ *   S = sum W_k (x) Y_k with W_k = (1, p~_k, v~_k), covV = sum wb V V^T with V = (u, p~ x u, v~ x u),
+ *   M = sum wa pv pv^T and s = sum wa pv with pv = (p~, v~).
+ *
+ * The Python function takes buffers (any object with the buffer protocol: C-contiguous float64
+ * numpy arrays) and writes into `out` and `scratch`; it allocates nothing and holds the GIL only
+ * while parsing its arguments.
+ */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include <math.h>
+
+/* layout of `out` (doubles); mirrored in _imu_kernel.py (_C_OUT) */
+#define O_R 0      /* 9: ΔR_N, row-major */
+#define O_P 9      /* 3: Δp_N */
+#define O_V 12     /* 3: Δv_N */
+#define O_T 15     /* 1: T */
+#define O_S 16     /* 63: S[m][i][j], m over (1, p~0, p~1, p~2, v~0, v~1, v~2) */
+#define O_JA 79    /* 18: sum alpha R (9), sum dt R (9) */
+#define O_COVV 97  /* 81: sum wb V V^T */
+#define O_M 178    /* 36: sum wa pv pv^T */
+#define O_SPV 214  /* 6: sum wa pv */
+#define O_SWA 220  /* 1: sum wa */
+#define O_SA2 221  /* 1: sum alpha^2 / dt */
+#define O_SA 222   /* 1: sum alpha */
+#define N_OUT 223
+#define N_SCRATCH 21 /* per sample: tau, E(6), Y(9), u(3), wa, wb */
+#define N_TERMS 9
+
+static void quat_to_R(const double q[4], double R[9]) {
+    double w = q[0], x = q[1], y = q[2], z = q[3];
+    double s = 2.0 / (w * w + x * x + y * y + z * z);
+    double sx = s * x, sy = s * y, sz = s * z;
+    double xx = sx * x, yy = sy * y, zz = sz * z;
+    double xy = sx * y, xz = sx * z, yz = sy * z;
+    double wx = sx * w, wy = sy * w, wz = sz * w;
+    R[0] = 1.0 - (yy + zz); R[1] = xy - wz;         R[2] = xz + wy;
+    R[3] = xy + wz;         R[4] = 1.0 - (xx + zz); R[5] = yz - wx;
+    R[6] = xz - wy;         R[7] = yz + wx;         R[8] = 1.0 - (xx + yy);
+}
+
+/* c0 = sin t/t, B = (1 - cos t)/t^2, C = (t - sin t)/t^3, cos(t/2), sin(t/2)/(t/2) */
+static void coefficients(double t2, const double *coef, int K, double small2, double c[5]) {
+    if (t2 < small2) {
+        for (int r = 0; r < 5; r++) {
+            const double *cr = coef + r * N_TERMS;
+            double acc = cr[K - 1];
+            for (int k = K - 2; k >= 0; k--) acc = acc * t2 + cr[k];
+            c[r] = acc;
+        }
+    } else {
+        double t = sqrt(t2), h = 0.5 * t;
+        double st = sin(t), sh = sin(h);
+        c[0] = st / t;
+        c[1] = 2.0 * (sh / t) * (sh / t);
+        c[2] = (t - st) / (t2 * t);
+        c[3] = cos(h);
+        c[4] = sh / h;
+    }
+}
+
+static PyObject *block_sums(PyObject *self, PyObject *args) {
+    Py_buffer acc_b, gyro_b, dt_b, bias_b, bRs_b, coef_b, scratch_b, out_b;
+    int K, rotate;
+    double small2;
+    if (!PyArg_ParseTuple(args, "y*y*y*y*py*y*idw*w*", &acc_b, &gyro_b, &dt_b, &bias_b, &rotate,
+                          &bRs_b, &coef_b, &K, &small2, &scratch_b, &out_b))
+        return NULL;
+    Py_ssize_t n = dt_b.len / (Py_ssize_t)sizeof(double);
+    const char *bad = NULL;
+    if (n < 1) bad = "dt: no samples";
+    else if (acc_b.len != 3 * dt_b.len || gyro_b.len != 3 * dt_b.len) bad = "acc/gyro: not (n, 3)";
+    else if (bias_b.len != 6 * (Py_ssize_t)sizeof(double)) bad = "bias: not 6 doubles";
+    else if (bRs_b.len != 9 * (Py_ssize_t)sizeof(double)) bad = "bRs: not 9 doubles";
+    else if (coef_b.len != 5 * N_TERMS * (Py_ssize_t)sizeof(double)) bad = "coef: not 5x9";
+    else if (K < 1 || K > N_TERMS) bad = "K: not in 1..9";
+    else if (scratch_b.len < N_SCRATCH * dt_b.len) bad = "scratch: too small";
+    else if (out_b.len != N_OUT * (Py_ssize_t)sizeof(double)) bad = "out: wrong size";
+    if (bad == NULL) {
+        const double *acc = acc_b.buf, *gyro = gyro_b.buf, *dt = dt_b.buf, *bias = bias_b.buf;
+        const double *bRs = bRs_b.buf, *coef = coef_b.buf;
+        double *scr = scratch_b.buf, *out = out_b.buf;
+        Py_BEGIN_ALLOW_THREADS
+        for (int i = 0; i < N_OUT; i++) out[i] = 0.0;
+        /* tau_k = sum_{j>k} dt_j */
+        double T = 0.0;
+        for (Py_ssize_t k = n - 1; k >= 0; k--) {
+            scr[k * N_SCRATCH] = T;
+            T += dt[k];
+        }
+        out[O_T] = T;
+        double q[4] = {1.0, 0.0, 0.0, 0.0};
+        double R[9];
+        for (Py_ssize_t k = 0; k < n; k++) {
+            double *s = scr + k * N_SCRATCH;
+            double d = dt[k];
+            double a[3], w[3], th[3];
+            for (int i = 0; i < 3; i++) {
+                a[i] = acc[3 * k + i] - bias[i];
+                w[i] = gyro[3 * k + i] - bias[3 + i];
+            }
+            if (rotate) {
+                double a2[3], w2[3];
+                for (int i = 0; i < 3; i++) {
+                    a2[i] = bRs[3 * i] * a[0] + bRs[3 * i + 1] * a[1] + bRs[3 * i + 2] * a[2];
+                    w2[i] = bRs[3 * i] * w[0] + bRs[3 * i + 1] * w[1] + bRs[3 * i + 2] * w[2];
+                }
+                for (int i = 0; i < 3; i++) { a[i] = a2[i]; w[i] = w2[i]; }
+            }
+            for (int i = 0; i < 3; i++) th[i] = w[i] * d;
+            double t2 = th[0] * th[0] + th[1] * th[1] + th[2] * th[2];
+            double c[5];
+            coefficients(t2, coef, K, small2, c);
+            quat_to_R(q, R);
+            double ra[3], u[3];
+            for (int i = 0; i < 3; i++) {
+                ra[i] = R[3 * i] * a[0] + R[3 * i + 1] * a[1] + R[3 * i + 2] * a[2];
+                u[i] = R[3 * i] * th[0] + R[3 * i + 1] * th[1] + R[3 * i + 2] * th[2];
+            }
+            double alpha = (s[0] + 0.5 * d) * d;
+            for (int i = 0; i < 3; i++) {
+                s[1 + i] = ra[i] * alpha;
+                s[4 + i] = ra[i] * d;
+                out[O_P + i] += s[1 + i];
+                out[O_V + i] += s[4 + i];
+            }
+            for (int i = 0; i < 9; i++) {
+                out[O_JA + i] += alpha * R[i];
+                out[O_JA + 9 + i] += d * R[i];
+            }
+            out[O_SA2] += alpha * alpha / d;
+            out[O_SA] += alpha;
+            /* Y = c0 dt R + [g]x R + Cu th^T, g = B dt u, Cu = C dt u */
+            double c0dt = c[0] * d, g[3], Cu[3];
+            for (int i = 0; i < 3; i++) { g[i] = c[1] * d * u[i]; Cu[i] = c[2] * d * u[i]; }
+            double *Y = s + 7;
+            for (int i = 0; i < 3; i++) {
+                int j1 = (i + 1) % 3, j2 = (i + 2) % 3;
+                for (int j = 0; j < 3; j++)
+                    Y[3 * i + j] = c0dt * R[3 * i + j] + g[j1] * R[3 * j2 + j] - g[j2] * R[3 * j1 + j]
+                                   + Cu[i] * th[j];
+            }
+            for (int i = 0; i < 3; i++) s[16 + i] = u[i];
+            double B2 = c[1] * c[1];
+            double wa = d * (c[0] * c[0] + B2 * t2);
+            s[19] = wa;
+            s[20] = d * (c[2] * (2.0 * c[0] + c[2] * t2) - B2);
+            out[O_SWA] += wa;
+            /* q <- q * Exp(th): increment (cos(t/2), sin(t/2) th/t) */
+            double hs = 0.5 * c[4];
+            double w2 = c[3], x2 = hs * th[0], y2 = hs * th[1], z2 = hs * th[2];
+            double w1 = q[0], x1 = q[1], y1 = q[2], z1 = q[3];
+            q[0] = w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2;
+            q[1] = w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2;
+            q[2] = w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2;
+            q[3] = w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2;
+        }
+        quat_to_R(q, out + O_R);
+        /* backward pass: suffix sums p~ (pv[0..2]) and v~ (pv[3..5]) */
+        double pv[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+        double *S = out + O_S, *cv = out + O_COVV, *M = out + O_M, *spv = out + O_SPV;
+        for (Py_ssize_t k = n - 1; k >= 0; k--) {
+            const double *s = scr + k * N_SCRATCH;
+            const double *Y = s + 7, *u = s + 16;
+            double wa = s[19], wb = s[20];
+            for (int j = 0; j < 9; j++) S[j] += Y[j];
+            for (int m = 0; m < 6; m++) {
+                double x = pv[m];
+                double *Sm = S + 9 * (m + 1);
+                for (int j = 0; j < 9; j++) Sm[j] += x * Y[j];
+            }
+            double V[9];
+            V[0] = u[0]; V[1] = u[1]; V[2] = u[2];
+            for (int r = 0; r < 2; r++) {
+                const double *x = pv + 3 * r;
+                V[3 + 3 * r] = x[1] * u[2] - x[2] * u[1];
+                V[4 + 3 * r] = x[2] * u[0] - x[0] * u[2];
+                V[5 + 3 * r] = x[0] * u[1] - x[1] * u[0];
+            }
+            for (int i = 0; i < 9; i++) {
+                double wv = wb * V[i];
+                for (int j = i; j < 9; j++) cv[9 * i + j] += wv * V[j];
+            }
+            for (int i = 0; i < 6; i++) {
+                double wx = wa * pv[i];
+                spv[i] += wx;
+                for (int j = i; j < 6; j++) M[6 * i + j] += wx * pv[j];
+            }
+            for (int i = 0; i < 6; i++) pv[i] += s[1 + i];
+        }
+        for (int i = 0; i < 9; i++)
+            for (int j = 0; j < i; j++) cv[9 * i + j] = cv[9 * j + i];
+        for (int i = 0; i < 6; i++)
+            for (int j = 0; j < i; j++) M[6 * i + j] = M[6 * j + i];
+        Py_END_ALLOW_THREADS
+    }
+    PyBuffer_Release(&acc_b);
+    PyBuffer_Release(&gyro_b);
+    PyBuffer_Release(&dt_b);
+    PyBuffer_Release(&bias_b);
+    PyBuffer_Release(&bRs_b);
+    PyBuffer_Release(&coef_b);
+    PyBuffer_Release(&scratch_b);
+    PyBuffer_Release(&out_b);
+    if (bad != NULL) {
+        PyErr_SetString(PyExc_ValueError, bad);
+        return NULL;
+    }
+    Py_RETURN_NONE;
+}
+
+static PyMethodDef methods[] = {
+    {"block_sums", block_sums, METH_VARARGS,
+     "block_sums(acc, gyro, dt, bias, rotate, bRs, coef, K, small2, scratch, out) -> None\n\n"
+     "Per-sample sums of one block of IMU samples (see liebridge/factors/_imu_kernel.py)."},
+    {NULL, NULL, 0, NULL},
+};
+
+static struct PyModuleDef module = {
+    PyModuleDef_HEAD_INIT, "_imu_ext",
+    "Optional compiled per-sample sums of IMU preintegration (see _imu_kernel.py).", -1, methods,
+};
+
+PyMODINIT_FUNC PyInit__imu_ext(void) { return PyModule_Create(&module); }

@@ -1,0 +1,19 @@
+"""Type stub of the optional compiled IMU kernel (``_imu_ext.c``)."""
+
+from typing import Any
+
+def block_sums(
+    acc: Any,
+    gyro: Any,
+    dt: Any,
+    bias: Any,
+    rotate: bool,
+    bRs: Any,
+    coef: Any,
+    K: int,
+    small2: float,
+    scratch: Any,
+    out: Any,
+    /,
+) -> None:
+    """Write the per-sample sums of one block into ``out`` (C-contiguous float64 buffers)."""
