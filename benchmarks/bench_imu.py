@@ -1,16 +1,21 @@
 """Vectorized IMU preintegration against GTSAM's ``integrateMeasurement`` in a Python loop.
 
-Run: ``python benchmarks/bench_imu.py [OUT.json] [--samples N] [--repeat R]`` (prints a table and
-writes JSON, default ``benchmarks/results/imu.json``; not a test). Data: the first N samples
-(default 40,000) of GTSAM's ``KittiEquivBiasedImu.txt`` with a non-zero bias estimate. Rows, all
-timed in the same run, best of R repetitions of wall-clock time:
+Run: ``python benchmarks/bench_imu.py [OUT.json] [--samples N] [--repeat R] [--quick]`` (prints a
+table and writes JSON, default ``benchmarks/results/imu.json``; not a test). Data: the first N
+samples (default 40,000) of GTSAM's ``KittiEquivBiasedImu.txt`` with a non-zero bias estimate.
+Rows, all timed in the same run, best of R repetitions of wall-clock time:
 
 * gtsam manifold loop  — ``PreintegratedImuMeasurementsManifold.integrateMeasurement`` per sample
   (the on-manifold preintegration liebridge reproduces; the reference of the ratio)
 * gtsam tangent loop   — the same with the default ``PreintegratedImuMeasurements``
-* liebridge preintegrate — ``liebridge.factors.preintegrate`` (validation included)
+* liebridge preintegrate — ``liebridge.factors.preintegrate`` (validation included), with the
+  compiled kernel where it is built (the JSON's ``compiled`` says whether it was)
+* liebridge numpy kernel — the same validation and numbers with the numpy kernel forced (what
+  ``preintegrate`` does where no C compiler built the optional kernel)
 * liebridge incremental  — ``ImuPreintegrator.integrate`` per sample, then ``result()``
 * window sizes          — the same comparison on 100- and 1,000-sample windows (keyframe sizes)
+
+``--quick`` (2,000 samples, 2 repeats) is the smoke run ``benchmarks/run.py --quick`` makes.
 
 The speedup column is the median, over the interleaved runs, of (GTSAM loop time / method time)
 within the same run: on a shared machine the load drifts, and pairing runs cancels most of it.
@@ -33,7 +38,7 @@ from pathlib import Path
 import gtsam
 import numpy as np
 
-from liebridge.factors import ImuPreintegrator, preintegrate
+from liebridge.factors import ImuPreintegrator, _imu_inputs, _imu_kernel, preintegrate
 
 
 def best_of(fn: Callable[[], object], repeat: int) -> float:
@@ -102,10 +107,16 @@ def bench(n: int, repeat: int, acc, gyro, dt, p, bias) -> dict[str, list[float]]
             inc.integrate(acc[k], gyro[k], dt[k])
         return inc.result()
 
+    def numpy_kernel() -> object:
+        a, g, d = _imu_inputs.read_samples(acc, gyro, dt)
+        b = _imu_inputs.read_bias(bias)
+        return _imu_kernel.integrate_blocks(a, g, d, b, _imu_inputs.read_params(p), compiled=False)
+
     rows = {
         "gtsam manifold loop": gtsam_loop(gtsam.PreintegratedImuMeasurementsManifold),
         "gtsam tangent loop": gtsam_loop(gtsam.PreintegratedImuMeasurements),
         "liebridge preintegrate": lambda: preintegrate(acc, gyro, dt, bias=bias, params=p),
+        "liebridge numpy kernel": numpy_kernel,
         "liebridge incremental": incremental,
     }
     # interleave the rows so that machine load hits all of them alike; keep every run so that the
@@ -122,7 +133,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("out", nargs="?", default="benchmarks/results/imu.json")
     ap.add_argument("--samples", type=int, default=40_000)
     ap.add_argument("--repeat", type=int, default=7)
+    ap.add_argument("--quick", action="store_true", help="2,000 samples, 2 repeats (smoke run)")
     args = ap.parse_args(argv)
+    if args.quick:
+        args.samples, args.repeat = 2_000, 2
 
     acc, gyro, dt = load(args.samples)
     p = params()
@@ -132,7 +146,8 @@ def main(argv: list[str] | None = None) -> int:
     sizes = sorted({100, 1_000, args.samples})
     results = []
     cpu = platform.processor() or platform.machine()
-    print(f"numpy {np.__version__}, {cpu}, {os.cpu_count()} CPUs")
+    compiled = _imu_kernel.compiled_applies(_imu_inputs.read_params(p))
+    print(f"numpy {np.__version__}, {cpu}, {os.cpu_count()} CPUs; compiled kernel: {compiled}")
     header = f"{'N':>7} {'method':<24} {'best [ms]':>11} {'per sample [µs]':>16}"
     print(f"{header} {'vs manifold loop':>17}")
     ref_name = "gtsam manifold loop"
@@ -156,9 +171,12 @@ def main(argv: list[str] | None = None) -> int:
     final = {r["method"]: r for r in results if r["samples"] == args.samples}
     ratio = final["liebridge preintegrate"]["speedup_median_of_paired_runs"]
     ratio_best = final["liebridge preintegrate"]["speedup_of_best_times"]
+    ratio_numpy = final["liebridge numpy kernel"]["speedup_median_of_paired_runs"]
+    kernel = "compiled kernel" if compiled else "numpy kernel: no compiled kernel built"
     print(
-        f"\n{args.samples} samples: liebridge preintegrate is {ratio:.1f}x faster than the GTSAM "
-        f"manifold loop (median of paired runs; {ratio_best:.1f}x from best times; target 10x)"
+        f"\n{args.samples} samples: liebridge preintegrate ({kernel}) is {ratio:.1f}x faster than "
+        f"the GTSAM manifold loop (median of paired runs; {ratio_best:.1f}x from best times; "
+        f"target 10x); numpy kernel {ratio_numpy:.1f}x"
     )
     agree = ", ".join(f"{k} {v:.1e}" for k, v in check.items())
     print(f"agreement with GTSAM on the same samples: {agree}")
@@ -168,8 +186,10 @@ def main(argv: list[str] | None = None) -> int:
         "repeat": args.repeat,
         "timing": "wall clock; `repeat` interleaved runs of every method; the speedup is the "
         "median over runs of (GTSAM loop time / liebridge time) of the same run",
+        "compiled": compiled,
         "speedup_vs_gtsam_manifold_loop": ratio,
         "speedup_vs_gtsam_manifold_loop_best_times": ratio_best,
+        "numpy_kernel_speedup_vs_gtsam_manifold_loop": ratio_numpy,
         "target_speedup": 10.0,
         "agreement_with_gtsam": check,
         "results": results,

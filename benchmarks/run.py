@@ -542,6 +542,14 @@ def print_report(res: dict[str, Any]) -> None:
     print("\nexternal benchmarks:")
     for key, e in res["external"].items():
         print(f"  {key}: {e['status']}" + (f" ({e.get('reason', '')})" if "reason" in e else ""))
+    imu = res["external"].get("imu", {}).get("result")
+    if imu:
+        print(
+            f"  imu: {imu['samples']:,} samples, preintegrate "
+            f"{imu['speedup_vs_gtsam_manifold_loop']:.1f}x GTSAM's manifold loop "
+            f"(compiled kernel: {imu.get('compiled')}; numpy kernel "
+            f"{imu.get('numpy_kernel_speedup_vs_gtsam_manifold_loop', float('nan')):.1f}x)"
+        )
 
 
 def main(argv: list[str] | None = None) -> int:
