@@ -24,9 +24,7 @@ No Python loop runs per sample. Each step, and where its formula comes from:
   ``Δp_{k+1} = Δp_k + Δv_k dt_k + ½ ΔR_k a_k dt_k²``. Summed by parts, what the covariance and
   Jacobians need are *suffix* sums: ``ṽ_k = Σ_{i>k} ΔR_i a_i dt_i`` and
   ``p̃_k = Σ_{i>k} ΔR_i a_i α_i`` with ``α_i = (τ_i + ½dt_i) dt_i``, and ``τ_k = Σ_{i>k} dt_i``.
-  Their totals are ``Δv_N``, ``Δp_N`` and ``T``. They are computed as 16-sample partial sums (one
-  matrix product with a triangular matrix of ones) plus the carried totals, because
-  ``numpy.cumsum`` runs serially at about 4 ns per element.
+  Their totals are ``Δv_N``, ``Δp_N`` and ``T`` (reversed ``numpy.cumsum``).
 * **Covariance and bias Jacobians.** The recursion
   ``Σ_{k+1} = A_k Σ_k A_kᵀ + B_k Q_a B_kᵀ/dt + C_k Q_g C_kᵀ/dt + G Q_i Gᵀ dt``
   (``NavState::update`` and ``PreintegratedImuMeasurementsT::integrateMeasurement``) is linear.
@@ -52,11 +50,13 @@ VM, fresh arrays page-faulted on every call at about 3 µs per 4 KiB page. With 
 kept, 8k-sample blocks ran 1.6× faster than 4k blocks with a fresh workspace per call (median of
 25 calls on 40k samples: 11.1 ms against 18.3 ms).
 
-**Compiled kernel.** In numpy the per-sample work is about 230 array passes, bound by memory
-bandwidth (about 1.2 ns per element and pass on that VM). That floor is near 10× GTSAM's loop,
-so the fast path's per-sample sums (everything up to ``S``, the ``Σ α ΔR`` sums and the gyroscope
-covariance sums) also exist as one C loop in two passes, ``_imu_ext.c``. It is optional: it is
-built with the package where a C compiler is found, and :data:`COMPILED` says whether it was.
+**Compiled kernel.** In numpy the fast path costs 0.31 µs per sample (40k KITTI samples,
+``benchmarks/bench_imu.py``). It is bound by memory bandwidth: each of its array passes costs
+about 1.2 ns per element on that VM, against 0.3–0.7 ns for the same operation on arrays that stay
+in cache. That is 9.7× GTSAM's loop, so the fast path's per-sample sums (everything up to ``S``,
+the ``Σ α ΔR`` sums and the gyroscope covariance sums) also exist as one C loop in two passes,
+``_imu_ext.c``. It is optional: it is built with the package where a C compiler is found, and
+:data:`COMPILED` says whether it was.
 The assembly after the sums (:func:`_gyro_cov_from_sums`, :func:`_finish`) is shared, and the
 tests compare the two kernels output by output.
 """
@@ -313,41 +313,21 @@ def _quat_to_R9(q4: FloatArray, ws: Workspace) -> tuple[FloatArray, FloatArray]:
 # --------------------------------------------------------------------------------------------
 # suffix sums
 
-_SUM_BLOCK = 16
-#: [j, i] = 1 for j > i: ``x @ _LATER`` sums, for each i, the later samples of a 16-sample block
-_LATER = np.tril(np.ones((_SUM_BLOCK, _SUM_BLOCK)), -1)
-
 
 def _suffix_sum(x: FloatArray, out: FloatArray | None = None) -> tuple[FloatArray, FloatArray]:
     """Exclusive suffix sums ``s_k = Σ_{j>k} x_j`` along the last axis of ``x`` (r, n), and totals.
 
-    16-sample partial sums by one matrix product with a triangular matrix of ones, then the
-    carried block totals (a short ``cumsum``). This is about 2.8× faster than ``np.cumsum``
-    (measured, n = 4096), which runs serially at about 4 ns per element. Returns
-    ``(s, Σ_j x_j)``, shapes (r, n) and (r,).
+    Returns ``(s, Σ_j x_j)``, shapes (r, n) and (r,); ``s`` is written into ``out`` if given.
+    (A blocked version through a triangular matrix product was at most 1.3× faster, measured at
+    n = 8192, and slower at 4096: not worth its code.)
     """
     r, n = x.shape
-    b = _SUM_BLOCK
     out = np.empty((r, n)) if out is None else out
-    mb = n // b
-    h = mb * b
-    carry = np.zeros(r)  # total of everything after the part being summed
-    if h < n:  # the tail that is not a whole block: reversed cumsum
-        tail = x[:, h:]
-        inc = np.cumsum(tail[:, ::-1], axis=1)[:, ::-1]  # inclusive suffix sums
-        out[:, h:-1] = inc[:, 1:]
-        out[:, -1] = 0.0
-        carry = inc[:, 0].copy()
-    if mb:
-        head = out[:, :h].reshape(r, mb, b)  # a view: splitting the last axis
-        np.matmul(x[:, :h].reshape(r, mb, b), _LATER, out=head)
-        totals = head[:, :, 0] + x[:, 0:h:b]  # (r, mb) block sums
-        later = np.cumsum(totals[:, ::-1], axis=1)[:, ::-1]  # block sums from each block on
-        head[:, :-1, :] += later[:, 1:, None]
-        if h < n:
-            head += carry[:, None, None]
-        carry = carry + later[:, 0]
-    return out, carry
+    inc = np.cumsum(x[:, ::-1], axis=1)  # inc[:, m] = Σ_{j ≥ n−1−m} x_j
+    if n > 1:
+        out[:, : n - 1] = inc[:, n - 2 :: -1]
+    out[:, n - 1] = 0.0
+    return out, inc[:, -1].copy()
 
 
 # --------------------------------------------------------------------------------------------
@@ -584,7 +564,7 @@ except ImportError:  # pragma: no cover - the build skips it where no C compiler
     _imu_ext = None
 
 #: Whether the compiled kernel was built (``liebridge/factors/_imu_ext.c``). Without it the same
-#: numbers come from numpy, about 1.5× slower (``benchmarks/bench_imu.py`` measures both).
+#: numbers come from numpy, about 2× slower (``benchmarks/bench_imu.py`` measures both).
 COMPILED = _imu_ext is not None
 
 # layout of the compiled kernel's output (see _imu_ext.c)
