@@ -74,6 +74,7 @@ static void coefficients(double t2, const double *coef, int K, double small2, do
 }
 
 static PyObject *block_sums(PyObject *self, PyObject *args) {
+    (void)self;
     Py_buffer acc_b, gyro_b, dt_b, bias_b, bRs_b, coef_b, scratch_b, out_b;
     int K, rotate;
     double small2;
@@ -233,6 +234,7 @@ static PyMethodDef methods[] = {
 static struct PyModuleDef module = {
     PyModuleDef_HEAD_INIT, "_imu_ext",
     "Optional compiled per-sample sums of IMU preintegration (see _imu_kernel.py).", -1, methods,
+    NULL, NULL, NULL, NULL,
 };
 
 PyMODINIT_FUNC PyInit__imu_ext(void) { return PyModule_Create(&module); }
