@@ -318,8 +318,8 @@ def _suffix_sum(x: FloatArray, out: FloatArray | None = None) -> tuple[FloatArra
     """Exclusive suffix sums ``s_k = Σ_{j>k} x_j`` along the last axis of ``x`` (r, n), and totals.
 
     Returns ``(s, Σ_j x_j)``, shapes (r, n) and (r,); ``s`` is written into ``out`` if given.
-    (A blocked version through a triangular matrix product was at most 1.3× faster, measured at
-    n = 8192, and slower at 4096: not worth its code.)
+    (A blocked version through a triangular matrix product made the whole numpy kernel 4% faster,
+    median 12.28 against 12.79 ms on 40k samples, within its run-to-run spread: not worth its code.)
     """
     r, n = x.shape
     out = np.empty((r, n)) if out is None else out
