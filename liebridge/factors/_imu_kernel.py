@@ -36,8 +36,9 @@ No Python loop runs per sample. Each step, and where its formula comes from:
   and the bias Jacobians are ``−Σ_k Φ_k G_k``.
   - The gyroscope input block is ``Y_k = ΔR_{k+1} J_r(θ_k) dt_k``. It equals
     ``ΔR_k J_l(θ_k) dt_k = c₀ dt ΔR_k + B dt [u_k]× ΔR_k + C dt u_k θ_kᵀ`` with ``u_k = ΔR_k θ_k``.
-    ``J_l = Exp·J_r`` and ``R[θ]× = [Rθ]× R``; both are checked by finite differences in the
-    tests.
+    It uses ``J_l = Exp·J_r`` and ``R[θ]× = [Rθ]× R``. ``tests/test_imu_kernel.py`` checks the
+    construction against ``ΔR_{k+1} so3.jr(θ_k) dt_k``, and ``so3.jr``/``so3.jl`` are
+    finite-difference tested in ``tests/test_lie_so3.py``.
   - The sums ``Σ_k w_k Y_k`` for the seven weights ``w ∈ {1, p̃, ṽ}`` are then one matrix
     product.
   - With isotropic gyroscope noise, ``J_r J_rᵀ = a I + b θθᵀ`` reduces the gyroscope covariance

@@ -316,9 +316,11 @@ class ImuPreintegrator:
 
     Samples given to :meth:`integrate` are validated immediately and buffered; they are
     integrated in one vectorized pass when a result is requested, and passes are concatenated
-    exactly (``ΔR = ΔR₁ΔR₂``, covariance and bias Jacobians by the chain rule). Feeding one sample
-    at a time (a few µs each: a tuple is appended) and asking for :meth:`result` at keyframes
-    therefore costs about as much as one :func:`preintegrate` call on the whole window.
+    exactly (``ΔR = ΔR₁ΔR₂``, covariance and bias Jacobians by the chain rule). One sample per
+    call costs about 1.7 µs: the sample is checked and appended to a flat buffer (measured against
+    2.2 µs for GTSAM's ``integrateMeasurement`` on the same machine). :meth:`result` then costs one
+    :func:`preintegrate` call on the samples buffered since the last result. Blocks of samples per
+    call avoid the per-call cost.
 
     Parameters
     ----------
