@@ -236,6 +236,11 @@ def test_compiled_equals_numpy_across_block_boundaries(n: int) -> None:
 
 
 def test_compiled_switch_and_coverage() -> None:
+    from liebridge.factors import imu_kernel
+
+    assert imu_kernel(_params()) == ("compiled" if K.COMPILED else "numpy")
+    assert imu_kernel(_params(body_rot=True)) == ("compiled" if K.COMPILED else "numpy")
+    assert imu_kernel(_params(aniso=True)) == "numpy"
     aniso = _imu_inputs.read_params(_params(aniso=True))
     assert not K.compiled_applies(aniso)  # anisotropic accelerometer noise: numpy only
     x = np.zeros((5, 3))

@@ -14,7 +14,13 @@ from .optimize import OptimizeResult, optimize
 from .pose_factors import between, prior
 
 # on-manifold IMU preintegration (Forster et al.), vectorized over samples
-from .preintegration import ImuDelta, ImuPreintegrator, PreintegratedImu, preintegrate
+from .preintegration import (
+    ImuDelta,
+    ImuPreintegrator,
+    PreintegratedImu,
+    imu_kernel,
+    preintegrate,
+)
 
 __all__ = [
     "ImuDelta",
@@ -23,6 +29,7 @@ __all__ = [
     "PreintegratedImu",
     "between",
     "imu",
+    "imu_kernel",
     "imu_residual",
     "optimize",
     "preintegrate",

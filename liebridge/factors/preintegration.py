@@ -64,7 +64,7 @@ from __future__ import annotations
 import array
 import dataclasses
 import math
-from typing import Any, NamedTuple
+from typing import Any, Literal, NamedTuple
 
 import gtsam
 import numpy as np
@@ -73,9 +73,9 @@ from .. import _validate as v
 from .._validate import FloatArray
 from ..lie import so3
 from ._imu_inputs import read_bias, read_params, read_samples
-from ._imu_kernel import Delta, compose, integrate_blocks
+from ._imu_kernel import Delta, compiled_applies, compose, integrate_blocks
 
-__all__ = ["ImuDelta", "ImuPreintegrator", "PreintegratedImu", "preintegrate"]
+__all__ = ["ImuDelta", "ImuPreintegrator", "PreintegratedImu", "imu_kernel", "preintegrate"]
 
 
 # --------------------------------------------------------------------------------------------
@@ -309,6 +309,17 @@ def preintegrate(acc: Any, gyro: Any, dt: Any, *, bias: Any, params: Any) -> Pre
     if b.shape != (6,):
         raise ValueError(f"bias: expected one bias (6,), got shape {b.shape}")
     return PreintegratedImu._from_delta(integrate_blocks(acc_, gyro_, dt_, b, P), b, P.gravity)
+
+
+def imu_kernel(params: Any) -> Literal["compiled", "numpy"]:
+    """Return which kernel :func:`preintegrate` uses with ``params``: ``"compiled"`` or ``"numpy"``.
+
+    The compiled kernel (``liebridge/factors/_imu_ext.c``, built at install time where a C compiler
+    is found) covers isotropic noise densities without a lever arm in ``body_P_sensor``; anything
+    else, or an install without the compiled kernel, uses numpy. Both give the same numbers (to
+    rounding; tested against each other and against GTSAM).
+    """
+    return "compiled" if compiled_applies(read_params(params)) else "numpy"
 
 
 class ImuPreintegrator:
