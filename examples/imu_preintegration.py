@@ -153,8 +153,8 @@ def main(argv: list[str] | None = None) -> int:
     graphs, initial, n_key, n_used, delta_p_gap, t_pre = build(imu, gps, meta)
     print(f"keyframes: {n_key + 1}, IMU factors: {n_key}, IMU samples: {n_used} of {len(imu)}")
     print(
-        "preintegration time: liebridge {:.1f} ms, GTSAM loop {:.1f} ms".format(
-            1e3 * t_pre["liebridge"], 1e3 * t_pre["gtsam"]
+        "preintegration time: liebridge {:.1f} ms ({} kernel), GTSAM loop {:.1f} ms".format(
+            1e3 * t_pre["liebridge"], F.imu_kernel(imu_params(meta)), 1e3 * t_pre["gtsam"]
         )
     )
     print(f"max |Δp| liebridge (manifold) vs GTSAM (tangent) preintegration: {delta_p_gap:.3e} m")

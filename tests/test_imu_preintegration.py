@@ -518,3 +518,23 @@ def test_inputs_are_not_mutated_and_results_do_not_alias_them() -> None:
     inc.integrate(acc, gyro, dt)
     acc[:] = 0.0
     np.testing.assert_array_equal(inc.result().delta_v, r.delta_v)
+
+
+def test_params_changed_after_first_use_are_read_again() -> None:
+    """read_params caches validated parameters by their values: changing the (mutable) GTSAM
+    object between calls must change the result, and equal a fresh object with those values."""
+    params = make_params()
+    first = preintegrate(ACC[:200], GYRO[:200], DT[:200], bias=BIAS, params=params)
+    params.setGyroscopeCovariance(4.0 * params.getGyroscopeCovariance())
+    second = preintegrate(ACC[:200], GYRO[:200], DT[:200], bias=BIAS, params=params)
+    fresh = make_params()
+    fresh.setGyroscopeCovariance(4.0 * fresh.getGyroscopeCovariance())
+    ref = preintegrate(ACC[:200], GYRO[:200], DT[:200], bias=BIAS, params=fresh)
+    assert not np.allclose(first.covariance, second.covariance)
+    assert np.array_equal(second.covariance, ref.covariance)
+    params.setBodyPSensor(SENSOR_ROT)
+    third = preintegrate(ACC[:200], GYRO[:200], DT[:200], bias=BIAS, params=params)
+    assert not np.allclose(third.bias_jacobian, second.bias_jacobian)
+    # the cached, shared parameters cannot be modified through a result or the cache
+    P = _imu_inputs.read_params(params)
+    assert not P.gyro_cov.flags.writeable and not P.gravity.flags.writeable

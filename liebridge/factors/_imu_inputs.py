@@ -8,6 +8,7 @@ argument, the sample index and the offending value (``ValueError``), or the wron
 from __future__ import annotations
 
 import dataclasses
+import threading
 from typing import Any
 
 import gtsam
@@ -51,13 +52,47 @@ def _variance(C: FloatArray) -> float | None:
     return float(C[0, 0]) if is_isotropic(C) else None
 
 
+#: Validated parameters by the raw numbers they were read from (a few entries: one per distinct
+#: set of parameters a program uses). ``gtsam.PreintegrationParams`` is mutable, so the key is
+#: its values, read afresh at every call (about 3 µs), never the object's identity.
+_PARAMS_CACHE: dict[bytes, Params] = {}
+_PARAMS_CACHE_SIZE = 16
+_PARAMS_CACHE_LOCK = threading.Lock()
+
+
 def read_params(params: Any) -> Params:
-    """Read and check a ``gtsam.PreintegrationParams`` (rejects a non-zero ``omegaCoriolis``)."""
+    """Read and check a ``gtsam.PreintegrationParams`` (rejects a non-zero ``omegaCoriolis``).
+
+    The checks (positive semi-definite covariances, rotation of ``body_P_sensor``) run once per
+    distinct set of values; a call with values seen before costs about 5 µs instead of 60 µs.
+    """
     if not isinstance(params, gtsam.PreintegrationParams):
         raise TypeError(
             f"params: expected a gtsam.PreintegrationParams, got {type(params).__name__}"
         )
+    body_P_sensor = params.getBodyPSensor()
     coriolis = params.getOmegaCoriolis()
+    raw = [
+        params.n_gravity,
+        params.getAccelerometerCovariance(),
+        params.getGyroscopeCovariance(),
+        params.getIntegrationCovariance(),
+        () if body_P_sensor is None else body_P_sensor.matrix(),
+        () if coriolis is None else coriolis,
+    ]
+    key = b"|".join(np.asarray(x, dtype=np.float64).tobytes() for x in raw)
+    cached = _PARAMS_CACHE.get(key)
+    if cached is not None:
+        return cached
+    P = _read_params(params, body_P_sensor, coriolis)
+    with _PARAMS_CACHE_LOCK:
+        if len(_PARAMS_CACHE) >= _PARAMS_CACHE_SIZE:
+            _PARAMS_CACHE.pop(next(iter(_PARAMS_CACHE)))
+        _PARAMS_CACHE[key] = P
+    return P
+
+
+def _read_params(params: Any, body_P_sensor: Any, coriolis: Any) -> Params:
     if coriolis is not None and np.any(np.asarray(coriolis) != 0.0):
         raise ValueError(
             f"params: omegaCoriolis = {np.asarray(coriolis).tolist()} is not supported "
@@ -77,7 +112,6 @@ def read_params(params: Any) -> Params:
     gyro_cov = cov(params.getGyroscopeCovariance(), "params.gyroscopeCovariance")
     int_cov = cov(params.getIntegrationCovariance(), "params.integrationCovariance")
     bRs = lever = None
-    body_P_sensor = params.getBodyPSensor()
     if body_P_sensor is not None:
         bRs = v.rotation(np.array(body_P_sensor.rotation().matrix()), "params.body_P_sensor")
         t = np.array(body_P_sensor.translation(), dtype=np.float64)
@@ -86,8 +120,11 @@ def read_params(params: Any) -> Params:
             acc_cov = bRs @ acc_cov @ bRs.T
         if lever is None and not is_isotropic(gyro_cov):
             gyro_cov = bRs @ gyro_cov @ bRs.T
+    for arr in (gravity, acc_cov, gyro_cov, int_cov, bRs, lever):
+        if arr is not None:
+            arr.flags.writeable = False
     return Params(
-        gravity=gravity.copy(),
+        gravity=gravity,
         acc_cov=acc_cov,
         gyro_cov=gyro_cov,
         int_cov=int_cov,
