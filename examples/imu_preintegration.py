@@ -103,6 +103,8 @@ def build(imu: np.ndarray, gps: np.ndarray, meta: dict[str, float]):
         for g in graphs.values():  # position-only prior: zero information on rotation
             g.add(gtsam.PriorFactorPose3(X(k), gtsam.Pose3(gtsam.Rot3(), position), gps_prior))
 
+    # one call before timing: the first pays one-time imports (scipy.linalg, about 0.3 s)
+    F.preintegrate(imu[:2, 2:5], imu[:2, 5:8], imu[:2, 1], bias=zero_bias, params=params)
     R = np.eye(3)
     add_keyframe(0, R, first, np.zeros(3))
     for g in graphs.values():

@@ -161,12 +161,23 @@ def hat(x: FloatArray) -> FloatArray:
     return np.array([[0.0, -x[2], x[1]], [x[2], 0.0, -x[0]], [-x[1], x[0], 0.0]])
 
 
+_NEXT, _PREV = np.array([1, 2, 0]), np.array([2, 0, 1])
+
+
 def _sum_hat_times(M: FloatArray) -> FloatArray:
-    """``Σ_b [e_b]× M_b`` for ``M`` (3, 3, 3): ``Σ_k [x_k]× Y_k`` given ``M_b = Σ_k x_kb Y_k``."""
-    return np.stack([M[1, 2] - M[2, 1], M[2, 0] - M[0, 2], M[0, 1] - M[1, 0]])
+    """``Σ_b [e_b]× M_b`` for ``M`` (..., 3, 3, 3): ``Σ_k [x_k]× Y_k`` given ``M_b = Σ_k x_kb Y_k``.
+
+    Row i of the result is ``M[i+1, i+2] − M[i+2, i+1]`` (indices mod 3); leading axes batch.
+    """
+    return np.asarray(M[..., _NEXT, _PREV, :] - M[..., _PREV, _NEXT, :])
 
 
 _I3 = np.eye(3)
+#: [e_b]× as a (9, 3) map: ``hat(x).ravel() = _HAT9 @ x``
+_HAT9 = np.stack([hat(e).ravel() for e in np.eye(3)], axis=1)
+#: sign pattern of the gyroscope covariance's V-sums (−1 between the rotation and the rest)
+_SIGN9 = np.ones((9, 9))
+_SIGN9[3:9, 0:3] = _SIGN9[0:3, 3:9] = -1.0
 
 
 def _blockdiag3(R: FloatArray) -> FloatArray:
@@ -508,7 +519,10 @@ def integrate(
 
 def _gyro_bias_jacobian(S: FloatArray) -> FloatArray:
     """``−Σ_k [Y_k; −[p̃_k]× Y_k; −[ṽ_k]× Y_k]`` (9, 3) from ``S`` = the sums for w ∈ {1, p̃, ṽ}."""
-    return np.concatenate([-S[0], _sum_hat_times(S[1:4]), _sum_hat_times(S[4:7])])
+    J = np.empty((9, 3))
+    np.negative(S[0], out=J[0:3])
+    J[3:9] = _sum_hat_times(S[1:7].reshape(2, 3, 3, 3)).reshape(6, 3)
+    return J
 
 
 def _isotropic_acc_blocks(
@@ -537,7 +551,7 @@ def _finish(
     ``Jg`` (9, 3) the gyroscope bias Jacobian (sensor frame already applied) and ``Ja9`` the sums
     ``Σ α ΔR``, ``Σ dt ΔR`` (2, 9) of the accelerometer input ``[0; α ΔR_k; dt ΔR_k]``.
     """
-    Ja = -np.concatenate([Ja9[0].reshape(3, 3), Ja9[1].reshape(3, 3)])
+    Ja = -Ja9.reshape(6, 3)  # rows: −Σ α ΔR, −Σ dt ΔR
     if bRs is not None:
         Ja = Ja @ bRs
     pp, pv, vv = acc_blocks
@@ -667,14 +681,12 @@ def _gyro_cov_from_sums(
     ``s = Σ wa x`` (6) with ``x = [p̃; ṽ]``, ``sum_wa = Σ wa`` (see :func:`_gyro_covariance`). The
     result is a new array.
     """
-    cov = covV.copy()
-    cov[3:9, 0:3] *= -1.0
-    cov[0:3, 3:9] *= -1.0
+    cov = covV * _SIGN9
     M = M6.reshape(2, 3, 2, 3)  # [r, i, c, j] = Σ wa x_r[i] x_c[j], x ∈ {p̃, ṽ}
     cov[0:3, 0:3] += sum_wa * _I3
-    hats = np.concatenate([-hat(s[0:3]), -hat(s[3:6])])  # Σ −wa [x]×
-    cov[3:9, 0:3] += hats
-    cov[0:3, 3:9] += hats.T
+    hats = (_HAT9 @ s.reshape(2, 3).T).T.reshape(6, 3)  # Σ wa [x]×, x ∈ {p̃, ṽ}
+    cov[3:9, 0:3] -= hats
+    cov[0:3, 3:9] -= hats.T
     # block (r, c): Σ wa [x_r]× [x_c]×ᵀ = tr(M_rc) I − M_rcᵀ
     tr = M.trace(axis1=1, axis2=3)
     cov[3:9, 3:9] += (tr[:, None, :, None] * _I3[None, :, None, :]).reshape(6, 6)
