@@ -324,3 +324,23 @@ def test_compiled_path_reads_byte_swapped_and_fortran_ordered_input_correctly() 
         r = preintegrate(a, g, d, bias=b, params=params)
         assert np.array_equal(r.covariance, ref.covariance)
         assert np.array_equal(r.delta_p, ref.delta_p)
+
+
+def test_output_layout_matches_the_c_defines() -> None:
+    """The slices that read the compiled kernel's output are the O_* offsets of the C file."""
+    import re
+    from pathlib import Path
+
+    src = (Path(K.__file__).with_name("_imu_ext.c")).read_text()
+    d = {k: int(v) for k, v in re.findall(r"#define (O_\w+|N_OUT|N_SCRATCH) (\d+)", src)}
+    starts = [
+        (K._C_R, "O_R"), (K._C_P, "O_P"), (K._C_V, "O_V"), (K._C_S, "O_S"), (K._C_JA, "O_JA"),
+        (K._C_COVV, "O_COVV"), (K._C_M, "O_M"), (K._C_SPV, "O_SPV"),
+    ]  # fmt: skip
+    for sl, name in starts:
+        assert sl.start == d[name], name
+    ends = [K._C_R.stop, K._C_P.stop, K._C_V.stop, K._C_T + 1, K._C_S.stop, K._C_JA.stop]
+    assert ends == [d["O_P"], d["O_V"], d["O_T"], d["O_S"], d["O_JA"], d["O_COVV"]]
+    assert (K._C_COVV.stop, K._C_M.stop, K._C_SPV.stop) == (d["O_M"], d["O_SPV"], d["O_SWA"])
+    assert (K._C_T, K._C_SWA, K._C_SA2, K._C_SA) == (d["O_T"], d["O_SWA"], d["O_SA2"], d["O_SA"])
+    assert (K._C_N_OUT, K._C_N_SCRATCH) == (d["N_OUT"], d["N_SCRATCH"])

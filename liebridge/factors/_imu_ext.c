@@ -24,7 +24,7 @@
 #include <Python.h>
 #include <math.h>
 
-/* layout of `out` (doubles); mirrored in _imu_kernel.py (_C_OUT) */
+/* layout of `out` (doubles); mirrored as the _C_* slices in _imu_kernel.py */
 #define O_R 0      /* 9: ΔR_N, row-major */
 #define O_P 9      /* 3: Δp_N */
 #define O_V 12     /* 3: Δv_N */

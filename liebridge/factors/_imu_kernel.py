@@ -474,7 +474,8 @@ def integrate(
         np.multiply(R3[j], g[k], out=t3)
         Y[i] -= t3
     Y9 = Y.reshape(9, n)
-    Jg = _gyro_bias_jacobian((W @ Y9.T).reshape(7, 3, 3))  # from Σ_k w_k Y_k, w ∈ {1, p̃, ṽ}
+    if D is None:  # (with a lever arm the general path below sums its own input blocks)
+        Jg = _gyro_bias_jacobian((W @ Y9.T).reshape(7, 3, 3))  # from Σ_k w_k Y_k, w ∈ {1, p̃, ṽ}
 
     if general:
         G = ws.get("G", (9, 3, n))  # [Y; −[p̃]× Y; −[ṽ]× Y]
@@ -582,9 +583,12 @@ except ImportError:  # pragma: no cover - the build skips it where no C compiler
 #: numbers come from numpy, about 2× slower (``benchmarks/bench_imu.py`` measures both).
 COMPILED = _imu_ext is not None
 
-# layout of the compiled kernel's output (see _imu_ext.c)
+# layout of the compiled kernel's output: the O_* offsets of _imu_ext.c, as slices
+_C_R, _C_P, _C_V, _C_T = slice(0, 9), slice(9, 12), slice(12, 15), 15
+_C_S, _C_JA, _C_COVV = slice(16, 79), slice(79, 97), slice(97, 178)
+_C_M, _C_SPV, _C_SWA, _C_SA2, _C_SA = slice(178, 214), slice(214, 220), 220, 221, 222
 _C_N_OUT = 223
-_C_N_SCRATCH = 21
+_C_N_SCRATCH = 21  # doubles per sample in the scratch buffer (N_SCRATCH)
 
 
 def compiled_applies(P: Params) -> bool:
@@ -617,16 +621,21 @@ def _integrate_compiled(
         ws.get("c_scratch", (n, _C_N_SCRATCH)),
         out,
     )
-    RN, delta_p, delta_v, T = out[0:9].reshape(3, 3), out[9:12], out[12:15], float(out[15])
-    Jg = _gyro_bias_jacobian(out[16:79].reshape(7, 3, 3))
+    RN, T = out[_C_R].reshape(3, 3), float(out[_C_T])
+    Jg = _gyro_bias_jacobian(out[_C_S].reshape(7, 3, 3))
     if bRs is not None:
         Jg = Jg @ bRs
     cov_i = _gyro_cov_from_sums(
-        out[97:178].reshape(9, 9), out[178:214].reshape(6, 6), out[214:220], out[220], P.gyro_var
+        out[_C_COVV].reshape(9, 9),
+        out[_C_M].reshape(6, 6),
+        out[_C_SPV],
+        float(out[_C_SWA]),
+        P.gyro_var,
     )
-    acc_blocks = _isotropic_acc_blocks(P.acc_var, out[221], out[222], T)
+    acc_blocks = _isotropic_acc_blocks(P.acc_var, float(out[_C_SA2]), float(out[_C_SA]), T)
     int_block = (P.int_var * T) * _I3
-    Ja9 = out[79:97].reshape(2, 9)
+    Ja9 = out[_C_JA].reshape(2, 9)
+    delta_p, delta_v = out[_C_P], out[_C_V]
     return _finish(n, T, RN, delta_p, delta_v, Jg, Ja9, cov_i, acc_blocks, int_block, bRs)
 
 
