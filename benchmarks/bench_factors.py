@@ -4,8 +4,8 @@ Rows (one run, same machine, odometry initialisation, GTSAM's default LM paramet
 
 1. GTSAM's native ``BetweenFactorPose3`` in GTSAM's own ``LevenbergMarquardtOptimizer``;
 2. liebridge native factors (``between(..., native=True)``: GTSAM factors, converted noise) in
-   ``liebridge.factors.optimize``;
-3. liebridge custom factors (``native=False``) in ``liebridge.factors.optimize`` (batched);
+   ``liebridge.gtsam.optimize``;
+3. liebridge custom factors (``native=False``) in ``liebridge.gtsam.optimize`` (batched);
 4. the same, ``batch=False`` (every factor through its Python callback, no ``Values`` copy);
 5. the same custom factors inside GTSAM's own LM (the per-callback ``Values`` copy), limited to
    ``--gtsam-custom-iterations`` iterations (default 2) and reported per iteration, since a full
@@ -27,7 +27,7 @@ from typing import Any
 import gtsam
 import numpy as np
 
-from liebridge.adapters.convert import convert_covariance
+from liebridge.conventions import convert_covariance
 from liebridge.factors import between, optimize, prior
 
 

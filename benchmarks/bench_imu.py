@@ -38,7 +38,9 @@ from pathlib import Path
 import gtsam
 import numpy as np
 
-from liebridge.factors import ImuPreintegrator, _imu_inputs, _imu_kernel, preintegrate
+from liebridge.imu import ImuPreintegrator, preintegrate
+from liebridge.imu import inputs as _imu_inputs
+from liebridge.imu import kernel as _imu_kernel
 
 
 def best_of(fn: Callable[[], object], repeat: int) -> float:

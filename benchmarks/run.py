@@ -48,8 +48,8 @@ import scipy
 from scipy.spatial.transform import RigidTransform
 
 import liebridge as lb
-from liebridge.adapters.convert import _map
 from liebridge.conventions import get
+from liebridge.conventions.unchecked import tangent_map as _map
 from liebridge.lie import SMALL_ANGLE, se3
 
 try:

@@ -22,7 +22,7 @@ What to look at
     The two optimized trajectories agree to well below the GPS noise (whole sequence: 0.2 mm and
     6 µrad apart, against a 0.6 m GPS residual); the remaining difference is the second-order gap
     between tangent and on-manifold preintegration (the "max |Δp|" line), not the factor. The
-    liebridge graph is optimized with :func:`liebridge.factors.optimize`; ``--gtsam-lm-too`` also
+    liebridge graph is optimized with :func:`liebridge.gtsam.optimize`; ``--gtsam-lm-too`` also
     runs GTSAM's own optimizer on it, which is much slower because every ``CustomFactor``
     callback copies the whole ``Values`` there (``shared/reference/conventions.md``; whole
     sequence, 469 keyframes: 2.9 s with liebridge's optimizer, 24.5 s with GTSAM's, 0.3 s for
@@ -167,7 +167,7 @@ def main(argv: list[str] | None = None) -> int:
     lm.setRelativeErrorTol(1e-10)
     lm.setAbsoluteErrorTol(1e-10)
     runs = [
-        ("liebridge", "liebridge.factors.optimize"),
+        ("liebridge", "liebridge.gtsam.optimize"),
         ("gtsam", "gtsam.LevenbergMarquardtOptimizer"),
     ]
     if args.gtsam_lm_too:
@@ -175,7 +175,7 @@ def main(argv: list[str] | None = None) -> int:
     for name, optimizer in runs:
         graph = graphs[name]
         t0 = time.perf_counter()
-        if optimizer == "liebridge.factors.optimize":
+        if optimizer == "liebridge.gtsam.optimize":
             result = F.optimize(graph, initial, lm, progress=False).values
         else:
             result = gtsam.LevenbergMarquardtOptimizer(graph, initial, lm).optimize()

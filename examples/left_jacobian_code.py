@@ -33,7 +33,7 @@ import gtsam
 import numpy as np
 
 import liebridge as lb
-from liebridge.factors.custom import make_custom_factor
+from liebridge.gtsam.custom import make_custom_factor
 from liebridge.lie import se3, so3
 
 KEY = 0

@@ -10,19 +10,19 @@ The numpy core (``lie``, ``conventions``, the conversion functions, ``poses``, `
 
 from typing import Any
 
-from . import check, conventions, lie
-from .adapters import (
+from . import check, conventions, io, lie
+from .conventions import (
+    Convention,
     convert_covariance,
     convert_information,
     convert_jacobian,
     convert_tangent,
-    g2o,
+    detect_convention,
     is_exactly_linear,
-    poses,
     tangent_map,
-    trajectory_io,
 )
-from .conventions import Convention, detect_convention
+from .io import g2o, poses
+from .io import trajectory as trajectory_io
 
 __version__ = "0.1.0"
 
@@ -39,8 +39,11 @@ __all__ = [
     "detect_convention",
     "factors",
     "g2o",
+    "gtsam",
     "gtsam_convention",
     "gtsam_glue",
+    "imu",
+    "io",
     "is_exactly_linear",
     "lie",
     "marginals",
@@ -55,11 +58,13 @@ def __getattr__(name: str) -> Any:
     import importlib
 
     lazy = {
-        "gtsam_glue": ("liebridge.adapters.gtsam_glue", None),
+        "gtsam_glue": ("liebridge.gtsam.glue", None),
         "factors": ("liebridge.factors", None),
-        "ConventionGraph": ("liebridge.adapters.graph", "ConventionGraph"),
-        "marginals": ("liebridge.adapters.marginals", "marginals"),
-        "gtsam_convention": ("liebridge.adapters.gtsam_build", "gtsam_convention"),
+        "imu": ("liebridge.imu", None),
+        "gtsam": ("liebridge.gtsam", None),
+        "ConventionGraph": ("liebridge.gtsam.graph", "ConventionGraph"),
+        "marginals": ("liebridge.gtsam.marginals", "marginals"),
+        "gtsam_convention": ("liebridge.gtsam.build", "gtsam_convention"),
     }
     if name not in lazy:
         raise AttributeError(f"module 'liebridge' has no attribute {name!r}")

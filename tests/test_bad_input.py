@@ -17,9 +17,10 @@ from scipy.spatial.transform import Rotation
 
 import liebridge as lb
 from liebridge import _validate
-from liebridge.adapters import g2o, poses, trajectory_io
 from liebridge.conventions import Convention, ConventionNotDetected, get
-from liebridge.factors.pose_factors import between, prior
+from liebridge.gtsam.pose_factors import between, prior
+from liebridge.io import g2o, poses
+from liebridge.io import trajectory as trajectory_io
 from liebridge.lie import quaternion as Q
 from liebridge.lie import se3, so3
 

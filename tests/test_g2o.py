@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from liebridge.adapters import g2o
+from liebridge.io import g2o
 
 QUAT_FILES = ["pose3example.txt", "pose3example-offdiagonal.txt"]
 ALL_FILES = [*QUAT_FILES, "sphere2500.txt"]
@@ -138,8 +138,7 @@ def test_g2o_error_map_by_finite_differences() -> None:
 
 def test_error_map_is_the_conversion_cores_tangent_map() -> None:
     # to be unified: δ_dst = tangent_map(I, src, dst) δ_src with src = GTSAM, dst = G2O
-    from liebridge.adapters.convert import tangent_map
-    from liebridge.conventions import presets
+    from liebridge.conventions import presets, tangent_map
 
     M = tangent_map(np.eye(4), presets.GTSAM, presets.G2O)
     assert np.allclose(g2o._g2o_error_map(), M, atol=1e-15)

@@ -6,7 +6,7 @@ import pytest
 
 import liebridge as lb
 from liebridge import conventions as C
-from liebridge.adapters import gtsam_build
+from liebridge.gtsam import build as gtsam_build
 from liebridge.lie import se3
 
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from liebridge.adapters import gtsam_glue as glue
+from liebridge.gtsam import glue
 
 
 def random_poses(n: int, seed: int) -> np.ndarray:

@@ -272,7 +272,7 @@ def test_custom_factor_in_a_gtsam_optimizer() -> None:
 
 
 def test_custom_factor_with_liebridge_optimize() -> None:
-    """The same two-keyframe problem through liebridge.factors.optimize (no Values copies)."""
+    """The same two-keyframe problem through liebridge.gtsam.optimize (no Values copies)."""
     key_pi, key_vi, key_pj, key_vj, key_b = 20, 21, 22, 23, 24
     pose_i = gtsam.Pose3(gtsam.Rot3.Ypr(-0.2, 0.1, 0.3), np.array([-1.0, 0.5, 2.0]))
     vel_i = np.array([1.0, 0.5, -0.2])

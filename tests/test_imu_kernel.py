@@ -1,4 +1,4 @@
-"""The pieces of the vectorized IMU kernel (liebridge.factors._imu_kernel), each against a plain
+"""The pieces of the vectorized IMU kernel (liebridge.imu.kernel), each against a plain
 reference: the banded-solve rotation scan against a sequential product, the truncated coefficient
 series against 50-digit arithmetic, the suffix sums against a running sum, and the gyro
 input block against ΔR_{k+1} J_r(θ_k) dt_k."""
@@ -11,8 +11,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from liebridge.factors import _imu_inputs
-from liebridge.factors import _imu_kernel as K
+from liebridge.imu import inputs as _imu_inputs
+from liebridge.imu import kernel as K
 from liebridge.lie import so3
 
 # ------------------------------------------------------------------------------------------------
@@ -168,7 +168,7 @@ def test_sum_hat_times_is_sum_of_skew_products() -> None:
 
 
 # ------------------------------------------------------------------------------------------------
-# the compiled kernel (liebridge/factors/_imu_ext.c) against the numpy kernel
+# the compiled kernel (liebridge/imu/_imu_ext.c) against the numpy kernel
 
 requires_compiled = pytest.mark.skipif(not K.COMPILED, reason="compiled kernel not built")
 
@@ -272,7 +272,7 @@ def _imu_inputs_read(params: object) -> object:
 
 @requires_compiled
 def test_compiled_kernel_rejects_wrong_buffer_sizes() -> None:
-    from liebridge.factors import _imu_ext
+    from liebridge.imu import _imu_ext
 
     n = 4
     args = dict(

@@ -8,13 +8,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from liebridge.factors import (
-    ImuPreintegrator,
-    PreintegratedImu,
-    _imu_inputs,
-    _imu_kernel,
-    preintegrate,
-)
+from liebridge.imu import ImuPreintegrator, PreintegratedImu, preintegrate
+from liebridge.imu import inputs as _imu_inputs
+from liebridge.imu import kernel as _imu_kernel
 from liebridge.lie import so3
 
 # ------------------------------------------------------------------------------------------------

@@ -20,7 +20,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from liebridge.lie import SMALL_ANGLE, _series
+from liebridge.lie import SMALL_ANGLE
+from liebridge.lie import series as _series
 
 pytestmark = pytest.mark.filterwarnings("error")
 
@@ -32,31 +33,31 @@ MpFn = Callable[[mpmath.mpf], mpmath.mpf]
 #: name -> (kernel function, closed form in mpmath, Taylor coefficient table it uses below
 #: SMALL_ANGLE, and the function whose Maclaurin series in θ that table lists in powers of θ²)
 REFERENCES: dict[str, tuple[Callable[[np.ndarray], np.ndarray], MpFn, str]] = {
-    "sinc": (_series.sinc, lambda t: mpmath.sin(t) / t, "_SINC"),
+    "sinc": (_series.sinc, lambda t: mpmath.sin(t) / t, "SINC_SERIES"),
     "one_minus_cos_over_t2": (
         _series.one_minus_cos_over_t2,
         lambda t: (1 - mpmath.cos(t)) / t**2,
-        "_ONE_MINUS_COS_OVER_T2",
+        "ONE_MINUS_COS_OVER_T2_SERIES",
     ),
     "t_minus_sin_over_t3": (
         _series.t_minus_sin_over_t3,
         lambda t: (t - mpmath.sin(t)) / t**3,
-        "_T_MINUS_SIN_OVER_T3",
+        "T_MINUS_SIN_OVER_T3_SERIES",
     ),
     "jinv_coeff": (
         _series.jinv_coeff,
         lambda t: 1 / t**2 - (1 + mpmath.cos(t)) / (2 * t * mpmath.sin(t)),
-        "_JINV_COEFF",
+        "JINV_COEFF_SERIES",
     ),
     "q_coeff2": (
         _series.q_coeff2,
         lambda t: (t**2 + 2 * mpmath.cos(t) - 2) / (2 * t**4),
-        "_Q_COEFF2",
+        "Q_COEFF2_SERIES",
     ),
     "q_coeff3": (
         _series.q_coeff3,
         lambda t: (2 * t - 3 * mpmath.sin(t) + t * mpmath.cos(t)) / (2 * t**5),
-        "_Q_COEFF3",
+        "Q_COEFF3_SERIES",
     ),
 }
 

@@ -9,7 +9,7 @@ from pytransform3d.trajectories import pqs_from_transforms, transforms_from_pqs
 from pytransform3d.transformations import pq_from_transform, transform_from_pq
 from scipy.spatial.transform import Rotation
 
-from liebridge.adapters import poses
+from liebridge.io import poses
 
 QUAT_LAYOUTS = ["xyz_qxyzw", "xyz_qwxyz", "qxyzw_xyz", "qwxyz_xyz"]
 

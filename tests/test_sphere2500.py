@@ -2,7 +2,7 @@
 
 Measurements and covariances are converted from the file into the ``barfoot`` and ``sophus``
 conventions; both ``native=True`` (GTSAM factors with converted noise) and ``native=False``
-(liebridge's exact custom factors through ``liebridge.factors.optimize``) must reach GTSAM's
+(liebridge's exact custom factors through ``liebridge.gtsam.optimize``) must reach GTSAM's
 native optimum. sphere2500's optimum is very flat (a Gauss–Newton polish after LM at 1e-12
 still moves poses by 0.1), so every run — the reference included — is polished with a few
 near-Gauss–Newton steps (λ = 1e-12) before poses are compared.
@@ -12,9 +12,9 @@ import gtsam
 import numpy as np
 import pytest
 
-from liebridge.adapters.convert import convert_covariance
-from liebridge.factors.optimize import optimize
-from liebridge.factors.pose_factors import between, prior
+from liebridge.conventions import convert_covariance
+from liebridge.gtsam.optimize import optimize
+from liebridge.gtsam.pose_factors import between, prior
 
 pytestmark = pytest.mark.slow
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from liebridge.adapters import trajectory_io as tio
+from liebridge.io import trajectory as tio
 
 
 def random_poses(n: int, seed: int) -> np.ndarray:

@@ -1,10 +1,10 @@
-"""Translation of tangents, covariances, information matrices and Jacobians between conventions.
+"""The conversion functions and file formats under the import path of earlier releases (a façade).
 
-The conversion functions are re-exported at the top level (``liebridge.tangent_map`` ...).
+The code lives in :mod:`liebridge.conventions` (``tangent_map``, ``convert_*``,
+``is_exactly_linear``) and :mod:`liebridge.io` (``g2o``, ``poses``, ``trajectory``).
 """
 
-from . import g2o, poses, trajectory_io
-from .convert import (
+from ..conventions import (
     convert_covariance,
     convert_information,
     convert_jacobian,
@@ -12,6 +12,8 @@ from .convert import (
     is_exactly_linear,
     tangent_map,
 )
+from ..io import g2o, poses
+from ..io import trajectory as trajectory_io
 
 __all__ = [
     "convert_covariance",

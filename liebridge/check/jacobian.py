@@ -8,21 +8,9 @@ from typing import Any
 import numpy as np
 
 from .._validate import FloatArray
-
-Retract = Callable[[Any, FloatArray], Any]
-Local = Callable[[Any, Any], Any]
-
-
-def _euclidean_local(y0: Any, y: Any) -> FloatArray:
-    return np.asarray(y, dtype=np.float64) - np.asarray(y0, dtype=np.float64)
-
-
-def _tangent_dim(x: FloatArray) -> int:
-    if x.ndim >= 2 and x.shape[-2:] == (3, 3):
-        return 3
-    if x.ndim >= 2 and x.shape[-2:] == (4, 4):
-        return 6
-    return int(x.shape[-1])
+from ..conventions import get
+from ..lie import numdiff
+from ..lie.numdiff import Local, Retract
 
 
 def numerical_jacobian(
@@ -72,44 +60,15 @@ def numerical_jacobian(
     ndarray, shape (..., m, dim)
     """
     if in_convention is not None or out_convention is not None:
-        from ..conventions import get  # conventions import this module: import lazily
-
         if in_convention is not None:
             cin = get(in_convention)
             retract = retract if retract is not None else cin.retract
             local = local if local is not None else cin.local
         if out_convention is not None:
             out_local = out_local if out_local is not None else get(out_convention).local
-    x_arr = np.asarray(x, dtype=np.float64)
-    if retract is None:
-        # Euclidean input: always a batch of vectors, even when shaped (..., 3, 3) or (..., 4, 4)
-        if x_arr.ndim < 1:
-            raise ValueError("x: a vector input needs shape (..., n)")
-        n, batch = x_arr.shape[-1], x_arr.shape[:-1]
-        if dim is not None and dim != n:
-            raise ValueError(f"dim: {dim} does not match the vector length {n} of x")
-    else:
-        n = dim if dim is not None else _tangent_dim(x_arr)
-        group = x_arr.ndim >= 2 and x_arr.shape[-2:] in ((3, 3), (4, 4))
-        batch = x_arr.shape[:-2] if group else x_arr.shape[:-1]
-    ret: Retract = retract if retract is not None else (lambda a, d: np.asarray(a) + d)
-    if out_local is None:
-        out: Local = local if local is not None else _euclidean_local
-    elif isinstance(out_local, str):
-        if out_local != "euclidean":
-            raise ValueError(f"out_local: expected a callable or 'euclidean', got {out_local!r}")
-        out = _euclidean_local
-    else:
-        out = out_local
-    y0 = f(x_arr)
-    cols = []
-    for j in range(n):
-        d = np.zeros((*batch, n))
-        d[..., j] = eps
-        plus = np.asarray(out(y0, f(ret(x_arr, d))), dtype=np.float64)
-        minus = np.asarray(out(y0, f(ret(x_arr, -d))), dtype=np.float64)
-        cols.append((plus - minus) / (2.0 * eps))
-    return np.stack(cols, axis=-1)
+    return numdiff.numerical_jacobian(
+        f, x, retract=retract, local=local, out_local=out_local, dim=dim, eps=eps
+    )
 
 
 def assert_jacobian(

@@ -8,7 +8,7 @@ import numpy as np
 
 from .. import _validate as v
 from .._validate import FloatArray
-from ..conventions import ConventionLike, get, group_input
+from ..conventions import ConventionLike, get, group_input, unchecked
 
 
 def monte_carlo_covariance(
@@ -53,5 +53,5 @@ def monte_carlo_covariance(
         raise ValueError(f"n: need at least 2 samples, got {n}")
     rng = rng if rng is not None else np.random.default_rng(0)
     d = rng.multivariate_normal(np.zeros(dim), C, size=n)
-    y = b._local(Xa, a._retract(Xa, d))
+    y = unchecked.local(b, Xa, unchecked.retract(a, Xa, d))
     return np.asarray(np.cov(y.T), dtype=np.float64)

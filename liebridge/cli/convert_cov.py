@@ -14,9 +14,9 @@ from typing import Any
 import numpy as np
 
 from .._validate import FloatArray
-from ..adapters import poses as layouts
-from ..adapters.convert import convert_covariance, convert_information, is_exactly_linear
 from ..conventions import Convention, group_input
+from ..conventions.convert import convert_covariance, convert_information, is_exactly_linear
+from ..io import poses as layouts
 from ._common import (
     CLIError,
     array_argument,

@@ -2,7 +2,7 @@
 
 ``EDGE_SE3:QUAT`` information is defined by g2o over ``(t, quaternion vector part)``;
 ``gtsam.readG2o`` reads the same numbers as information over ``(v, ω)`` after a block swap, a
-rotation weight 4× heavier (see :mod:`liebridge.adapters.g2o`). ``--information g2o:gtsam`` reads
+rotation weight 4× heavier (see :mod:`liebridge.io.g2o`). ``--information g2o:gtsam`` reads
 IN by g2o's definition and writes OUT so that a GTSAM-semantics reader (``gtsam.readG2o``) gets
 the same information: the rotation block ×1/4 and the cross blocks ×1/2 relative to IN;
 ``gtsam:g2o`` the other way. Every number is written at full precision (``repr``).
@@ -34,7 +34,7 @@ def _pair(text: str) -> tuple[str, str]:
 
 
 def _convert(args: argparse.Namespace) -> int:
-    from .. import g2o as g2o_io
+    from ..io import g2o as g2o_io
 
     src, dst = args.information
     inp, out = Path(args.input), check_output_path(args.output, "OUT")

@@ -7,7 +7,7 @@ a user of NAME would build it: each edge's information is converted from GTSAM's
 measurement into NAME's (:func:`liebridge.convert_information`), and the factors are added through
 :class:`liebridge.ConventionGraph`, which picks a native GTSAM factor when that conversion is
 exact and liebridge's custom factor (NAME's own residual, exact Jacobians) otherwise. Either way
-:func:`liebridge.factors.optimize` runs Levenberg–Marquardt; marginals come out in NAME's tangent.
+:func:`liebridge.gtsam.optimize` runs Levenberg–Marquardt; marginals come out in NAME's tangent.
 
 The gauge is fixed by a prior (σ = 1e-4 in every GTSAM tangent direction) on the ``FIX``
 vertices, or on the first vertex when the file has none.
@@ -62,8 +62,8 @@ def _params(max_iterations: int) -> Any:
 
 
 def _factor_kind(conv: Any) -> str:
-    from ..adapters.convert import is_exactly_linear
-    from ..adapters.gtsam_build import gtsam_convention
+    from ..conventions.convert import is_exactly_linear
+    from ..gtsam.build import gtsam_convention
 
     if is_exactly_linear(conv, gtsam_convention()):
         return "native BetweenFactorPose3 (the conversion to GTSAM's tangent is exact)"
@@ -108,9 +108,9 @@ def _gtsam_error(exc: RuntimeError, during: str) -> CLIError:
 
 def _build(g: Any, conv: Any) -> Any:
     """Build a ConventionGraph holding ``g`` in ``conv``, with the gauge prior."""
-    from ..adapters.convert import convert_covariance, convert_information
-    from ..adapters.graph import ConventionGraph
-    from ..adapters.gtsam_glue import to_values
+    from ..conventions.convert import convert_covariance, convert_information
+    from ..gtsam.glue import to_values
+    from ..gtsam.graph import ConventionGraph
 
     key_index = {int(k): n for n, k in enumerate(g.vertex_ids.tolist())}
     prior_cov = np.eye(6) * PRIOR_SIGMA**2
@@ -181,7 +181,7 @@ def _run(args: argparse.Namespace) -> int:
         check_output_path(args.marginals, "--marginals", (".npy",))
     path = resolve_dataset(args.file)
 
-    from .. import g2o as g2o_io
+    from ..io import g2o as g2o_io
 
     t0 = time.perf_counter()
     g = g2o_io.read(path, information=args.information, edge3=args.edge3)
@@ -262,7 +262,7 @@ def add_parser(sub: Any) -> None:
         "optimize",
         help="optimize a g2o / EDGE3 pose graph (default: sphere2500.txt from GTSAM's data)",
         description="Read a 3D g2o (VERTEX_SE3:QUAT / EDGE_SE3:QUAT) or TORO/iSAM (EDGE3) pose "
-        "graph, optimize it with Levenberg–Marquardt (liebridge.factors.optimize) and print the "
+        "graph, optimize it with Levenberg–Marquardt (liebridge.gtsam.optimize) and print the "
         "initial and final error, the iterations and the timings. With --convention NAME the "
         "graph is built in NAME's convention (information converted from GTSAM's tangent at "
         "each measurement; native factors where exact, liebridge's custom factors otherwise) "

@@ -125,7 +125,7 @@ def render(fmt: str = "table") -> str:
 def _describe_one(c: Convention) -> str:
     import numpy as np
 
-    from ..adapters.convert import is_exactly_linear, tangent_map
+    from ..conventions.convert import is_exactly_linear, tangent_map
     from ..lie import se3
     from ._common import tangent_label
 

@@ -7,7 +7,16 @@
 True
 """
 
+from . import unchecked
 from .convention import CANONICAL, Convention, group_input
+from .convert import (
+    convert_covariance,
+    convert_information,
+    convert_jacobian,
+    convert_tangent,
+    is_exactly_linear,
+    tangent_map,
+)
 from .detect import ConventionNotDetected, detect_convention, matches_so3
 from .presets import (
     BARFOOT,
@@ -62,10 +71,17 @@ __all__ = [
     "Convention",
     "ConventionLike",
     "ConventionNotDetected",
+    "convert_covariance",
+    "convert_information",
+    "convert_jacobian",
+    "convert_tangent",
     "detect_convention",
     "get",
     "group_input",
+    "is_exactly_linear",
     "matches_so3",
     "matching_presets",
     "names",
+    "tangent_map",
+    "unchecked",
 ]

@@ -32,7 +32,7 @@ import numpy as np
 
 from .. import _validate as v
 from .._validate import FloatArray
-from ..lie import se3
+from ..lie import unchecked as U
 from .rotation_coords import (
     FIRST_ORDER_SCALE,
     ROTATION_COORDS,
@@ -164,7 +164,7 @@ class Convention:
             return np.asarray(X @ dR if self.side == "right" else dR @ X, dtype=np.float64)
         r, u = self._split(d)
         if self.chart == "se3":
-            E = se3._exp(np.concatenate([r, u], axis=-1))
+            E = U.se3_exp(np.concatenate([r, u], axis=-1))
             return np.asarray(X @ E if self.side == "right" else E @ X, dtype=np.float64)
         R, t = X[..., :3, :3], X[..., :3, 3]
         dR = to_rotation(r, self.rotation)
@@ -182,9 +182,9 @@ class Convention:
             dR = Xt @ Y if self.side == "right" else Y @ Xt
             return from_rotation(dR, self.rotation)
         if self.chart == "se3":
-            Xi = se3._inverse(X)
+            Xi = U.se3_inverse(X)
             D = Xi @ Y if self.side == "right" else Y @ Xi
-            xi = se3._log(D)
+            xi = U.se3_log(D)
             return self._join(xi[..., :3], xi[..., 3:])
         R, t = X[..., :3, :3], X[..., :3, 3]
         Rt = np.swapaxes(R, -1, -2)
@@ -227,9 +227,9 @@ class Convention:
             return np.asarray(s * d_from_rotation(dR, self.rotation, self.side), dtype=np.float64)
         if self.chart == "se3":
             if self.side == "right":
-                J = se3._jl_inv(-se3._log(se3._inverse(X) @ Y))  # Jr⁻¹(ξ) = Jl⁻¹(−ξ)
+                J = U.se3_jl_inv(-U.se3_log(U.se3_inverse(X) @ Y))  # Jr⁻¹(ξ) = Jl⁻¹(−ξ)
             else:
-                J = se3._jl_inv(se3._log(Y @ se3._inverse(X)))
+                J = U.se3_jl_inv(U.se3_log(Y @ U.se3_inverse(X)))
         else:
             RX, RY = X[..., :3, :3], Y[..., :3, :3]
             RXt = np.swapaxes(RX, -1, -2)

@@ -19,8 +19,8 @@ import numpy as np
 
 from .. import _validate as v
 from .._validate import FloatArray
-from ..check.jacobian import numerical_jacobian
-from ..lie import se3
+from ..lie import unchecked as U
+from ..lie.numdiff import numerical_jacobian
 from .convention import CANONICAL, CHARTS, ORDERS, SIDES, Convention
 from .registry import get, matching_presets
 from .rotation_coords import ROTATION_COORDS
@@ -99,7 +99,7 @@ def detect_convention(
     n = 6 if group == "se3" else 3
     if group not in ("se3", "so3"):
         raise ValueError(f"group: expected 'se3' or 'so3', got {group!r}")
-    X = se3._exp(np.array([0.4, -0.7, 0.5, 1.5, -2.0, 0.8]))
+    X = U.se3_exp(np.array([0.4, -0.7, 0.5, 1.5, -2.0, 0.8]))
     if group == "so3":
         X = X[:3, :3].copy()
     D = rng.uniform(-0.3, 0.3, size=(8, n))

@@ -29,6 +29,8 @@ def get(name: ConventionLike) -> Convention:
     """
     if isinstance(name, Convention):
         return name
+    if type(name) is str and name in _REGISTRY:  # the common case: an exact registry name
+        return _REGISTRY[name]
     if not isinstance(name, str):
         raise TypeError(f"convention: expected a Convention or a name, got {type(name).__name__}")
     key = name.strip().lower().replace("-", "_")

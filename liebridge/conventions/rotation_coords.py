@@ -27,8 +27,8 @@ from typing import Literal
 import numpy as np
 
 from .._validate import FloatArray
-from ..lie import so3
-from ..lie._series import sinc
+from ..lie import unchecked as U
+from ..lie.series import sinc
 
 RotationCoords = Literal["exp", "half_exp", "quat_vec", "cayley"]
 ROTATION_COORDS: tuple[str, ...] = ("exp", "half_exp", "quat_vec", "cayley")
@@ -40,10 +40,10 @@ FIRST_ORDER_SCALE: dict[str, float] = {"exp": 1.0, "half_exp": 2.0, "quat_vec": 
 def to_rotation(r: FloatArray, kind: str) -> FloatArray:
     """Map coordinates ``r`` ``(..., 3)`` to the rotation increment ``(..., 3, 3)``."""
     if kind == "exp":
-        return so3._exp(r)
+        return U.so3_exp(r)
     if kind == "half_exp":
-        return so3._exp(2.0 * r)
-    W = so3._hat(r)
+        return U.so3_exp(2.0 * r)
+    W = U.so3_hat(r)
     n2 = np.einsum("...i,...i->...", r, r)
     if kind == "quat_vec":
         if (n2 > 1.0 + 1e-12).any():
@@ -63,11 +63,11 @@ def to_rotation(r: FloatArray, kind: str) -> FloatArray:
 def from_rotation(R: FloatArray, kind: str) -> FloatArray:
     """Inverse of :func:`to_rotation` (principal branch: ``θ ≤ π``, quaternion ``w ≥ 0``)."""
     if kind == "exp":
-        return so3._log(R)
+        return U.so3_log(R)
     if kind == "half_exp":
-        return 0.5 * so3._log(R)
+        return 0.5 * U.so3_log(R)
     if kind == "quat_vec":
-        w = so3._log(R)
+        w = U.so3_log(R)
         th = np.linalg.norm(w, axis=-1)
         # vector part sin(θ/2)·ω/θ = ½·sinc(θ/2)·ω, w-component cos(θ/2) ≥ 0 for θ ≤ π
         return 0.5 * sinc(0.5 * th)[..., None] * w
@@ -103,15 +103,15 @@ def d_from_rotation(R: FloatArray, kind: str, side: str) -> FloatArray:
     Verified against finite differences in ``tests/test_local_jacobian.py``.
     """
     if kind in ("exp", "half_exp"):
-        w = so3._log(R)
-        J = so3._jr_inv(w) if side == "right" else so3._jl_inv(w)
+        w = U.so3_log(R)
+        J = U.so3_jr_inv(w) if side == "right" else U.so3_jl_inv(w)
         return J if kind == "exp" else 0.5 * J
     if kind == "quat_vec":
-        w = so3._log(R)
+        w = U.so3_log(R)
         th = np.linalg.norm(w, axis=-1)
         u = 0.5 * sinc(0.5 * th)[..., None] * w
         qw = np.cos(0.5 * th)[..., None, None]
-        H = so3._hat(u)
+        H = U.so3_hat(u)
         return 0.5 * (qw * np.eye(3) + (H if side == "right" else -H))
     if kind == "cayley":
         r = from_rotation(R, "cayley")

@@ -1,24 +1,18 @@
-"""GTSAM factors written in any convention, and IMU preintegration.
+"""GTSAM factors in any convention, the optimizer and IMU preintegration (a façade).
 
-``between``/``prior`` take covariances in any convention (native GTSAM factors where the
-conversion is exact, custom factors with exact analytic Jacobians otherwise); ``optimize`` runs
-Levenberg–Marquardt without GTSAM's per-callback ``Values`` copy and evaluates liebridge's pose
-factors in one batched pass.
+The code lives in :mod:`liebridge.gtsam` (``between``, ``prior``, ``optimize``) and
+:mod:`liebridge.imu` (``preintegrate``, ``ImuPreintegrator``, ``imu``, ``imu_kernel``); this module
+re-exports it under the import path of earlier releases.
 """
 
-# the IMU factor (GTSAM's ComponentWise ImuFactor residual)
-from .imu import imu, imu_residual
-
-# pose factors in any convention, and the optimizer that keeps them fast
-from .optimize import OptimizeResult, optimize
-from .pose_factors import between, prior
-
-# on-manifold IMU preintegration (Forster et al.), vectorized over samples
-from .preintegration import (
+from ..gtsam import OptimizeResult, between, optimize, prior
+from ..imu import (
     ImuDelta,
     ImuPreintegrator,
     PreintegratedImu,
+    imu,
     imu_kernel,
+    imu_residual,
     preintegrate,
 )
 

@@ -5,6 +5,6 @@
 """
 
 from . import quaternion, se3, so3
-from ._series import SMALL_ANGLE
+from .series import SMALL_ANGLE
 
 __all__ = ["SMALL_ANGLE", "quaternion", "se3", "so3"]

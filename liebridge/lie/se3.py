@@ -28,7 +28,7 @@ import numpy as np
 from .. import _validate as v
 from .._validate import FloatArray
 from . import so3
-from ._series import (
+from .series import (
     jinv_coeff,
     one_minus_cos_over_t2,
     q_coeff2,

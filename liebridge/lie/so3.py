@@ -21,7 +21,7 @@ import numpy as np
 
 from .. import _validate as v
 from .._validate import FloatArray
-from ._series import jinv_coeff, one_minus_cos_over_t2, sinc, t_minus_sin_over_t3
+from .series import jinv_coeff, one_minus_cos_over_t2, sinc, t_minus_sin_over_t3
 
 __all__ = [
     "adjoint",

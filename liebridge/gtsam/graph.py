@@ -19,9 +19,9 @@ import gtsam
 from .. import _validate as v
 from .._validate import FloatArray
 from ..conventions import Convention, ConventionLike, get
-from .convert import is_exactly_linear
-from .gtsam_build import gtsam_convention
-from .gtsam_glue import from_values, to_pose3
+from ..conventions.convert import is_exactly_linear
+from .build import gtsam_convention
+from .glue import from_values, to_pose3
 from .marginals import marginals
 
 __all__ = ["ConventionGraph"]
@@ -73,7 +73,7 @@ class ConventionGraph:
 
     def add_prior(self, key: int, pose: Any, cov: Any, *, native: bool | None = None) -> None:
         """Add a prior at ``pose`` with covariance ``cov`` in the wrapper's convention."""
-        from ..factors.pose_factors import prior
+        from .pose_factors import prior
 
         self.graph.add(prior(key, pose, cov, self.convention, native=self._native(native)))
         self._changed()
@@ -82,7 +82,7 @@ class ConventionGraph:
         self, i: int, j: int, measured: Any, cov: Any, *, native: bool | None = None
     ) -> None:
         """Add ``T_i⁻¹T_j ≈ measured`` with ``cov`` in the wrapper's convention."""
-        from ..factors.pose_factors import between
+        from .pose_factors import between
 
         self.graph.add(between(i, j, measured, cov, self.convention, native=self._native(native)))
         self._changed()
@@ -90,8 +90,8 @@ class ConventionGraph:
     def optimize(
         self, params: Any = None, *, progress: bool | Callable[[str], None] | None = None
     ) -> Any:
-        """Optimize in place with :func:`liebridge.factors.optimize`; returns its result."""
-        from ..factors.optimize import optimize
+        """Optimize in place with :func:`liebridge.gtsam.optimize`; returns its result."""
+        from .optimize import optimize
 
         result = optimize(self.graph, self.values, params, progress=progress)
         self.values = result.values

@@ -17,9 +17,9 @@ import numpy as np
 
 from .._validate import FloatArray
 from ..conventions import ConventionLike, get
-from .convert import convert_covariance
-from .gtsam_build import gtsam_convention
-from .gtsam_glue import from_values
+from ..conventions.convert import convert_covariance
+from .build import gtsam_convention
+from .glue import from_values
 
 __all__ = ["marginals"]
 

@@ -12,7 +12,8 @@ finiteness and turns any exception into one naming the factor and its keys.
 
 from __future__ import annotations
 
-import threading
+import itertools
+import weakref
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -28,19 +29,63 @@ class FactorEvaluationError(RuntimeError):
     """A liebridge factor's residual or Jacobian could not be evaluated."""
 
 
-class _Probe(threading.local):
-    """While ``active``, liebridge callbacks record their batch spec instead of computing.
+# --------------------------------------------------------------------------- the spec registry
+# :func:`liebridge.gtsam.optimize` must recognise liebridge's factors inside a GTSAM graph. Python
+# wrapper identity cannot do it (pybind11 wraps the same C++ factor anew once the user's reference
+# is gone), so each factor built with a ``spec`` gets a registry number, and its callback answers
+# an *identification query*: evaluated on :func:`query_values`, which holds only
+# :data:`QUERY_KEY`, it returns an error vector whose first entry is that number. The registry
+# holds identities weakly; the callback's closure holds its identity, so an entry lives exactly
+# as long as the C++ factor. No flag is flipped anywhere: the query is an ordinary evaluation.
 
-    :func:`liebridge.factors.optimize` uses it to find its own factors inside a GTSAM graph
-    without relying on Python wrapper identity (pybind11 wraps the same C++ factor anew once the
-    user's reference is gone) and without keeping factors alive.
+#: Reserved key of the identification query (the largest 64-bit key).
+QUERY_KEY = 2**64 - 1
+_NUMBERS = itertools.count(1)
+
+
+class _Identity:
+    """A factor's registry number, its spec and the query's answer (held by its callback)."""
+
+    __slots__ = ("__weakref__", "answer", "spec")
+
+    def __init__(self, spec: Any, m: int) -> None:
+        number = next(_NUMBERS) if spec is not None else 0
+        self.spec = spec
+        self.answer = np.zeros(m)
+        self.answer[0] = number
+        if spec is not None:
+            _REGISTRY[number] = self
+
+
+_REGISTRY: weakref.WeakValueDictionary[int, _Identity] = weakref.WeakValueDictionary()
+
+
+def query_values() -> Any:
+    """Build the ``Values`` that make a liebridge callback identify itself (:func:`identify`)."""
+    q = gtsam.Values()
+    q.insert(QUERY_KEY, np.zeros(1))
+    return q
+
+
+def identify(factor: Any, query: Any) -> Any:
+    """Return the batch spec of a liebridge ``CustomFactor``, or None for any other factor.
+
+    Parameters
+    ----------
+    factor : gtsam.NonlinearFactor
+    query : gtsam.Values
+        From :func:`query_values` (built once per graph by the caller).
     """
-
-    active: bool = False
-    spec: Any = None
-
-
-PROBE = _Probe()
+    if not isinstance(factor, gtsam.CustomFactor):
+        return None
+    try:
+        answer = np.asarray(factor.unwhitenedError(query), dtype=np.float64)
+    except Exception:  # a foreign factor reads its own keys and fails: not ours
+        return None
+    if answer.size == 0 or not float(answer[0]).is_integer():
+        return None
+    ident = _REGISTRY.get(int(answer[0]))
+    return None if ident is None else ident.spec
 
 
 def make_custom_factor(
@@ -67,8 +112,8 @@ def make_custom_factor(
     name : str
         Used in error messages.
     spec : object, optional
-        A batch description (see :mod:`liebridge.factors.batch`) that lets
-        :func:`liebridge.factors.optimize` evaluate this factor together with its peers.
+        A batch description (see :mod:`liebridge.gtsam.batch`) that lets
+        :func:`liebridge.gtsam.optimize` evaluate this factor together with its peers.
 
     Returns
     -------
@@ -79,14 +124,11 @@ def make_custom_factor(
     if len(keys) != len(dims):
         raise ValueError(f"{name}: {len(keys)} keys but {len(dims)} dims")
     m = int(noise_model.dim())
+    ident = _Identity(spec, m)  # the closure holds it: the registry entry lives with the factor
 
     def callback(this: Any, values: Any, H: Any) -> FloatArray:
-        if PROBE.active:
-            PROBE.spec = spec
-            if H is not None:
-                for i, d in enumerate(dims):
-                    H[i] = np.zeros((m, d))
-            return np.zeros(m)
+        if H is None and values.exists(QUERY_KEY):  # identification query (see identify)
+            return ident.answer.copy()
         want = H is not None
         try:
             err, jacs = evaluate(values, want)

@@ -265,8 +265,8 @@ def text_quaternion_tol(fields: list[str] | tuple[str, ...]) -> float:
     the most detailed fields, see ``_text_place``) clipped to
     ``[QUATERNION_TOL, TEXT_TOL_MAX]``: full-precision text gets :data:`QUATERNION_TOL`, TUM
     RGB-D ground truth (4 decimals) ``2e-4``, GTSAM's ``writeG2o`` output (6 significant digits)
-    ``2e-6``, and ``"1 1 0 0"`` still fails. Used by :mod:`liebridge.adapters.trajectory_io` and
-    :mod:`liebridge.adapters.g2o`.
+    ``2e-6``, and ``"1 1 0 0"`` still fails. Used by :mod:`liebridge.io.trajectory` and
+    :mod:`liebridge.io.g2o`.
     """
     return float(min(max(QUATERNION_TOL, 2.0 * _text_place(fields)), TEXT_TOL_MAX))
 

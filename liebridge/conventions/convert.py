@@ -24,8 +24,9 @@ import numpy as np
 
 from .. import _validate as v
 from .._validate import FloatArray
-from ..conventions import Convention, ConventionLike, get, group_input
-from ..conventions.convention import pair_map
+from .convention import Convention, group_input
+from .registry import ConventionLike, get
+from .unchecked import tangent_map as unchecked_map
 
 __all__ = [
     "convert_covariance",
@@ -37,17 +38,6 @@ __all__ = [
 ]
 
 _LINEAR_ROTATIONS = {"exp", "half_exp"}
-_BY_NAME: dict[str, Convention] = {}
-
-
-def _get(c: ConventionLike) -> Convention:
-    """:func:`liebridge.conventions.get`, remembering the names already resolved."""
-    if type(c) is str:
-        hit = _BY_NAME.get(c)
-        if hit is None:
-            hit = _BY_NAME[c] = get(c)
-        return hit
-    return get(c)
 
 
 def _chart_family(c: Convention) -> str:
@@ -62,15 +52,10 @@ def is_exactly_linear(src: ConventionLike, dst: ConventionLike) -> bool:
     ``se3`` ↔ ``so3xr3`` or when one side uses ``quat_vec``/``cayley`` and the other does not.
     Exactness holds within the charts' common domain (rotation angle below π).
     """
-    a, b = _get(src), _get(dst)
+    a, b = get(src), get(dst)
     if _chart_family(a) != _chart_family(b):
         return False
     return a.rotation == b.rotation or {a.rotation, b.rotation} <= _LINEAR_ROTATIONS
-
-
-def _map(X: FloatArray, a: Convention, b: Convention) -> FloatArray:
-    """``M(X) = b.from_canonical(X) @ a.to_canonical(X)`` from a table built once per pair."""
-    return pair_map(a, b, X.shape[-1] == 3)(X)
 
 
 def tangent_map(X: Any, src: ConventionLike, dst: ConventionLike) -> FloatArray:
@@ -88,7 +73,7 @@ def tangent_map(X: Any, src: ConventionLike, dst: ConventionLike) -> FloatArray:
     ndarray, shape (..., 6, 6) or (..., 3, 3)
         ``M = ∂/∂d dst.local(X, src.retract(X, d)) |_{d=0}``, closed form.
     """
-    return v.finite_output(_map(group_input(X), _get(src), _get(dst)), "tangent_map")
+    return v.finite_output(unchecked_map(group_input(X), get(src), get(dst)), "tangent_map")
 
 
 def convert_tangent(
@@ -100,14 +85,14 @@ def convert_tangent(
     ``dst``'s chart); ``exact=False`` the first-order ``tangent_map(X, src, dst) @ d``. They agree
     whenever :func:`is_exactly_linear` holds.
     """
-    a, b = _get(src), _get(dst)
+    a, b = get(src), get(dst)
     Xa = group_input(X)
     d = a._increment(d, Xa.shape[-1] == 3)
     v.batch_shape(("d", d.shape[:-1]), ("X", Xa.shape[:-2]))
     if exact:
         out = b._local(Xa, a._retract(Xa, d))
     else:
-        out = np.einsum("...ij,...j->...i", _map(Xa, a, b), d)
+        out = np.einsum("...ij,...j->...i", unchecked_map(Xa, a, b), d)
     return v.finite_output(np.asarray(out, dtype=np.float64), "convert_tangent")
 
 
@@ -145,7 +130,7 @@ def convert_covariance(
     -------
     ndarray, shape (..., n, n)
     """
-    a, b = _get(src), _get(dst)
+    a, b = get(src), get(dst)
     Xa = group_input(X)
     rotation = Xa.shape[-1] == 3
     n = 3 if rotation else 6
@@ -153,7 +138,7 @@ def convert_covariance(
     if cov.shape[:-2] != Xa.shape[:-2]:
         v.batch_shape(("cov", cov.shape[:-2]), ("X", Xa.shape[:-2]))
     if method == "linear":
-        M = pair_map(a, b, rotation)(Xa)
+        M = unchecked_map(Xa, a, b)
         # a batch: numpy multiplies stacks of small matrices fast only when they are contiguous
         Mt = M.T if M.ndim == 2 else np.ascontiguousarray(M.swapaxes(-1, -2))
         return v.finite_output(M @ cov @ Mt, "convert_covariance")
@@ -203,12 +188,12 @@ def convert_information(info: Any, X: Any, src: ConventionLike, dst: ConventionL
     ``M⁻¹ = tangent_map(X, dst, src)`` in closed form.
     Works for singular (rank-deficient) information: nothing is inverted.
     """
-    a, b = _get(src), _get(dst)
+    a, b = get(src), get(dst)
     Xa = group_input(X)
     n = 3 if Xa.shape[-2:] == (3, 3) else 6
     info = v.covariance(info, "info", n)
     v.batch_shape(("info", info.shape[:-2]), ("X", Xa.shape[:-2]))
-    Mi = _map(Xa, b, a)
+    Mi = unchecked_map(Xa, b, a)
     out = np.asarray(np.swapaxes(Mi, -1, -2) @ info @ Mi, dtype=np.float64)
     return v.finite_output(out, "convert_information")
 
@@ -238,7 +223,7 @@ def convert_jacobian(
     -------
     ndarray, shape (..., m, n)
     """
-    a, b = _get(src), _get(dst)
+    a, b = get(src), get(dst)
     Jm = v.as_float_array(J, "J")
     if Jm.ndim < 2:
         raise ValueError(f"J: expected shape (..., m, n), got {Jm.shape}")
@@ -248,14 +233,14 @@ def convert_jacobian(
     if at_input is not None:
         X = group_input(at_input, "at_input")
         v.batch_shape(("J", Jm.shape[:-2]), ("at_input", X.shape[:-2]))
-        Mi = _map(X, b, a)
+        Mi = unchecked_map(X, b, a)
         if Jm.shape[-1] != Mi.shape[-1]:
             raise ValueError(f"J: {Jm.shape[-1]} columns, but the input tangent has {Mi.shape[-1]}")
         Jm = Jm @ Mi
     if at_output is not None:
         Y = group_input(at_output, "at_output")
         v.batch_shape(("J", Jm.shape[:-2]), ("at_output", Y.shape[:-2]))
-        Mo = _map(Y, a, b)
+        Mo = unchecked_map(Y, a, b)
         if Jm.shape[-2] != Mo.shape[-1]:
             raise ValueError(f"J: {Jm.shape[-2]} rows, but the output tangent has {Mo.shape[-1]}")
         Jm = Mo @ Jm

@@ -28,9 +28,9 @@ import numpy as np
 
 from .. import _validate as v
 from .._validate import FloatArray
+from ..gtsam.custom import make_custom_factor
 from ..lie import so3
-from ._imu_inputs import read_bias
-from .custom import make_custom_factor
+from .inputs import read_bias
 from .preintegration import PreintegratedImu
 
 __all__ = ["imu", "imu_residual"]
@@ -208,7 +208,7 @@ def imu(
     Returns
     -------
     gtsam.CustomFactor
-        Usable in GTSAM's optimizers and in ``liebridge.factors.optimize``.
+        Usable in GTSAM's optimizers and in ``liebridge.gtsam.optimize``.
     """
     if not isinstance(preintegrated, PreintegratedImu):
         raise TypeError(

@@ -30,7 +30,7 @@ Conventions
 
 Vectorization
 -------------
-No Python loop runs per sample; the kernel is :mod:`liebridge.factors._imu_kernel` (its docstring
+No Python loop runs per sample; the kernel is :mod:`liebridge.imu.kernel` (its docstring
 derives each step). The covariance and bias Jacobians are closed-form sums over samples instead of
 a sequential recursion, so only the rotation prefix products are sequential. In numpy, those are
 a banded triangular solve in LAPACK, and the velocity and position terms are blocked suffix sums.
@@ -72,8 +72,8 @@ import numpy as np
 from .. import _validate as v
 from .._validate import FloatArray
 from ..lie import so3
-from ._imu_inputs import read_bias, read_params, read_samples
-from ._imu_kernel import Delta, compiled_applies, compose, integrate_blocks
+from .inputs import read_bias, read_params, read_samples
+from .kernel import Delta, compiled_applies, compose, integrate_blocks
 
 __all__ = ["ImuDelta", "ImuPreintegrator", "PreintegratedImu", "imu_kernel", "preintegrate"]
 
@@ -314,7 +314,7 @@ def preintegrate(acc: Any, gyro: Any, dt: Any, *, bias: Any, params: Any) -> Pre
 def imu_kernel(params: Any) -> Literal["compiled", "numpy"]:
     """Return which kernel :func:`preintegrate` uses with ``params``: ``"compiled"`` or ``"numpy"``.
 
-    The compiled kernel (``liebridge/factors/_imu_ext.c``, built at install time where a C compiler
+    The compiled kernel (``liebridge/imu/_imu_ext.c``, built at install time where a C compiler
     is found) covers isotropic noise densities without a lever arm in ``body_P_sensor``; anything
     else, or an install without the compiled kernel, uses numpy. Both give the same numbers (to
     rounding; tested against each other and against GTSAM).

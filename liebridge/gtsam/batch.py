@@ -2,8 +2,8 @@
 
 A spec holds what a factor needs (keys, measurement, convention, square-root information);
 :func:`linearize_batch` evaluates every spec of a group with the same batched formulas as the
-single-factor callbacks in :mod:`liebridge.factors.pose_factors` (same ``Convention._local`` and
-``_local_jacobian``), whitens them with ``R`` (``RᵀR = Σ⁻¹``) and returns GTSAM
+single-factor callbacks in :mod:`liebridge.gtsam.pose_factors` (both call
+:mod:`liebridge.gtsam.factor_math`), whitens them with ``R`` (``RᵀR = Σ⁻¹``) and returns GTSAM
 ``JacobianFactor``s with unit noise — the same linear system GTSAM's ``linearize`` would build.
 """
 
@@ -18,7 +18,7 @@ import numpy.typing as npt
 
 from .._validate import FloatArray
 from ..conventions import Convention
-from ..lie import se3
+from . import factor_math
 
 
 @dataclass(frozen=True)
@@ -68,9 +68,9 @@ class PoseFactorGroup:
         self.R = np.stack([s.sqrt_info for s in specs])
 
     def _residuals(self, keys: IntArray, T: FloatArray) -> tuple[FloatArray, FloatArray]:
-        Ti = T[_rows(keys, self.i)]
-        H = se3._inverse(Ti) @ T[_rows(keys, self.j)] if self.between else Ti
-        return H, self.conv._local(self.Z, H)
+        Tj = T[_rows(keys, self.j)] if self.between else None
+        H = factor_math.relative(T[_rows(keys, self.i)], Tj)
+        return H, factor_math.residual(self.conv, self.Z, H)
 
     def error(self, keys: IntArray, T: FloatArray) -> float:
         """``½ Σ ‖R e‖²`` over the group."""
@@ -81,16 +81,16 @@ class PoseFactorGroup:
     def linearize(self, keys: IntArray, T: FloatArray) -> list[Any]:
         """Whitened ``JacobianFactor``s (unit noise), one per factor, in GTSAM's tangents."""
         H, e = self._residuals(keys, T)
-        JH = self.conv._local_jacobian(self.Z, H) @ self.conv._from_canonical(H)
+        J_e_i, J_e_j = factor_math.jacobians(self.conv, self.Z, H, self.between)
         b = -np.einsum("kij,kj->ki", self.R, e)
-        Aj = self.R @ JH
+        Ai = self.R @ J_e_i
         unit = gtsam.noiseModel.Unit.Create(6)
-        if not self.between:
+        if J_e_j is None:
             return [
                 gtsam.JacobianFactor(int(k), A, bb, unit)
-                for k, A, bb in zip(self.i, Aj, b, strict=True)
+                for k, A, bb in zip(self.i, Ai, b, strict=True)
             ]
-        Ai = -Aj @ se3._adjoint(se3._inverse(H))
+        Aj = self.R @ J_e_j
         return [
             gtsam.JacobianFactor(int(ki), A1, int(kj), A2, bb, unit)
             for ki, kj, A1, A2, bb in zip(self.i, self.j, Ai, Aj, b, strict=True)

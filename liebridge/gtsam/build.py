@@ -4,7 +4,7 @@ GTSAM's ``Pose3`` chart depends on build flags: the PyPI wheel retracts with the
 exponential (preset ``gtsam``); builds with ``GTSAM_POSE3_EXPMAP=OFF`` (the default before
 mid-2020) use the decoupled Cayley chart (preset ``gtsam_cayley``). :func:`gtsam_convention`
 runs :func:`liebridge.detect_convention` on ``gtsam.Pose3.retract`` at first use and caches the
-answer; the factor glue, marginals and :class:`~liebridge.adapters.graph.ConventionGraph` use it as
+answer; the factor glue, marginals and :class:`~liebridge.gtsam.ConventionGraph` use it as
 "GTSAM's tangent". Both charts agree to first order, so Jacobians are unaffected; what changes is
 whether a side/order conversion is *exact* and what a marginal covariance means at second order.
 """

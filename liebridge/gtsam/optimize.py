@@ -14,13 +14,13 @@ module runs GTSAM's Levenberg–Marquardt algorithm around those two calls:
   total error tolerances) or ``maxIterations`` — GTSAM's ``LevenbergMarquardtOptimizer::tryLambda``
   (``gtsam/nonlinear/LevenbergMarquardtOptimizer.cpp``) with the fixed lambda factor.
 
-On top of that, liebridge's own between/prior factors are recognised (a thread-local probe: during
-setup their callbacks report a description and return at once) and evaluated **all at once**, one
-batched numpy pass per (kind, convention), then handed to GTSAM as whitened ``JacobianFactor``s;
-per-factor Python callbacks are the slow part otherwise (≈0.3 ms error, ≈1.5 ms with
-Jacobians, against ≈4 µs of GTSAM's own per-callback overhead). Other factors — native GTSAM
-ones and foreign ``CustomFactor``s (called once during setup) — are linearized by GTSAM.
-All parameters come from a ``gtsam.LevenbergMarquardtParams``.
+On top of that, liebridge's own between/prior factors are recognised (their callbacks answer an
+identification query with a registry number: :func:`liebridge.gtsam.custom.identify`) and
+evaluated **all at once**, one batched numpy pass per (kind, convention), then handed to GTSAM
+as whitened ``JacobianFactor``s; per-factor Python callbacks are the slow part otherwise
+(≈0.3 ms error, ≈1.5 ms with Jacobians, against ≈4 µs of GTSAM's own per-callback overhead).
+Other factors — native GTSAM ones and foreign ``CustomFactor``s (called once during setup) —
+are linearized by GTSAM. All parameters come from a ``gtsam.LevenbergMarquardtParams``.
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ import gtsam
 import numpy as np
 
 from .batch import PoseFactorGroup, PoseFactorSpec, group_specs, poses_of
-from .custom import PROBE
+from .custom import identify, query_values
 
 __all__ = ["OptimizeResult", "optimize"]
 
@@ -87,25 +87,16 @@ class _SplitGraph:
             self.rest = graph
             self.groups: list[PoseFactorGroup] = []
             return
-        PROBE.active = True
-        try:
-            for k in range(graph.size()):
-                f = graph.at(k)
-                if f is None:
-                    continue
-                if isinstance(f, gtsam.CustomFactor):
-                    PROBE.spec = None
-                    try:
-                        f.error(values)
-                    except Exception:  # a foreign factor: GTSAM will report it properly
-                        PROBE.spec = None
-                    if isinstance(PROBE.spec, PoseFactorSpec):
-                        specs.append(PROBE.spec)
-                        continue
-                self.rest.add(f)
-        finally:
-            PROBE.active = False
-            PROBE.spec = None
+        query = query_values()
+        for k in range(graph.size()):
+            f = graph.at(k)
+            if f is None:
+                continue
+            spec = identify(f, query)
+            if isinstance(spec, PoseFactorSpec):
+                specs.append(spec)
+                continue
+            self.rest.add(f)
         self.groups = group_specs(specs)
         self.n_batched = len(specs)
 

@@ -25,7 +25,7 @@ FloatArray = npt.NDArray[np.float64]
 SMALL_ANGLE = 0.5
 
 # Maclaurin coefficients in powers of θ² (generated; see the module docstring).
-_SINC = (
+SINC_SERIES = (
     1.0,
     -0.16666666666666666,
     0.008333333333333333,
@@ -36,7 +36,7 @@ _SINC = (
     -7.647163731819816e-13,
     2.8114572543455206e-15,
 )
-_ONE_MINUS_COS_OVER_T2 = (
+ONE_MINUS_COS_OVER_T2_SERIES = (
     0.5,
     -0.041666666666666664,
     0.001388888888888889,
@@ -47,7 +47,7 @@ _ONE_MINUS_COS_OVER_T2 = (
     -4.779477332387385e-14,
     1.5619206968586225e-16,
 )
-_T_MINUS_SIN_OVER_T3 = (
+T_MINUS_SIN_OVER_T3_SERIES = (
     0.16666666666666666,
     -0.008333333333333333,
     0.0001984126984126984,
@@ -58,7 +58,7 @@ _T_MINUS_SIN_OVER_T3 = (
     -2.8114572543455206e-15,
     8.22063524662433e-18,
 )
-_Q_COEFF2 = (
+Q_COEFF2_SERIES = (
     0.041666666666666664,
     -0.001388888888888889,
     2.48015873015873e-05,
@@ -69,7 +69,7 @@ _Q_COEFF2 = (
     -1.5619206968586225e-16,
     4.110317623312165e-19,
 )
-_Q_COEFF3 = (
+Q_COEFF3_SERIES = (
     0.008333333333333333,
     -0.0003968253968253968,
     8.267195767195768e-06,
@@ -80,7 +80,7 @@ _Q_COEFF3 = (
     -6.576508197299464e-17,
     1.7615646957052136e-19,
 )
-_JINV_COEFF = (
+JINV_COEFF_SERIES = (
     0.08333333333333333,
     0.001388888888888889,
     3.306878306878307e-05,
@@ -120,30 +120,34 @@ def _where_small(
 
 def sinc(theta: FloatArray) -> FloatArray:
     """``A(θ) = sin θ / θ``."""
-    return _where_small(theta, _SINC, lambda s: np.sin(s) / s)
+    return _where_small(theta, SINC_SERIES, lambda s: np.sin(s) / s)
 
 
 def one_minus_cos_over_t2(theta: FloatArray) -> FloatArray:
     """``B(θ) = (1 − cos θ) / θ²``."""
-    return _where_small(theta, _ONE_MINUS_COS_OVER_T2, lambda s: 2.0 * (np.sin(0.5 * s) / s) ** 2)
+    return _where_small(
+        theta, ONE_MINUS_COS_OVER_T2_SERIES, lambda s: 2.0 * (np.sin(0.5 * s) / s) ** 2
+    )
 
 
 def t_minus_sin_over_t3(theta: FloatArray) -> FloatArray:
     """``C(θ) = (θ − sin θ) / θ³``."""
-    return _where_small(theta, _T_MINUS_SIN_OVER_T3, lambda s: (s - np.sin(s)) / s**3)
+    return _where_small(theta, T_MINUS_SIN_OVER_T3_SERIES, lambda s: (s - np.sin(s)) / s**3)
 
 
 def jinv_coeff(theta: FloatArray) -> FloatArray:
     """``D(θ) = 1/θ² − (1 + cos θ)/(2θ sin θ) = 1/θ² − cot(θ/2)/(2θ)``; finite at θ = π (1/π²)."""
     return _where_small(
-        theta, _JINV_COEFF, lambda s: 1.0 / (s * s) - np.cos(0.5 * s) / (2.0 * s * np.sin(0.5 * s))
+        theta,
+        JINV_COEFF_SERIES,
+        lambda s: 1.0 / (s * s) - np.cos(0.5 * s) / (2.0 * s * np.sin(0.5 * s)),
     )
 
 
 def q_coeff2(theta: FloatArray) -> FloatArray:
     """``(θ² + 2 cos θ − 2) / (2θ⁴)`` of Barfoot's SE(3) Q-matrix."""
     return _where_small(
-        theta, _Q_COEFF2, lambda s: (s * s - 4.0 * np.sin(0.5 * s) ** 2) / (2.0 * s**4)
+        theta, Q_COEFF2_SERIES, lambda s: (s * s - 4.0 * np.sin(0.5 * s) ** 2) / (2.0 * s**4)
     )
 
 
@@ -151,6 +155,6 @@ def q_coeff3(theta: FloatArray) -> FloatArray:
     """``(2θ − 3 sin θ + θ cos θ) / (2θ⁵)`` of Barfoot's SE(3) Q-matrix."""
     return _where_small(
         theta,
-        _Q_COEFF3,
+        Q_COEFF3_SERIES,
         lambda s: (2.0 * s - 3.0 * np.sin(s) + s * np.cos(s)) / (2.0 * s**5),
     )

@@ -87,10 +87,10 @@ import numpy.typing as npt
 
 from .. import _validate as v
 from .._validate import FloatArray
+from ..conventions.convert import tangent_map
 from ..lie import quaternion as quat
 from . import poses as _layouts
-from .convert import tangent_map
-from .trajectory_io import _is_float, text_lines
+from .trajectory import _is_float, text_lines
 
 __all__ = ["G2OGraph", "read", "write"]
 
@@ -322,16 +322,17 @@ class G2OGraph:
         values : gtsam.Values
             :attr:`poses` under their vertex ids.
         """
-        import gtsam
-
-        from . import gtsam_glue
+        import gtsam  # the library itself: io stays below liebridge's gtsam layer
 
         graph = gtsam.NonlinearFactorGraph()
-        Z = gtsam_glue.to_pose3(self.measured.reshape(-1, 4, 4))
-        for (i, j), Zk, info in zip(self.edges.tolist(), Z, self.information, strict=True):
+        for (i, j), Zk, info in zip(
+            self.edges.tolist(), self.measured.reshape(-1, 4, 4), self.information, strict=True
+        ):
             noise = gtsam.noiseModel.Gaussian.Information(info)
-            graph.add(gtsam.BetweenFactorPose3(i, j, Zk, noise))
-        values = gtsam_glue.to_values(self.poses.reshape(-1, 4, 4), self.vertex_ids.tolist())
+            graph.add(gtsam.BetweenFactorPose3(i, j, gtsam.Pose3(Zk), noise))
+        values = gtsam.Values()
+        for k, T in zip(self.vertex_ids.tolist(), self.poses.reshape(-1, 4, 4), strict=True):
+            values.insert(k, gtsam.Pose3(T))
         return graph, values
 
 

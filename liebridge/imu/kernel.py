@@ -1,6 +1,6 @@
 """The vectorized kernel of IMU preintegration: one block of samples, integrated from identity.
 
-Conventions are those of :mod:`liebridge.factors.preintegration` (its module docstring states
+Conventions are those of :mod:`liebridge.imu.preintegration` (its module docstring states
 them): frame ``i`` is the body frame at the first sample, ``ΔR_k`` maps frame ``k`` to frame
 ``i``, ``Δp``/``Δv`` are in frame ``i`` without gravity, the covariance is in GTSAM's order
 (rot, pos, vel) in the chart of ``NavState::retract``, and bias vectors are (acc, gyro).
@@ -9,7 +9,7 @@ No Python loop runs per sample. Each step, and where its formula comes from:
 
 * **Rotation increments.** ``Exp(θ_k)``, ``θ_k = ω_k dt_k``, as unit quaternions. The scalar
   coefficients (``sin θ/θ``, ``(1 − cos θ)/θ²``, ``(θ − sin θ)/θ³``, ``cos(θ/2)``,
-  ``sin(θ/2)/(θ/2)``) come from their exact Maclaurin series (:mod:`liebridge.lie._series`)
+  ``sin(θ/2)/(θ/2)``) come from their exact Maclaurin series (:mod:`liebridge.lie.series`)
   below ``SMALL_ANGLE``. All five are evaluated in one matrix product with the powers of ``θ²``,
   truncated where the first omitted term is below 2⁻⁵⁶ of the leading one at the block's largest
   angle. The closed forms are used on the few samples above the threshold.
@@ -73,8 +73,8 @@ from typing import Any
 import numpy as np
 
 from .._validate import FloatArray
-from ..lie import _series
-from ._imu_inputs import Params
+from ..lie import series
+from .inputs import Params
 
 __all__ = [
     "BLOCK",
@@ -199,9 +199,9 @@ def _half_angle_series(cos: bool) -> tuple[float, ...]:
 #: rows: sin θ/θ, (1 − cos θ)/θ², (θ − sin θ)/θ³, cos(θ/2), sin(θ/2)/(θ/2); columns: powers of θ²
 _COEF = np.array(
     [
-        _series._SINC,
-        _series._ONE_MINUS_COS_OVER_T2,
-        _series._T_MINUS_SIN_OVER_T3,
+        series.SINC_SERIES,
+        series.ONE_MINUS_COS_OVER_T2_SERIES,
+        series.T_MINUS_SIN_OVER_T3_SERIES,
         _half_angle_series(cos=True),
         _half_angle_series(cos=False),
     ]
@@ -222,7 +222,7 @@ def _n_terms(t2max: float) -> int:
 def _coefficients(th2: FloatArray, ws: Workspace) -> FloatArray:
     """``(5, n)``: ``sin θ/θ, (1 − cos θ)/θ², (θ − sin θ)/θ³, cos(θ/2), sin(θ/2)/(θ/2)``."""
     n = th2.shape[0]
-    small2 = _series.SMALL_ANGLE**2
+    small2 = series.SMALL_ANGLE**2
     big = th2 >= small2
     any_big = bool(big.any())
     t2 = np.where(big, 0.0, th2) if any_big else th2
@@ -237,11 +237,11 @@ def _coefficients(th2: FloatArray, ws: Workspace) -> FloatArray:
     if any_big:
         theta = np.sqrt(th2[big])
         half = 0.5 * theta
-        out[0, big] = _series.sinc(theta)
-        out[1, big] = _series.one_minus_cos_over_t2(theta)
-        out[2, big] = _series.t_minus_sin_over_t3(theta)
+        out[0, big] = series.sinc(theta)
+        out[1, big] = series.one_minus_cos_over_t2(theta)
+        out[2, big] = series.t_minus_sin_over_t3(theta)
         out[3, big] = np.cos(half)
-        out[4, big] = _series.sinc(half)
+        out[4, big] = series.sinc(half)
     return out
 
 
@@ -579,7 +579,7 @@ try:
 except ImportError:  # pragma: no cover - the build skips it where no C compiler is found
     _imu_ext = None
 
-#: Whether the compiled kernel was built (``liebridge/factors/_imu_ext.c``). Without it the same
+#: Whether the compiled kernel was built (``liebridge/imu/_imu_ext.c``). Without it the same
 #: numbers come from numpy, about 2× slower (``benchmarks/bench_imu.py`` measures both).
 COMPILED = _imu_ext is not None
 
@@ -617,7 +617,7 @@ def _integrate_compiled(
         _I3 if bRs is None else np.ascontiguousarray(bRs),
         _COEF,
         _COEF.shape[1],
-        _series.SMALL_ANGLE**2,
+        series.SMALL_ANGLE**2,
         ws.get("c_scratch", (n, _C_N_SCRATCH)),
         out,
     )

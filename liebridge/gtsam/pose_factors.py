@@ -28,27 +28,24 @@ import numpy as np
 
 from .. import _validate as v
 from .._validate import FloatArray
-from ..adapters.convert import convert_covariance, is_exactly_linear
-from ..adapters.gtsam_build import gtsam_convention
 from ..conventions import Convention, ConventionLike, get
-from ..lie import se3
+from ..conventions.convert import convert_covariance, is_exactly_linear
+from . import factor_math
 from .batch import PoseFactorSpec
+from .build import gtsam_convention
 from .custom import make_custom_factor
 
 __all__ = ["between", "prior"]
 
-_WARNED: set[str] = set()
-
 
 def _warn_first_order(conv: Convention) -> None:
-    if conv.name not in _WARNED:
-        _WARNED.add(conv.name)
-        warnings.warn(
-            f"liebridge: a native GTSAM factor for convention {conv.name!r} ({conv.chart}, "
-            f"{conv.rotation}) uses a first-order covariance conversion; the objective differs "
-            f"from the convention's own at second order. Use native=False for its exact residual.",
-            stacklevel=3,
-        )
+    # the warnings module shows a given message once per call site (its "default" filter)
+    warnings.warn(
+        f"liebridge: a native GTSAM factor for convention {conv.name!r} ({conv.chart}, "
+        f"{conv.rotation}) uses a first-order covariance conversion; the objective differs "
+        f"from the convention's own at second order. Use native=False for its exact residual.",
+        stacklevel=3,
+    )
 
 
 def _native_noise(conv: Convention, Z: FloatArray, cov: FloatArray) -> Any:
@@ -106,13 +103,13 @@ def between(
     Zc = Z.copy()
 
     def evaluate(values: Any, want: bool) -> tuple[FloatArray, list[FloatArray] | None]:
-        Ti, Tj = _pose_at(values, i), _pose_at(values, j)
-        H = se3._inverse(Ti) @ Tj
-        e = conv._local(Zc, H)
+        H = factor_math.relative(_pose_at(values, i), _pose_at(values, j))
+        e = factor_math.residual(conv, Zc, H)
         if not want:
             return e, None
-        JH = conv._local_jacobian(Zc, H) @ conv._from_canonical(H)
-        return e, [-JH @ se3._adjoint(se3._inverse(H)), JH]
+        J_e_i, J_e_j = factor_math.jacobians(conv, Zc, H, between=True)
+        assert J_e_j is not None
+        return e, [J_e_i, J_e_j]
 
     noise = _noise(cov)
     spec = PoseFactorSpec(conv, int(i), int(j), Zc, np.asarray(noise.R(), dtype=np.float64))
@@ -148,11 +145,11 @@ def prior(
     Zc = Z.copy()
 
     def evaluate(values: Any, want: bool) -> tuple[FloatArray, list[FloatArray] | None]:
-        T = _pose_at(values, i)
-        e = conv._local(Zc, T)
+        H = factor_math.relative(_pose_at(values, i), None)
+        e = factor_math.residual(conv, Zc, H)
         if not want:
             return e, None
-        return e, [conv._local_jacobian(Zc, T) @ conv._from_canonical(T)]
+        return e, [factor_math.jacobians(conv, Zc, H, between=False)[0]]
 
     noise = _noise(cov)
     spec = PoseFactorSpec(conv, int(i), None, Zc, np.asarray(noise.R(), dtype=np.float64))

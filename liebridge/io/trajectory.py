@@ -2,7 +2,7 @@
 
 TUM (TUM RGB-D benchmark, Sturm et al. 2012; also the format of ``evo``)
     One pose per line, ``timestamp tx ty tz qx qy qz qw``: the translation and the Hamilton
-    quaternion, scalar **last** (layout ``"xyz_qxyzw"`` in :mod:`liebridge.adapters.poses`), of
+    quaternion, scalar **last** (layout ``"xyz_qxyzw"`` in :mod:`liebridge.io.poses`), of
     ``T_world_body``. Lines starting with ``#`` (and anything after a ``#``) are comments; commas
     and tabs separate like spaces (as the benchmark's ``associate.py`` accepts).
 KITTI (KITTI odometry ``poses/XX.txt``)
@@ -12,8 +12,8 @@ KITTI (KITTI odometry ``poses/XX.txt``)
 Reading validates every line: a wrong number of fields, a field that is not a number, NaN/Inf,
 a quaternion whose norm is off, or a rotation block that is not orthonormal raises ``ValueError``
 naming the file and the 1-based line number. The tolerances follow the precision the numbers were
-printed with (:func:`liebridge.adapters._layouts.text_quaternion_tol`,
-:func:`~liebridge.adapters._layouts.text_rotation_tol`): a 4-decimal TUM ground truth loads, a
+printed with (:func:`liebridge.io.poses.text_quaternion_tol`,
+:func:`~liebridge.io.poses.text_rotation_tol`): a 4-decimal TUM ground truth loads, a
 ``repr``-precision file is held to ``1e-6``. Quaternions are normalised; KITTI rotation blocks are
 returned exactly as printed (project with :func:`liebridge.lie.so3.project` if you need them
 orthonormal to machine precision).
@@ -147,7 +147,7 @@ def write_tum(path: PathLike, timestamps: Any, poses: Any) -> None:
     timestamps : array_like, shape (N,)
     poses : array_like, shape (N, 4, 4)
         ``T_world_body``; rotation blocks must be orthonormal within
-        :data:`liebridge.adapters.poses.ROTATION_TOL`.
+        :data:`liebridge.io.poses.ROTATION_TOL`.
     """
     t = v.as_float_array(timestamps, "timestamps")
     if t.ndim != 1:
@@ -211,7 +211,7 @@ def write_kitti(path: PathLike, poses: Any) -> None:
     ----------
     path : str or os.PathLike
     poses : array_like, shape (N, 4, 4)
-        Rotation blocks must be orthonormal within :data:`liebridge.adapters.poses.ROTATION_TOL`.
+        Rotation blocks must be orthonormal within :data:`liebridge.io.poses.ROTATION_TOL`.
     """
     T = v.pose(poses, "poses")
     if T.ndim != 3:

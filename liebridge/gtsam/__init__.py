@@ -1,0 +1,31 @@
+"""GTSAM glue: ``Values`` ↔ arrays, marginals in any convention, factors, the optimizer.
+
+Layer above :mod:`liebridge.conventions`, :mod:`liebridge.check` and :mod:`liebridge.io`; below
+:mod:`liebridge.imu` and the command line. ``glue`` moves poses between numpy and ``gtsam.Values``;
+``build`` measures which preset the installed GTSAM build implements; ``marginals`` converts
+``gtsam.Marginals`` to any convention; ``pose_factors`` builds between/prior factors in any
+convention, whose residual maths lives once in ``factor_math``; ``optimize`` runs
+Levenberg–Marquardt from Python and evaluates liebridge's factors batched; ``graph`` is
+:class:`ConventionGraph`, a factor graph whose measurements carry their convention.
+"""
+
+from .build import gtsam_convention
+from .glue import from_pose3, from_values, to_pose3, to_values
+from .graph import ConventionGraph
+from .marginals import marginals
+from .optimize import OptimizeResult, optimize
+from .pose_factors import between, prior
+
+__all__ = [
+    "ConventionGraph",
+    "OptimizeResult",
+    "between",
+    "from_pose3",
+    "from_values",
+    "gtsam_convention",
+    "marginals",
+    "optimize",
+    "prior",
+    "to_pose3",
+    "to_values",
+]

@@ -1,0 +1,25 @@
+"""IMU preintegration (Forster et al., GTSAM's manifold variant) and the IMU factor.
+
+``inputs`` validates parameters, bias and samples; ``kernel`` is the vectorized maths (numpy, with
+the optional compiled ``_imu_ext`` for the per-sample sums); ``preintegration`` is the public API;
+``factor`` is GTSAM's ``ImuFactor`` residual as a custom factor with analytic Jacobians.
+"""
+
+from .factor import imu, imu_residual
+from .preintegration import (
+    ImuDelta,
+    ImuPreintegrator,
+    PreintegratedImu,
+    imu_kernel,
+    preintegrate,
+)
+
+__all__ = [
+    "ImuDelta",
+    "ImuPreintegrator",
+    "PreintegratedImu",
+    "imu",
+    "imu_kernel",
+    "imu_residual",
+    "preintegrate",
+]
