@@ -208,7 +208,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     for conv in TARGETS:
         converted = lb.marginals(graph, values, [key], conv, marginals_object=marg)[0]
-        mc = lb.check.monte_carlo_covariance(X, cov_g, "gtsam", conv, n=args.samples, rng=rng)
+        mc = lb.check.monte_carlo_covariance(cov_g, X, "gtsam", conv, n=args.samples, rng=rng)
         cl = claims(cov_g, converted, conv)
         gaps = {name: whitened_gap(c, mc) for name, c in cl.items()}
         results.append((conv, cl, gaps))

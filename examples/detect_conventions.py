@@ -7,9 +7,10 @@ build flag can change the answer (GTSAM's ``GTSAM_POSE3_EXPMAP``). Measure inste
 Conventions. ``liebridge.detect_convention(retract)`` calls ``retract(X, d)`` at a generic pose
 with finite increments and compares it with every convention of the model (side × order ×
 chart × rotation coordinates), so even conventions that agree to first order are told apart.
-The probes of ``liebridge detect`` (``liebridge.cli.detect.LIBRARIES``) wrap each library's own
-operation — GTSAM, Pinocchio, pytransform3d, scipy, symforce, Modern Robotics, spatialmath —
-whichever are installed; the quaternion storage order is read back from a known rotation.
+The probes of ``liebridge detect`` (``liebridge.conventions.probes.LIBRARIES``) wrap each
+library's own operation — GTSAM, Pinocchio, pytransform3d, scipy, symforce, Modern Robotics,
+spatialmath — whichever are installed; the quaternion storage order is read back from a known
+rotation.
 
 What to look at. Each library's measured fields beside its preset (all should agree), then two
 hand-written retractions: a ROS-style one (recognized as preset ``ros``) and a subtly wrong
@@ -27,7 +28,13 @@ import sys
 import numpy as np
 
 import liebridge as lb
-from liebridge.cli.detect import LIBRARIES, CLIError, format_result, import_library, run_probe
+from liebridge.conventions.probes import (
+    LIBRARIES,
+    LibraryError,
+    format_result,
+    import_library,
+    run_probe,
+)
 from liebridge.lie import so3
 
 
@@ -66,7 +73,7 @@ def main(argv: list[str] | None = None) -> int:
         lib = LIBRARIES[name]
         try:
             module, version = import_library(lib)
-        except CLIError as exc:  # not installed
+        except LibraryError as exc:  # not installed
             print(f"{name}: skipped ({exc})\n")
             continue
         for probe in lib.probes:

@@ -219,12 +219,12 @@ def test_bad_input_messages(call, match):
 def test_check_monte_carlo_covariance_is_a_reference_for_conversions():
     X = pose(21)
     cov = random_cov(22, scale=1e-4)
-    emp = lb.check.monte_carlo_covariance(X, cov, "gtsam", "ros", n=40000)
+    emp = lb.check.monte_carlo_covariance(cov, X, "gtsam", "ros", n=40000)
     lin = lb.convert_covariance(cov, X, "gtsam", "ros")
     Li = np.linalg.inv(np.linalg.cholesky(lin))
     assert np.abs(Li @ emp @ Li.T - np.eye(6)).max() < 0.05  # 40k samples: ~1.5 % per entry
     with pytest.raises(ValueError, match="one pose"):
-        lb.check.monte_carlo_covariance(np.stack([X, X]), cov, "gtsam", "ros")
+        lb.check.monte_carlo_covariance(cov, np.stack([X, X]), "gtsam", "ros")
 
 
 def test_numerical_jacobian_convention_shorthand():
@@ -241,3 +241,35 @@ def test_numerical_jacobian_convention_shorthand():
         numerical_jacobian(f, X, retract=C.GTSAM.retract, out_local=C.BARFOOT.local),
         atol=1e-7,
     )
+
+
+@pytest.mark.parametrize("n", [3, 6, 9])
+def test_cubature_rule_reproduces_gaussian_moments_to_degree_five(n):
+    """The unscented rule's own moments: a wrong weight (e.g. the centre's) fails here directly."""
+    from liebridge.conventions.convert import cubature_rule_5
+
+    x, w = cubature_rule_5(n)
+    assert x.shape == (2 * n * n + 1, n) and w.shape == (2 * n * n + 1,)
+    assert np.sum(w) == pytest.approx(1.0, abs=1e-14)
+    np.testing.assert_allclose(np.einsum("k,ki->i", w, x), 0.0, atol=1e-14)
+    np.testing.assert_allclose(np.einsum("k,ki,kj->ij", w, x, x), np.eye(n), atol=1e-13)
+    # E[x_i x_j x_k] = 0 and the fifth moments vanish by symmetry; the fourth are Isserlis':
+    # E[x_i⁴] = 3, E[x_i² x_j²] = 1 (i ≠ j), others 0
+    m3 = np.einsum("k,ki,kj,kl->ijl", w, x, x, x)
+    np.testing.assert_allclose(m3, 0.0, atol=1e-13)
+    m4 = np.einsum("k,ki,kj,kl,km->ijlm", w, x, x, x, x)
+    eye = np.eye(n)
+    isserlis = (
+        np.einsum("ij,lm->ijlm", eye, eye)
+        + np.einsum("il,jm->ijlm", eye, eye)
+        + np.einsum("im,jl->ijlm", eye, eye)
+    )
+    np.testing.assert_allclose(m4, isserlis, atol=1e-12)
+    m5 = np.einsum("k,ki,kj,kl->ijl", w, x**3, x, x)
+    np.testing.assert_allclose(m5, 0.0, atol=1e-12)
+
+
+def test_monte_carlo_covariance_takes_cov_first_and_names_the_old_order():
+    X, cov = pose(1), random_cov(2)
+    with pytest.raises(TypeError, match=r"\(cov, X, src, dst\)"):
+        lb.check.monte_carlo_covariance(X, cov, "gtsam", "ros")

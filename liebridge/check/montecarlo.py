@@ -12,8 +12,8 @@ from ..conventions import ConventionLike, get, group_input, unchecked
 
 
 def monte_carlo_covariance(
-    X: Any,
     cov: Any,
+    X: Any,
     src: ConventionLike,
     dst: ConventionLike,
     *,
@@ -26,12 +26,16 @@ def monte_carlo_covariance(
     ``liebridge.convert_covariance(cov, X, src, dst)`` (first order) or ``method="unscented"``.
     The sampling error of each entry is about ``√(2/n)`` relative.
 
+    The arguments are in the order of every covariance function of the package,
+    ``(cov, X, src, dst)`` (as :func:`liebridge.convert_covariance`); before 0.2 this function
+    took ``(X, cov, ...)``, and a pose given first is reported as that mistake.
+
     Parameters
     ----------
-    X : array_like, shape (4, 4) or (3, 3)
-        One pose (or rotation).
     cov : array_like, shape (6, 6) or (3, 3)
         Covariance in ``src``'s tangent.
+    X : array_like, shape (4, 4) or (3, 3)
+        One pose (or rotation).
     src, dst : Convention or str
     n : int
         Number of samples.
@@ -44,6 +48,11 @@ def monte_carlo_covariance(
         Covariance about the sample mean.
     """
     a, b = get(src), get(dst)
+    if np.shape(cov) == (4, 4) and np.shape(X) == (6, 6):
+        raise TypeError(
+            "monte_carlo_covariance: the arguments are (cov, X, src, dst); got a pose as cov and "
+            "a 6×6 matrix as X (the order before 0.2)"
+        )
     Xa = group_input(X)
     if Xa.ndim != 2:
         raise ValueError(f"X: expected one pose or rotation, got shape {Xa.shape}")

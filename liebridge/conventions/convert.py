@@ -132,8 +132,8 @@ def convert_covariance(
     """
     a, b = get(src), get(dst)
     Xa = group_input(X)
-    rotation = Xa.shape[-1] == 3
-    n = 3 if rotation else 6
+    so3 = Xa.shape[-1] == 3
+    n = 3 if so3 else 6
     cov = v.covariance(cov, "cov", n)
     if cov.shape[:-2] != Xa.shape[:-2]:
         v.batch_shape(("cov", cov.shape[:-2]), ("X", Xa.shape[:-2]))
@@ -144,10 +144,10 @@ def convert_covariance(
         return v.finite_output(M @ cov @ Mt, "convert_covariance")
     if method != "unscented":
         raise ValueError(f"method: expected 'linear' or 'unscented', got {method!r}")
-    pts, w = _sigma5(n)
+    pts, w = cubature_rule_5(n)
     S = _sqrt_psd(cov)  # (..., n, n), S Sᵀ = Σ
     deltas = np.einsum("...ij,kj->...ki", S, pts)  # (..., K, n)
-    a._increment(deltas, rotation, "cov (its sigma points)")  # increments the kernel can evaluate
+    a._increment(deltas, so3, "cov (its sigma points)")  # increments the kernel can evaluate
     Xb = Xa[..., None, :, :]
     y = b._local(Xb, a._retract(Xb, deltas))
     mean = np.einsum("k,...ki->...i", w, y)
@@ -157,8 +157,12 @@ def convert_covariance(
     return v.finite_output(out, "convert_covariance")
 
 
-def _sigma5(n: int) -> tuple[FloatArray, FloatArray]:
+def cubature_rule_5(n: int) -> tuple[FloatArray, FloatArray]:
     """Fifth-degree Gaussian cubature for ``N(0, I_n)``: ``2n² + 1`` points and weights.
+
+    The sigma points of ``method="unscented"``: ``Σ_k w_k f(x_k) = E[f(x)]`` for ``x ~ N(0, I_n)``
+    and every polynomial ``f`` of degree ≤ 5. Returns ``(points (2n²+1, n), weights (2n²+1,))``;
+    the weights sum to 1 (one is negative for ``n > 4``).
 
     Stroud's rule (Stroud, *Approximate Calculation of Multiple Integrals*, 1971, rule En^r² 5-2;
     also Lu & Darmofal 2004): the origin with weight ``2/(n+2)``, ``±√(n+2)·e_i`` with weight

@@ -18,7 +18,8 @@ given as objects.
 from __future__ import annotations
 
 from .._validate import FloatArray
-from .convention import Convention, pair_map
+from .convention import Convention
+from .tangent_maps import pair_tangent_map
 
 
 def retract(conv: Convention, X: FloatArray, d: FloatArray) -> FloatArray:
@@ -48,7 +49,7 @@ def from_canonical(conv: Convention, X: FloatArray) -> FloatArray:
 
 def tangent_map(X: FloatArray, src: Convention, dst: Convention) -> FloatArray:
     """``tangent_map(X, src, dst)`` without validation: ``δ_dst = M δ_src`` at ``X``."""
-    return pair_map(src, dst, X.shape[-1] == 3)(X)
+    return pair_tangent_map(src, dst, X.shape[-1] == 3)(X)
 
 
 __all__ = ["from_canonical", "local", "local_jacobian", "retract", "tangent_map", "to_canonical"]
