@@ -1,0 +1,308 @@
+"""One harness for every kernel group: the properties each group's kernel must have.
+
+Each group is described once by a :class:`Kernel` (its module, how to draw tangents and
+elements, its right/left local maps and the scale of its translation-like part); every test
+below runs over all of them. Library oracles (GTSAM, Pinocchio, mpmath) stay in the per-group
+files (``test_lie_so3.py``, ``test_lie_se3.py``): they are what differs between groups.
+
+Tolerances are in units of ``scale = max(1, ‖translation-like part‖)`` (exact for SO(3)):
+every quantity that carries a translation is linear in it (see ``test_lie_se3.py``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from types import ModuleType
+from typing import Any
+
+import _strategies as S
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from liebridge.check import assert_jacobian, numerical_jacobian
+from liebridge.lie import se3, so3
+
+pytestmark = pytest.mark.filterwarnings("error")
+
+PI = math.pi
+FD_TOL = 1e-8  # central differences, step 1e-6 (see test_lie_se3.py's docstring)
+ID_TOL = 1e-12  # identities between kernel outputs
+ROUNDTRIP_TOL = 1e-12
+
+Maker = Callable[[np.random.Generator, tuple[int, ...]], np.ndarray]
+
+
+@dataclass(frozen=True)
+class Kernel:
+    """What the harness needs to know about one group's kernel module."""
+
+    name: str
+    module: ModuleType
+    dim: int
+    tangent: Maker  # random tangents (rotation angle up to π), translations up to 30 m
+    element: Maker  # random elements
+    tangent_at_angles: Callable[[np.ndarray, np.random.Generator], np.ndarray]  # from rot vecs
+    scale: Callable[[np.ndarray], np.ndarray]  # (..., dim) -> (...,) translation-like scale
+    inverse: Callable[[np.ndarray], np.ndarray]
+    #: public function -> makers of its arguments (every public function must be listed)
+    public: dict[str, tuple[Callable[..., Any], list[Maker]]] = field(default_factory=dict)
+
+    def right_local(self, Y0: np.ndarray, Y: np.ndarray) -> np.ndarray:
+        return self.module.log(self.inverse(Y0) @ Y)
+
+    def left_local(self, Y0: np.ndarray, Y: np.ndarray) -> np.ndarray:
+        return self.module.log(Y @ self.inverse(Y0))
+
+
+def _rot3(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
+    return S.random_rotations(rng, shape)
+
+
+def _vec3(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
+    return S.random_rotvecs(rng, shape)
+
+
+def _mat3(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
+    return rng.normal(size=(*shape, 3, 3))
+
+
+def _twist(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
+    return S.random_twists(rng, shape)
+
+
+def _pose(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
+    return S.random_poses(rng, shape)
+
+
+def _point(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
+    return rng.uniform(-30.0, 30.0, size=(*shape, 3))
+
+
+def _alg4(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
+    X = np.zeros((*shape, 4, 4))
+    X[..., :3, :] = rng.normal(size=(*shape, 3, 4))
+    return X
+
+
+def _tau(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
+    return rng.uniform(-0.5, 1.5, size=shape)
+
+
+def _so3_inverse(R: np.ndarray) -> np.ndarray:
+    return np.swapaxes(R, -1, -2)
+
+
+SO3 = Kernel(
+    name="so3",
+    module=so3,
+    dim=3,
+    tangent=_vec3,
+    element=_rot3,
+    tangent_at_angles=lambda w, rng: w,
+    scale=lambda w: np.ones(w.shape[:-1]),
+    inverse=_so3_inverse,
+    public={
+        "hat": (so3.hat, [_vec3]),
+        "vee": (so3.vee, [_mat3]),
+        "exp": (so3.exp, [_vec3]),
+        "log": (so3.log, [_rot3]),
+        "jr": (so3.jr, [_vec3]),
+        "jl": (so3.jl, [_vec3]),
+        "jr_inv": (so3.jr_inv, [_vec3]),
+        "jl_inv": (so3.jl_inv, [_vec3]),
+        "adjoint": (so3.adjoint, [_rot3]),
+        "project": (so3.project, [_mat3]),
+    },
+)
+SE3 = Kernel(
+    name="se3",
+    module=se3,
+    dim=6,
+    tangent=_twist,
+    element=_pose,
+    tangent_at_angles=lambda w, rng: np.concatenate(
+        [w, S.random_twists(rng, w.shape[:-1])[..., 3:]], axis=-1
+    ),
+    scale=lambda xi: np.maximum(1.0, np.linalg.norm(xi[..., 3:], axis=-1)),
+    inverse=se3.inverse,
+    public={
+        "act": (se3.act, [_pose, _point]),
+        "ad": (se3.ad, [_twist]),
+        "adjoint": (se3.adjoint, [_pose]),
+        "compose": (se3.compose, [_pose, _pose]),
+        "exp": (se3.exp, [_twist]),
+        "hat": (se3.hat, [_twist]),
+        "interpolate": (se3.interpolate, [_pose, _pose, _tau]),
+        "inverse": (se3.inverse, [_pose]),
+        "jl": (se3.jl, [_twist]),
+        "jl_inv": (se3.jl_inv, [_twist]),
+        "jr": (se3.jr, [_twist]),
+        "jr_inv": (se3.jr_inv, [_twist]),
+        "log": (se3.log, [_pose]),
+        "vee": (se3.vee, [_alg4]),
+    },
+)
+KERNELS = [SO3, SE3]
+PUBLIC_CASES = [(k, name) for k in KERNELS for name in sorted(k.public)]
+
+
+def _ids(case: tuple[Kernel, str]) -> str:
+    return f"{case[0].name}.{case[1]}"
+
+
+# --------------------------------------------------------------------------- API shape
+
+
+@pytest.mark.parametrize("kernel", KERNELS, ids=lambda k: k.name)
+def test_every_public_function_is_covered(kernel: Kernel) -> None:
+    assert set(kernel.public) == set(kernel.module.__all__)
+
+
+@pytest.mark.parametrize("batch", S.BATCH_SHAPES, ids=str)
+@pytest.mark.parametrize("case", PUBLIC_CASES, ids=_ids)
+def test_batched_equals_elementwise(case: tuple[Kernel, str], batch: tuple[int, ...]) -> None:
+    kernel, name = case
+    fn, makers = kernel.public[name]
+    rng = np.random.default_rng(len(name) + 7 * len(batch))
+    S.assert_batched_equals_elementwise(fn, *(m(rng, batch) for m in makers), batch=batch)
+
+
+@pytest.mark.parametrize("case", PUBLIC_CASES, ids=_ids)
+def test_inputs_not_mutated_and_outputs_float64(case: tuple[Kernel, str]) -> None:
+    kernel, name = case
+    fn, makers = kernel.public[name]
+    rng = np.random.default_rng(3)
+    args = [m(rng, (4,)) for m in makers]
+    copies = [a.copy() for a in args]
+    for a in args:
+        a.setflags(write=False)  # an in-place write would raise
+    out = fn(*args)
+    for a, c in zip(args, copies, strict=True):
+        np.testing.assert_array_equal(a, c)
+        assert not np.shares_memory(out, a), "output aliases the input"
+    assert out.dtype == np.float64
+    assert fn(*(a.astype(np.float32) for a in args)).dtype == np.float64
+
+
+@pytest.mark.parametrize("kernel", KERNELS, ids=lambda k: k.name)
+def test_integer_inputs_give_float64(kernel: Kernel) -> None:
+    m = kernel.module
+    n = 3 if kernel.dim == 3 else 4
+    assert m.exp(np.arange(kernel.dim) % 2).dtype == np.float64
+    assert m.log(np.eye(n, dtype=int)).dtype == np.float64
+
+
+# --------------------------------------------------------------------------- exp/log
+
+
+@pytest.mark.parametrize("kernel", KERNELS, ids=lambda k: k.name)
+def test_log_exp_roundtrip_at_edge_angles_batched(kernel: Kernel) -> None:
+    rng = np.random.default_rng(11)
+    w = S.edge_rotvecs(rng, 8, S.EDGE_ANGLES_BELOW_PI)
+    xi = kernel.tangent_at_angles(w, rng)
+    err = np.abs(kernel.module.log(kernel.module.exp(xi)) - xi).max(axis=-1)
+    assert (err <= ROUNDTRIP_TOL * kernel.scale(xi)).all()
+
+
+@pytest.mark.parametrize("kernel", KERNELS, ids=lambda k: k.name)
+@settings(max_examples=40)
+@given(seed=st.integers(0, 2**32 - 1))
+def test_exp_log_roundtrip_everywhere(kernel: Kernel, seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    X = kernel.element(rng, (8,))
+    back = kernel.module.exp(kernel.module.log(X))
+    scale = np.maximum(1.0, np.abs(X).max(axis=(-1, -2)))
+    assert (np.abs(back - X).max(axis=(-1, -2)) <= ROUNDTRIP_TOL * scale).all()
+
+
+@pytest.mark.parametrize("kernel", KERNELS, ids=lambda k: k.name)
+def test_no_nan_at_any_angle(kernel: Kernel) -> None:
+    rng = np.random.default_rng(9)
+    th = np.concatenate([np.linspace(0.0, PI, 1001), np.asarray(S.EDGE_ANGLES)])
+    w = th[:, None] * S.random_unit(rng, th.shape)
+    w = np.concatenate([w, PI * np.asarray(S.PI_AXES), so3.log(S.pi_rotations())])
+    xi = kernel.tangent_at_angles(w, rng)
+    m = kernel.module
+    X = m.exp(xi)
+    for name in ("exp", "jr", "jl", "jr_inv", "jl_inv"):
+        assert np.isfinite(getattr(m, name)(xi)).all(), name
+    assert np.isfinite(m.log(X)).all() and np.isfinite(m.jr_inv(m.log(X))).all()
+
+
+# --------------------------------------------------------------------------- Jacobians
+
+
+def _fd_tangents(kernel: Kernel) -> np.ndarray:
+    # every edge angle (FD of Exp has no branch cut: the output chart is taken at Exp(ξ)) and a
+    # few angles beyond π, where the closed forms must still hold
+    rng = np.random.default_rng(5)
+    w = np.concatenate([S.edge_rotvecs(rng, 3), S.random_rotvecs(rng, (6,), 2 * PI - 0.5)])
+    return kernel.tangent_at_angles(w, rng)
+
+
+def _assert_fd(kernel: Kernel, analytic: np.ndarray, fd: np.ndarray, xi: np.ndarray, name: str):
+    s = kernel.scale(xi)[..., None, None]
+    assert_jacobian(analytic / s, fd / s, atol=FD_TOL, rtol=0, name=f"{kernel.name}.{name}")
+
+
+@pytest.mark.parametrize("kernel", KERNELS, ids=lambda k: k.name)
+def test_jr_jl_against_finite_differences(kernel: Kernel) -> None:
+    m, xi = kernel.module, _fd_tangents(kernel)
+    fd_r = numerical_jacobian(m.exp, xi, out_local=kernel.right_local)
+    fd_l = numerical_jacobian(m.exp, xi, out_local=kernel.left_local)
+    _assert_fd(kernel, m.jr(xi), fd_r, xi, "jr")
+    _assert_fd(kernel, m.jl(xi), fd_l, xi, "jl")
+    # the test can fail: at generic angles the right and left Jacobians are far apart
+    generic = np.linalg.norm(xi[..., :3], axis=-1) > 0.1
+    assert np.abs(m.jr(xi) - fd_l)[generic].max() > 1e-2
+
+
+@pytest.mark.parametrize("kernel", KERNELS, ids=lambda k: k.name)
+def test_jr_inv_jl_inv_against_finite_differences_of_log(kernel: Kernel) -> None:
+    # d Log(X·Exp(δ))/dδ = Jr⁻¹(Log X), d Log(Exp(δ)·X)/dδ = Jl⁻¹(Log X); stay 1e-3 below the
+    # branch cut at π so that the 1e-6 steps do not cross it
+    rng = np.random.default_rng(6)
+    angles = tuple(a for a in S.EDGE_ANGLES if a <= PI - 1e-3)
+    m = kernel.module
+    X = m.exp(kernel.tangent_at_angles(S.edge_rotvecs(rng, 3, angles), rng))
+    xi = m.log(X)
+    fd_r = numerical_jacobian(m.log, X, retract=lambda A, d: A @ m.exp(d))
+    fd_l = numerical_jacobian(m.log, X, retract=lambda A, d: m.exp(d) @ A)
+    _assert_fd(kernel, m.jr_inv(xi), fd_r, xi, "jr_inv")
+    _assert_fd(kernel, m.jl_inv(xi), fd_l, xi, "jl_inv")
+
+
+@pytest.mark.parametrize("kernel", KERNELS, ids=lambda k: k.name)
+@settings(max_examples=40)
+@given(seed=st.integers(0, 2**32 - 1))
+def test_jacobian_identities(kernel: Kernel, seed: int) -> None:
+    m = kernel.module
+    xi = kernel.tangent(np.random.default_rng(seed), (8,))
+    s = kernel.scale(xi)[:, None, None]
+    eye = np.eye(kernel.dim)
+
+    def close(a: np.ndarray, b: np.ndarray, power: int) -> None:
+        assert (np.abs(a - b) <= ID_TOL * s**power).all()
+
+    close(m.jl(xi), m.jr(-xi), 1)
+    close(m.jl_inv(xi), m.jr_inv(-xi), 1)
+    close(m.jl(xi), m.adjoint(m.exp(xi)) @ m.jr(xi), 2)
+    close(m.jr_inv(xi) @ m.jr(xi), np.broadcast_to(eye, s.shape[:-2] + eye.shape), 2)
+    close(m.jl_inv(xi) @ m.jl(xi), np.broadcast_to(eye, s.shape[:-2] + eye.shape), 2)
+
+
+@pytest.mark.parametrize("kernel", KERNELS, ids=lambda k: k.name)
+@settings(max_examples=40)
+@given(seed=st.integers(0, 2**32 - 1))
+def test_adjoint_conjugation_identity(kernel: Kernel, seed: int) -> None:
+    # X·Exp(ξ)·X⁻¹ = Exp(Ad_X ξ)
+    m, rng = kernel.module, np.random.default_rng(seed)
+    X, xi = kernel.element(rng, (8,)), kernel.tangent(rng, (8,))
+    eta = np.einsum("...ij,...j->...i", m.adjoint(X), xi)
+    lhs = X @ m.exp(xi) @ kernel.inverse(X)
+    s = kernel.scale(eta) * kernel.scale(xi) * np.maximum(1.0, np.abs(X).max(axis=(-1, -2)))
+    assert (np.abs(lhs - m.exp(eta)).max(axis=(-1, -2)) <= ID_TOL * s).all()
