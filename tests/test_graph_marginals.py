@@ -11,19 +11,16 @@ from liebridge.lie import se3
 
 
 def test_installed_gtsam_is_measured_as_the_gtsam_preset():
-    gtsam_build.gtsam_convention.cache_clear()
     assert lb.gtsam_convention() is C.GTSAM
+    assert gtsam_build.measure_pose3_convention(
+        lambda X, d: gtsam.Pose3(X).retract(d).matrix()
+    ) is (C.GTSAM)
 
 
-def test_a_cayley_build_would_be_detected(monkeypatch):
-    """Simulate a GTSAM_POSE3_EXPMAP=OFF build: the glue must switch presets and say so."""
-    monkeypatch.setattr(gtsam_build, "_pose3_retract", C.GTSAM_CAYLEY.retract)
-    gtsam_build.gtsam_convention.cache_clear()
-    try:
-        with pytest.warns(UserWarning, match="Cayley"):
-            assert gtsam_build.gtsam_convention() is C.GTSAM_CAYLEY
-    finally:
-        gtsam_build.gtsam_convention.cache_clear()
+def test_a_cayley_build_would_be_detected():
+    """A GTSAM_POSE3_EXPMAP=OFF build's retraction: the glue must switch presets and say so."""
+    with pytest.warns(UserWarning, match="Cayley"):
+        assert gtsam_build.measure_pose3_convention(C.GTSAM_CAYLEY.retract) is C.GTSAM_CAYLEY
 
 
 def chain(rng, n=4):

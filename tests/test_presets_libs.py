@@ -36,6 +36,7 @@ import pinocchio as pin
 import pytest
 import pytransform3d.transformations as pt
 import pytransform3d.uncertainty as pu
+from _oracle_inputs import base_poses, pose, rot, rotvecs, translations, unit
 from scipy.spatial.transform import RigidTransform, Rotation
 from spatialmath import SE3, Twist3, UnitQuaternion
 
@@ -66,46 +67,12 @@ PT_LOG_NEAR_PI_TOL = 2e-8
 # --------------------------------------------------------------------------- inputs (no liebridge)
 
 
-def _unit(rng: np.random.Generator, n: int) -> np.ndarray:
-    u = rng.normal(size=(n, 3))
-    return u / np.linalg.norm(u, axis=-1, keepdims=True)
-
-
-def _pose(R: np.ndarray, t: np.ndarray) -> np.ndarray:
-    T = np.zeros((*R.shape[:-2], 4, 4))
-    T[..., :3, :3] = R
-    T[..., :3, 3] = t
-    T[..., 3, 3] = 1.0
-    return T
-
-
-def _rot(w: np.ndarray) -> np.ndarray:
-    w = np.asarray(w, dtype=np.float64)
-    return np.asarray(Rotation.from_rotvec(w.reshape(-1, 3)).as_matrix()).reshape(
-        (*w.shape[:-1], 3, 3)
-    )
-
-
-def _translations(rng: np.random.Generator, n: int, max_norm: float = 30.0) -> np.ndarray:
-    return rng.uniform(0.0, max_norm, size=(n, 1)) * _unit(rng, n)
-
-
-def _rotvecs(rng: np.random.Generator, angles: tuple[float, ...]) -> np.ndarray:
-    th = np.repeat(np.asarray(angles), N_AXES)
-    return th[:, None] * _unit(rng, th.size)
-
-
-def _base_poses(rng: np.random.Generator, n: int) -> np.ndarray:
-    """Poses with rotation angles uniform in [0, π] and translations up to 30 m."""
-    return _pose(_rot(rng.uniform(0.0, PI, size=(n, 1)) * _unit(rng, n)), _translations(rng, n))
-
-
 def _increments(rng: np.random.Generator, angles: tuple[float, ...], group: str) -> np.ndarray:
     """Canonical (ω, v) increments (ω only for so3) with the given rotation angles."""
-    w = _rotvecs(rng, angles)
+    w = rotvecs(rng, angles)
     if group == "so3":
         return w
-    return np.concatenate([w, _translations(rng, len(w))], axis=-1)
+    return np.concatenate([w, translations(rng, len(w))], axis=-1)
 
 
 def _to_order(xi: np.ndarray, conv: Convention) -> np.ndarray:
@@ -133,7 +100,7 @@ def _from_xyzquat(q: np.ndarray) -> np.ndarray:
 
 
 def _quat_xyzw(R: np.ndarray) -> np.ndarray:
-    return _xyzquat(_pose(R, np.zeros(3)))[3:]
+    return _xyzquat(pose(R, np.zeros(3)))[3:]
 
 
 def _rot_from_quat_xyzw(q: np.ndarray) -> np.ndarray:
@@ -299,7 +266,7 @@ def test_retract_matches_library(oracle: Oracle) -> None:
     rng = np.random.default_rng(101)
     angles = (*ANGLES_GENERIC, *ANGLES_NEAR_PI, PI)  # exp is unambiguous at π itself
     xi = _increments(rng, angles, oracle.group)
-    X = _base_poses(rng, len(xi))
+    X = base_poses(rng, len(xi))
     if oracle.group == "so3":
         X = X[:, :3, :3].copy()
     worst = 0.0
@@ -317,9 +284,9 @@ def test_local_matches_library(oracle: Oracle, near_pi: bool) -> None:
     """``preset.local(X, Y)`` == the library's inverse retraction (θ < π: the log is unique)."""
     rng = np.random.default_rng(202)
     angles = ANGLES_NEAR_PI if near_pi else ANGLES_GENERIC
-    w = _rotvecs(rng, angles)
-    D = _pose(_rot(w), _translations(rng, len(w)))
-    X = _base_poses(rng, len(w))
+    w = rotvecs(rng, angles)
+    D = pose(rot(w), translations(rng, len(w)))
+    X = base_poses(rng, len(w))
     Y = X @ D  # X⁻¹Y and YX⁻¹ (a conjugate) both rotate by the chosen angle
     if oracle.group == "so3":
         X, Y = X[:, :3, :3].copy(), Y[:, :3, :3].copy()
@@ -349,7 +316,7 @@ def test_gtsam_pose3_log_near_pi_against_mpmath() -> None:
     rng = np.random.default_rng(303)
     with mpmath.workdps(40):
         for gap in (1e-2, 1e-3, 1e-4, 1e-6):
-            for w, t in zip((PI - gap) * _unit(rng, 2), 30.0 * _unit(rng, 2), strict=True):
+            for w, t in zip((PI - gap) * unit(rng, 2), 30.0 * unit(rng, 2), strict=True):
                 xi = np.r_[w, t]
                 T = _mp_exp_se3(xi)
                 lb_err = np.abs(C.GTSAM.local(np.eye(4), T) - xi).max()
@@ -461,12 +428,12 @@ QUAT_STORAGE: tuple[tuple[str, Callable[[np.ndarray], np.ndarray], str], ...] = 
     ("pinocchio R3xSO3 q[3:]", _quat_xyzw, C.PINOCCHIO_R3XSO3.quat_order),
     (
         "pytransform3d pq_from_transform[3:]",
-        lambda R: pt.pq_from_transform(_pose(R, np.zeros(3)))[3:],
+        lambda R: pt.pq_from_transform(pose(R, np.zeros(3)))[3:],
         C.PYTRANSFORM3D_GLOBAL.quat_order,
     ),
     (
         "pytransform3d (local) pq_from_transform[3:]",
-        lambda R: pt.pq_from_transform(_pose(R, np.zeros(3)))[3:],
+        lambda R: pt.pq_from_transform(pose(R, np.zeros(3)))[3:],
         C.PYTRANSFORM3D_LOCAL.quat_order,
     ),
     ("spatialmath UnitQuaternion.vec", lambda R: UnitQuaternion(R).vec, "wxyz"),
@@ -489,7 +456,7 @@ def test_quaternion_storage_order(
     ``from_matrix`` (scipy-backed) must agree up to the sign ``±q``.
     """
     rng = np.random.default_rng(808)
-    R = _rot(_rotvecs(rng, (0.3, 1.0, 2.5, PI - 1e-6)))
+    R = rot(rotvecs(rng, (0.3, 1.0, 2.5, PI - 1e-6)))
     for Rk in R:
         q = np.asarray(get_q(Rk.copy()), dtype=np.float64)
         np.testing.assert_allclose(quaternion.to_matrix(q, order=order), Rk, rtol=0, atol=TOL)
@@ -552,8 +519,8 @@ def _gtsam_marginal_run() -> MarginalRun:
     ``Marginals`` is assumed: that is what the sample covariance measures.
     """
     rng = np.random.default_rng(909)
-    prior = _pose(_rot(np.array([0.4, -1.1, 2.0])), np.array([25.0, -12.0, 8.0]))
-    Z = _pose(_rot(np.array([0.9, 0.3, -0.5])), np.array([4.0, -2.0, 1.5]))
+    prior = pose(rot(np.array([0.4, -1.1, 2.0])), np.array([25.0, -12.0, 8.0]))
+    Z = pose(rot(np.array([0.9, 0.3, -0.5])), np.array([4.0, -2.0, 1.5]))
     S0 = _correlated_cov(rng, 0.01, 0.05)
     Sb = np.diag([0.005, 0.008, 0.006, 0.03, 0.02, 0.04]) ** 2
     graph = gtsam.NonlinearFactorGraph()
@@ -627,8 +594,8 @@ def test_gtsam_marginal_covariance_rejects_other_tangents(wrong: Convention) -> 
 def _pt_concat_case(kind: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, Convention]:
     """Monte Carlo of pytransform3d's concatenation: (its mean, its cov, samples, convention)."""
     rng = np.random.default_rng(1010 if kind == "global" else 1111)
-    A2B = _pose(_rot(np.array([0.4, -1.1, 2.0])), np.array([25.0, -12.0, 8.0]))
-    B2C = _pose(_rot(np.array([0.9, 0.3, -0.5])), np.array([4.0, -2.0, 1.5]))
+    A2B = pose(rot(np.array([0.4, -1.1, 2.0])), np.array([25.0, -12.0, 8.0]))
+    B2C = pose(rot(np.array([0.9, 0.3, -0.5])), np.array([4.0, -2.0, 1.5]))
     S1 = _correlated_cov(rng, 0.01, 0.05)
     S2 = _correlated_cov(rng, 0.01, 0.05)
     n1 = rng.multivariate_normal(np.zeros(6), S1, size=N_MC)

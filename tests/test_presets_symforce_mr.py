@@ -29,6 +29,7 @@ import mpmath
 import numpy as np
 import pytest
 import sym
+from _oracle_inputs import base_poses, pose, rot, rotvecs, translations, unit
 from scipy.spatial.transform import Rotation
 
 import liebridge as lb
@@ -87,51 +88,17 @@ MR_EXP_SMALL_COEF = 1e-20
 # --------------------------------------------------------------------------- inputs (no liebridge)
 
 
-def _unit(rng: np.random.Generator, n: int) -> np.ndarray:
-    u = rng.normal(size=(n, 3))
-    return u / np.linalg.norm(u, axis=-1, keepdims=True)
-
-
-def _pose(R: np.ndarray, t: np.ndarray) -> np.ndarray:
-    T = np.zeros((*R.shape[:-2], 4, 4))
-    T[..., :3, :3] = R
-    T[..., :3, 3] = t
-    T[..., 3, 3] = 1.0
-    return T
-
-
-def _rot(w: np.ndarray) -> np.ndarray:
-    w = np.asarray(w, dtype=np.float64)
-    return np.asarray(Rotation.from_rotvec(w.reshape(-1, 3)).as_matrix()).reshape(
-        (*w.shape[:-1], 3, 3)
-    )
-
-
-def _translations(rng: np.random.Generator, n: int, max_norm: float = 30.0) -> np.ndarray:
-    return rng.uniform(0.0, max_norm, size=(n, 1)) * _unit(rng, n)
-
-
-def _rotvecs(rng: np.random.Generator, angles: tuple[float, ...]) -> np.ndarray:
-    th = np.repeat(np.asarray(angles), N_AXES)
-    return th[:, None] * _unit(rng, th.size)
-
-
-def _base_poses(rng: np.random.Generator, n: int) -> np.ndarray:
-    """Poses with rotation angles uniform in [0, π] and translations up to 30 m."""
-    return _pose(_rot(rng.uniform(0.0, PI, size=(n, 1)) * _unit(rng, n)), _translations(rng, n))
-
-
 def _increments(rng: np.random.Generator, angles: tuple[float, ...]) -> np.ndarray:
     """``(ω, u)`` increments with the given rotation angles and translations up to 30 m."""
-    w = _rotvecs(rng, angles)
-    return np.concatenate([w, _translations(rng, len(w))], axis=-1)
+    w = rotvecs(rng, angles)
+    return np.concatenate([w, translations(rng, len(w))], axis=-1)
 
 
 def _pairs(rng: np.random.Generator, angles: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
     """``(X, Y = X·D)`` with ``D`` rotating by the given angles (so do ``X⁻¹Y`` and ``YX⁻¹``)."""
-    w = _rotvecs(rng, angles)
-    D = _pose(_rot(w), _translations(rng, len(w)))
-    X = _base_poses(rng, len(w))
+    w = rotvecs(rng, angles)
+    D = pose(rot(w), translations(rng, len(w)))
+    X = base_poses(rng, len(w))
     return X, X @ D
 
 
@@ -199,7 +166,7 @@ def test_symforce_retract_matches_preset(what: str, group: str, retract: Any, lo
     rng = np.random.default_rng(1201)
     angles = (*ANGLES_TINY, *ANGLES_GENERIC, *ANGLES_NEAR_PI, PI, PI + 0.5, 5.0)
     d = _increments(rng, angles)
-    X = _base_poses(rng, len(d))
+    X = base_poses(rng, len(d))
     if group == "so3":
         X, d = X[:, :3, :3].copy(), d[:, :3].copy()
     worst = 0.0
@@ -236,9 +203,9 @@ def test_symforce_local_epsilon_clamp_is_library_side() -> None:
     """
     rng = np.random.default_rng(1203)
     th = np.geomspace(1e-6, 1e-2, 17)
-    w = np.repeat(th, N_AXES)[:, None] * _unit(rng, th.size * N_AXES)
-    X = _base_poses(rng, len(w))
-    Y = _pose(X[:, :3, :3] @ _rot(w), X[:, :3, 3] + _translations(rng, len(w)))
+    w = np.repeat(th, N_AXES)[:, None] * unit(rng, th.size * N_AXES)
+    X = base_poses(rng, len(w))
+    Y = pose(X[:, :3, :3] @ rot(w), X[:, :3, 3] + translations(rng, len(w)))
     sym_err = lb_err = 0.0
     for Xk, Yk, wk in zip(X, Y, w, strict=True):
         s = _sym_pose(Xk).local_coordinates(_sym_pose(Yk))
@@ -261,7 +228,7 @@ def test_symforce_local_wraps_beyond_pi_like_preset(
     """
     rng = np.random.default_rng(1204)
     d = _increments(rng, (PI + 0.1, 4.0, 5.0, 2 * PI - 0.1))
-    X = _base_poses(rng, len(d))
+    X = base_poses(rng, len(d))
     if group == "so3":
         X, d = X[:, :3, :3].copy(), d[:, :3].copy()
     for Xk, dk in zip(X, d, strict=True):
@@ -277,8 +244,8 @@ def test_symforce_storage_order() -> None:
     """``Pose3.to_storage()`` = ``[qx, qy, qz, qw, x, y, z]`` (Hamilton), ``quat_order`` xyzw."""
     assert C.SYMFORCE.quat_order == "xyzw"
     rng = np.random.default_rng(1205)
-    w = _rotvecs(rng, (0.3, 1.0, 2.5, PI - 1e-3, PI - 1e-6))
-    X = _pose(_rot(w), _translations(rng, len(w)))
+    w = rotvecs(rng, (0.3, 1.0, 2.5, PI - 1e-3, PI - 1e-6))
+    X = pose(rot(w), translations(rng, len(w)))
     for Xk in X:
         s = np.asarray(_sym_pose_own(Xk).to_storage(), dtype=np.float64)
         assert s.shape == (7,)
@@ -307,14 +274,14 @@ def test_symforce_retract_is_not_compose_from_tangent() -> None:
     """
     rng = np.random.default_rng(1206)
     d = _increments(rng, (0.3, 1.0, 2.0))
-    X = _base_poses(rng, len(d))
+    X = base_poses(rng, len(d))
     body = Convention("symforce_compose", "right", "rot_first", "so3xr3_body", "exp", "xyzw")
     for Xk, dk in zip(X, d, strict=True):
         a = _sym_pose(Xk)
         ret = _sym_matrix(a.retract(dk))
         comp = _sym_matrix(a.compose(sym.Pose3.from_tangent(dk)))
         ft = _sym_matrix(sym.Pose3.from_tangent(dk))
-        np.testing.assert_allclose(ft, _pose(_rot(dk[:3]), dk[3:]), rtol=0, atol=TOL)
+        np.testing.assert_allclose(ft, pose(rot(dk[:3]), dk[3:]), rtol=0, atol=TOL)
         assert np.abs(ret - comp).max() > 1e-3  # the docstring's inequality
         np.testing.assert_allclose(ret, C.SYMFORCE.retract(Xk, dk), rtol=0, atol=TOL)
         np.testing.assert_allclose(comp, body.retract(Xk, dk), rtol=0, atol=TOL)
@@ -333,8 +300,8 @@ def test_symforce_from_rotation_matrix_matches_scipy() -> None:
     """The detection wrapper's ``Rot3.from_rotation_matrix`` agrees with scipy up to ±q, near π
     too (so wrapping a matrix through it adds nothing but rounding)."""
     rng = np.random.default_rng(1207)
-    w = _rotvecs(rng, (0.0, 1e-9, 0.3, 2.0, PI - 1e-3, PI - 1e-9, PI))
-    for R in _rot(w):
+    w = rotvecs(rng, (0.0, 1e-9, 0.3, 2.0, PI - 1e-3, PI - 1e-9, PI))
+    for R in rot(w):
         q = np.asarray(sym.Rot3.from_rotation_matrix(R.copy()).to_storage())
         ref = Rotation.from_matrix(R).as_quat()
         s = 1.0 if float(ref @ q) >= 0.0 else -1.0
@@ -411,7 +378,7 @@ def test_mr_retract_matches_preset(kind: str, conv: Convention, retract: Any, lo
     """
     rng = np.random.default_rng(1301)
     d = _increments(rng, (0.0, 1e-3, *ANGLES_GENERIC, *ANGLES_NEAR_PI, PI))
-    X = _base_poses(rng, len(d))
+    X = base_poses(rng, len(d))
     worst = max(
         float(np.abs(retract(Xk.copy(), dk.copy()) - conv.retract(Xk, dk)).max())
         for Xk, dk in zip(X, d, strict=True)
@@ -446,7 +413,7 @@ def test_mr_matrixlog6_near_pi_is_library_side() -> None:
     """
     rng = np.random.default_rng(1303)
     for gap in (1e-1, 1e-2, 1e-3, 1e-4):
-        for w, t in zip((PI - gap) * _unit(rng, 3), 30.0 * _unit(rng, 3), strict=True):
+        for w, t in zip((PI - gap) * unit(rng, 3), 30.0 * unit(rng, 3), strict=True):
             xi = np.r_[w, t]
             T = _mp_exp_se3(xi)
             lb_err = float(np.abs(C.MR_BODY.local(np.eye(4), T) - xi).max())
@@ -463,7 +430,7 @@ def test_mr_small_angles_are_library_side() -> None:
     """
     rng = np.random.default_rng(1304)
     for th in (1e-9, 1e-7, 9e-7, 1.1e-6, 1e-5, 1e-3):
-        for w, v in zip(th * _unit(rng, 3), _translations(rng, 3), strict=True):
+        for w, v in zip(th * unit(rng, 3), translations(rng, 3), strict=True):
             xi = np.r_[w, v]
             T = _mp_exp_se3(xi)
             assert np.abs(C.MR_BODY.retract(np.eye(4), xi) - T).max() <= 1e-14
@@ -471,7 +438,7 @@ def test_mr_small_angles_are_library_side() -> None:
             E = _mr_exp(xi)
             mr_err = float(np.abs(E - T).max())
             if th < MR_EXP_NEAR_ZERO:
-                np.testing.assert_array_equal(E, _pose(np.eye(3), v))  # NearZero: ω dropped
+                np.testing.assert_array_equal(E, pose(np.eye(3), v))  # NearZero: ω dropped
                 assert mr_err <= th * (1.0 + np.linalg.norm(v) / 2) * (1 + 1e-6) + 1e-15
             else:
                 assert mr_err <= TOL + MR_EXP_SMALL_COEF / th**2, (th, mr_err)
@@ -487,7 +454,7 @@ def test_mr_adjoint_is_tangent_map_body_to_space() -> None:
     the preset's exact conversion.
     """
     rng = np.random.default_rng(1305)
-    X = _base_poses(rng, 12)
+    X = base_poses(rng, 12)
     V = _increments(rng, (0.3, 1.0, 2.0))
     for Xk, Vb in zip(X, V, strict=True):
         Ad = np.asarray(mr.Adjoint(Xk), dtype=np.float64)

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import functools
 import warnings
+from collections.abc import Callable
+from typing import Any
 
 import gtsam
 import numpy as np
@@ -20,7 +22,7 @@ import numpy as np
 from .._validate import FloatArray
 from ..conventions import GTSAM, GTSAM_CAYLEY, Convention, detect_convention
 
-__all__ = ["gtsam_convention"]
+__all__ = ["gtsam_convention", "measure_pose3_convention"]
 
 
 def _pose3_retract(X: FloatArray, d: FloatArray) -> FloatArray:
@@ -36,7 +38,17 @@ def gtsam_convention() -> Convention:
     liebridge.conventions.ConventionNotDetected
         If the installed GTSAM implements neither known chart (the message says what it does).
     """
-    found = detect_convention(_pose3_retract, prefer="gtsam")
+    return measure_pose3_convention(_pose3_retract)
+
+
+def measure_pose3_convention(retract: Callable[[FloatArray, FloatArray], Any]) -> Convention:
+    """Return ``gtsam`` or ``gtsam_cayley`` for a ``Pose3.retract``-like callable (not cached).
+
+    :func:`gtsam_convention` applies it to the installed GTSAM; given a Cayley-chart retraction
+    (``liebridge.conventions.GTSAM_CAYLEY.retract``, what a ``GTSAM_POSE3_EXPMAP=OFF`` build
+    does) it warns and returns ``gtsam_cayley``.
+    """
+    found = detect_convention(retract, prefer="gtsam")
     if found.fields == GTSAM.fields:
         return GTSAM
     if found.fields == GTSAM_CAYLEY.fields:
