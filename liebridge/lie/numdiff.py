@@ -45,26 +45,11 @@ def numerical_jacobian(
     Column ``j`` is ``(out_local(y0, f(retract(x, +ε e_j))) − out_local(y0, f(retract(x, −ε e_j))))
     / 2ε`` with ``y0 = f(x)``.
 
-    Parameters
-    ----------
-    f : callable
-        The function; it receives what ``retract`` returns (batched if ``x`` is batched).
-    x : array_like
-        The point: a pose ``(..., 4, 4)``, a rotation ``(..., 3, 3)`` or a vector ``(..., n)``.
-        Without ``retract`` it is always read as a batch of vectors (the last axis), so a
-        ``(k, 3)``-shaped or ``(3, 3)``-shaped array of 3-vectors is differentiated row by row.
-    retract : callable, optional
-        ``retract(x, d)`` with ``d`` of shape ``(..., dim)``. Default: ``x + d`` (vector input).
-        With a retraction, ``(..., 3, 3)`` and ``(..., 4, 4)`` inputs are group elements.
-    local : callable, optional
-        ``local(y0, y)`` of the *input* chart; used for the output when ``out_local`` is None
-        (a map from a group to the same group in the same convention).
-    out_local : callable or ``"euclidean"``, optional
-        Local map of the output. ``"euclidean"`` (or no ``local`` either) means ``y − y0``.
-    dim : int, optional
-        Input tangent dimension; inferred as 3 for ``(3, 3)``, 6 for ``(4, 4)``, else ``n``.
-    eps : float
-        Step. The default 1e-6 gives errors around 1e-9 for O(1) second derivatives.
+    The parameters are those of :func:`liebridge.check.numerical_jacobian` (documented there,
+    with the convention shorthands it adds): ``retract(x, d)`` perturbs the input (default
+    ``x + d``), ``local(y0, y)`` reads the output back (default: the input's ``local`` if given,
+    else ``y − y0``), ``out_local`` overrides it, ``dim`` is the input tangent dimension (3 for
+    ``(3, 3)``, 6 for ``(4, 4)``, else the last axis) and ``eps`` the step.
 
     Returns
     -------
