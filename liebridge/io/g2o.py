@@ -11,7 +11,7 @@ whatever the file held. Supported lines::
     EDGE3           i j x y z roll pitch yaw  A11 A12 .. A16 A22 .. A66 (21 numbers)
     FIX             id [id ...]
 
-(2D types are not read: use ``gtsam.readG2o(path, is3D=False)``.) A measurement ``Z`` is
+(2-D files are read by :mod:`liebridge.io.g2o2d`.) A measurement ``Z`` is
 ``T_i_j``, pose ``j`` in the frame of pose ``i`` (``Ti⁻¹·Tj`` when consistent).
 
 ``EDGE_SE3:QUAT`` (g2o, ``types/slam3d/edge_se3.cpp``)
@@ -478,7 +478,7 @@ def read(
         elif tag in _2D_TAGS:
             raise P.fail(
                 lineno,
-                f"2D type {tag} is not supported; use gtsam.readG2o(path, is3D=False)",
+                f"2-D type {tag} in a 3-D file: read it with liebridge.io.g2o2d.read",
             )
         else:
             raise P.fail(
