@@ -514,7 +514,7 @@ FILE_CASES: list[tuple[str, str, Callable[[Path], Any], bytes | str, str]] = [
         "f.g2o",
         g2o.read,
         "VERTEX_SE2 0 0 0 0\n",
-        r":1: 2D type VERTEX_SE2 is not supported",
+        r":1: 2-D type VERTEX_SE2 in a 3-D file: read it with liebridge.io.g2o2d.read",
     ),
     (
         "g2o-indefinite-information",
