@@ -375,3 +375,109 @@ def covariance(x: Any, name: str, dim: int, tol: float = COVARIANCE_TOL) -> Floa
             f"smallest eigenvalue {float(lam[i]):.3g}"
         )
     return arr
+
+
+# ----------------------------------------------------------------------------- other groups
+def _orthonormal_residuals(A: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """``max|AᵀA − I|`` and ``det A`` of every ``A[...]`` (any small size, e.g. 2×2)."""
+    n = A.shape[-1]
+    err = np.abs(np.einsum("...ki,...kj->...ij", A, A) - np.eye(n)).max(axis=(-1, -2))
+    return err, np.linalg.det(A)
+
+
+def _check_orthonormal(A: FloatArray, name: str, tol: float, what: str) -> None:
+    err, det = _orthonormal_residuals(A)
+    bad = ~(err <= tol)
+    if bad.any():
+        i = _batch_index(np.asarray(bad))
+        raise ValueError(
+            f"{name}: {what} is not a rotation at batch index {i}: max|RᵀR − I| = "
+            f"{float(err[i]):.3g} > tolerance {tol:g}"
+        )
+    if (det < 0).any():
+        i = _batch_index(np.asarray(det < 0))
+        raise ValueError(f"{name}: {what} has det {float(det[i]):.3g} < 0 at batch index {i}")
+
+
+def _check_bottom(arr: FloatArray, name: str, rows: FloatArray, group: str, hint: str) -> None:
+    """Raise unless the last ``len(rows)`` rows of every matrix are exactly ``rows``."""
+    k = rows.shape[0]
+    bottom = arr[..., -k:, :] != rows
+    if bottom.any():
+        i = _batch_index(np.asarray(bottom.any(axis=(-1, -2))))
+        got = np.asarray(arr[..., -k:, :][i]).tolist()
+        want = rows.tolist()
+        raise ValueError(
+            f"{name}: not a valid {group} element at batch index {i}: last row(s) {got}, "
+            f"expected exactly {want}{hint}"
+        )
+
+
+def rotation2(x: Any, name: str, tol: float = ROTATION_TOL) -> FloatArray:
+    """Validate a batch of 2-D rotation matrices, shape ``(..., 2, 2)``."""
+    arr = square(x, name, 2)
+    _check_orthonormal(arr, name, tol, "the 2×2 matrix")
+    return arr
+
+
+_SE2_BOTTOM = np.array([[0.0, 0.0, 1.0]])
+
+
+def pose2(x: Any, name: str, tol: float = ROTATION_TOL) -> FloatArray:
+    """Validate a batch of SE(2) matrices ``[R t; 0 0 1]``, shape ``(..., 3, 3)``.
+
+    An SO(3) rotation (also 3×3) fails on its last row, and the message says so.
+    """
+    arr = square(x, name, 3)
+    _check_bottom(
+        arr,
+        name,
+        _SE2_BOTTOM,
+        "SE(2)",
+        " (an SE(2) pose is [R t; 0 0 1]; a 3×3 rotation of SO(3) is a different group)",
+    )
+    _check_orthonormal(arr[..., :2, :2], name, tol, "its rotation block")
+    return arr
+
+
+_SIM3_BOTTOM = np.array([[0.0, 0.0, 0.0, 1.0]])
+
+
+def similarity(x: Any, name: str, tol: float = ROTATION_TOL) -> FloatArray:
+    """Validate a batch of Sim(3) matrices ``[sR t; 0 1]`` (``s > 0``), shape ``(..., 4, 4)``.
+
+    GTSAM's ``Similarity3.matrix()`` ``[R t; 0 1/s]`` is rejected with a hint to divide by
+    ``X[3, 3]`` (liebridge's matrix is the normalised one, bottom-right entry 1).
+    """
+    arr = square(x, name, 4)
+    corner = arr[..., 3, 3]
+    gtsam_like = (arr[..., 3, :3] == 0).all(axis=-1) & (corner > 0) & (corner != 1.0)
+    hint = ""
+    if gtsam_like.any():
+        hint = (
+            " (this looks like GTSAM's Similarity3.matrix() [R t; 0 1/s]: divide by X[3, 3] to "
+            "get [sR t'; 0 1])"
+        )
+    _check_bottom(arr, name, _SIM3_BOTTOM, "Sim(3)", hint)
+    A = arr[..., :3, :3]
+    det = np.linalg.det(A)
+    if (det <= 0).any():
+        i = _batch_index(np.asarray(det <= 0))
+        raise ValueError(
+            f"{name}: Sim(3) scale s = cbrt(det(sR)) = {float(np.cbrt(det[i])):.3g} ≤ 0 at batch "
+            f"index {i} (the scale must be positive)"
+        )
+    s = np.cbrt(det)
+    _check_orthonormal(A / s[..., None, None], name, tol, "its linear block divided by its scale")
+    return arr
+
+
+_SE23_BOTTOM = np.array([[0.0, 0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 0.0, 1.0]])
+
+
+def extended_pose(x: Any, name: str, tol: float = ROTATION_TOL) -> FloatArray:
+    """Validate a batch of SE₂(3) matrices ``[R p v; 0 1 0; 0 0 1]``, shape ``(..., 5, 5)``."""
+    arr = square(x, name, 5)
+    _check_bottom(arr, name, _SE23_BOTTOM, "SE₂(3)", " (GTSAM NavState.matrix() layout)")
+    check_rotation(arr[..., :3, :3], name, tol)
+    return arr

@@ -1,10 +1,13 @@
-"""Batched SO(3)/SE(3)/quaternion kernel in canonical (GTSAM) form.
+"""Batched Lie-group kernels in canonical (GTSAM) form, one module per group.
 
-``so3`` and ``se3`` take rotation-first tangents ``(ω, v)``, right Jacobians ``jr`` and left
-``jl``; ``quaternion`` always takes an explicit storage ``order``.
+``so2``, ``se2``, ``so3``, ``se3``, ``sim3``, ``se23`` share the function names ``exp, log, hat,
+vee, jr, jl, jr_inv, jl_inv, adjoint, compose, inverse, act, interpolate``; each group's tangent
+order is GTSAM's (``Rot2`` θ; ``Pose2`` (vx, vy, ω); ``Rot3`` ω; ``Pose3`` (ω, v);
+``Similarity3`` (ω, u, λ); ``NavState`` (ω, ρ_p, ρ_v)). ``quaternion`` always takes an explicit
+storage ``order``.
 """
 
-from . import quaternion, se3, so3
+from . import quaternion, se2, se3, se23, sim3, so2, so3
 from .series import SMALL_ANGLE
 
-__all__ = ["SMALL_ANGLE", "quaternion", "se3", "so3"]
+__all__ = ["SMALL_ANGLE", "quaternion", "se2", "se3", "se23", "sim3", "so2", "so3"]

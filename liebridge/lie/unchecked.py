@@ -13,7 +13,11 @@ these after validating once at their own boundary.
 
 from __future__ import annotations
 
+from . import se2 as _se2
 from . import se3 as _se3
+from . import se23 as _se23
+from . import sim3 as _sim3
+from . import so2 as _so2
 from . import so3 as _so3
 
 #: ``hat(w) @ p == cross(w, p)``, ``(..., 3)`` → ``(..., 3, 3)``.
@@ -42,7 +46,23 @@ se3_adjoint = _se3._adjoint
 se3_jl = _se3._jl
 se3_jl_inv = _se3._jl_inv
 
+# The other groups' fast paths (canonical tangent orders and matrices of their public modules).
+so2_exp, so2_log, so2_inverse, so2_adjoint = _so2._exp, _so2._log, _so2._inverse, _so2._adjoint
+se2_exp, se2_log, se2_inverse, se2_adjoint = _se2._exp, _se2._log, _se2._inverse, _se2._adjoint
+se2_jr_inv, se2_jl_inv = _se2._jr_inv, _se2._jl_inv
+sim3_exp, sim3_log, sim3_inverse = _sim3._exp, _sim3._log, _sim3._inverse
+sim3_adjoint, sim3_jr_inv, sim3_jl_inv = _sim3._adjoint, _sim3._jr_inv, _sim3._jl_inv
+sim3_scale = _sim3._scale
+se23_exp, se23_log, se23_inverse = _se23._exp, _se23._log, _se23._inverse
+se23_adjoint, se23_jr_inv, se23_jl_inv = _se23._adjoint, _se23._jr_inv, _se23._jl_inv
+
 __all__ = [
+    "se2_adjoint",
+    "se2_exp",
+    "se2_inverse",
+    "se2_jl_inv",
+    "se2_jr_inv",
+    "se2_log",
     "se3_adjoint",
     "se3_assemble",
     "se3_exp",
@@ -50,6 +70,23 @@ __all__ = [
     "se3_jl",
     "se3_jl_inv",
     "se3_log",
+    "se23_adjoint",
+    "se23_exp",
+    "se23_inverse",
+    "se23_jl_inv",
+    "se23_jr_inv",
+    "se23_log",
+    "sim3_adjoint",
+    "sim3_exp",
+    "sim3_inverse",
+    "sim3_jl_inv",
+    "sim3_jr_inv",
+    "sim3_log",
+    "sim3_scale",
+    "so2_adjoint",
+    "so2_exp",
+    "so2_inverse",
+    "so2_log",
     "so3_exp",
     "so3_hat",
     "so3_jl",

@@ -1,0 +1,235 @@
+"""SE(2) kernel in canonical form (GTSAM ``Pose2``): batched, float64, inputs never mutated.
+
+Canonical conventions (identical to GTSAM 4.3's ``Pose2``, measured in the tests):
+
+* a pose is a ``(..., 3, 3)`` matrix ``T = [[R, t], [0, 0, 1]]``; ``T_world_body`` maps body
+  coordinates to world coordinates;
+* a twist is ``ξ = (vx, vy, ω)``, **translation first** (GTSAM's ``Pose2`` order; SE(3)'s
+  canonical twist is rotation first — each group's canonical order is GTSAM's);
+* ``Exp(ξ) = [[Rot(ω), V(ω) v], [0, 1]]``, ``V(ω) = (sin ω/ω) I + ((1 − cos ω)/ω) J``,
+  ``J = [[0, −1], [1, 0]]`` (so the translation of ``Exp(ξ)`` is *not* ``v``);
+* ``jr``: ``Exp(ξ + δ) ≈ Exp(ξ)·Exp(jr(ξ) δ)`` (GTSAM ``Pose2.ExpmapDerivative``); ``jl(ξ) =
+  jr(−ξ)``;
+* ``adjoint(T) = [[R, (t_y, −t_x)ᵀ], [0, 1]]``: ``T·Exp(ξ)·T⁻¹ = Exp(Ad_T ξ)`` (GTSAM
+  ``Pose2.AdjointMap``).
+
+The left Jacobian is Solà et al. (arXiv 1812.01537, eq. 163) written with the series-safe
+coefficients of :mod:`liebridge.lie.series`: ``jl = [[V, c], [0, 1]]`` with
+``c = (ρ₁ θC + ρ₂ B, −ρ₁ B + ρ₂ θC)``, ``B = (1 − cos θ)/θ²``, ``C = (θ − sin θ)/θ³``; its inverse
+is the block inverse ``[[V⁻¹, −V⁻¹c], [0, 1]]`` with ``V⁻¹ = (A I − b J)/sinc²(θ/2)``.
+The logarithm is exact on ``(−π, π]`` (``V⁻¹`` is finite up to and at π).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .. import _validate as v
+from .._validate import FloatArray
+from .series import one_minus_cos_over_t2, sinc, t_minus_sin_over_t3
+
+__all__ = [
+    "act",
+    "adjoint",
+    "compose",
+    "exp",
+    "hat",
+    "interpolate",
+    "inverse",
+    "jl",
+    "jl_inv",
+    "jr",
+    "jr_inv",
+    "log",
+    "vee",
+]
+
+#: Tangent dimension and matrix size.
+DIM, MATRIX = 3, 3
+_ROT = slice(2, 3)
+
+
+def _rot(th: FloatArray) -> FloatArray:
+    c, s = np.cos(th), np.sin(th)
+    out = np.empty((*np.shape(th), 2, 2))
+    out[..., 0, 0], out[..., 0, 1] = c, -s
+    out[..., 1, 0], out[..., 1, 1] = s, c
+    return out
+
+
+def _ab(th: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Return ``A = sin θ/θ`` and ``b = (1 − cos θ)/θ`` (series-safe)."""
+    at = np.abs(th)  # the series branch is selected by θ < threshold: even functions of |θ|
+    return sinc(at), th * one_minus_cos_over_t2(at)
+
+
+def _exp(xi: FloatArray) -> FloatArray:
+    th = xi[..., 2]
+    A, b = _ab(th)
+    vx, vy = xi[..., 0], xi[..., 1]
+    T = np.zeros((*xi.shape[:-1], 3, 3))
+    T[..., :2, :2] = _rot(th)
+    T[..., 0, 2] = A * vx - b * vy
+    T[..., 1, 2] = b * vx + A * vy
+    T[..., 2, 2] = 1.0
+    return T
+
+
+def _vinv(th: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Coefficients ``(p, q)`` of ``V(θ)⁻¹ = p I − q J``."""
+    A, b = _ab(th)
+    d = sinc(0.5 * np.abs(th)) ** 2  # A² + b²
+    return A / d, b / d
+
+
+def _log(T: FloatArray) -> FloatArray:
+    th = np.arctan2(T[..., 1, 0], T[..., 0, 0])
+    p, q = _vinv(th)
+    tx, ty = T[..., 0, 2], T[..., 1, 2]
+    out = np.empty((*T.shape[:-2], 3))
+    out[..., 0] = p * tx + q * ty
+    out[..., 1] = -q * tx + p * ty
+    out[..., 2] = th
+    return out
+
+
+def _inverse(T: FloatArray) -> FloatArray:
+    Rt = np.swapaxes(T[..., :2, :2], -1, -2)
+    out = np.zeros(T.shape)
+    out[..., :2, :2] = Rt
+    out[..., :2, 2] = -np.einsum("...ij,...j->...i", Rt, T[..., :2, 2])
+    out[..., 2, 2] = 1.0
+    return out
+
+
+def _adjoint(T: FloatArray) -> FloatArray:
+    out = np.zeros((*T.shape[:-2], 3, 3))
+    out[..., :2, :2] = T[..., :2, :2]
+    out[..., 0, 2] = T[..., 1, 2]
+    out[..., 1, 2] = -T[..., 0, 2]
+    out[..., 2, 2] = 1.0
+    return out
+
+
+def _jl(xi: FloatArray) -> FloatArray:
+    th = xi[..., 2]
+    at = np.abs(th)
+    A, b = _ab(th)
+    B = one_minus_cos_over_t2(at)
+    tC = th * t_minus_sin_over_t3(at)
+    r1, r2 = xi[..., 0], xi[..., 1]
+    J = np.zeros((*xi.shape[:-1], 3, 3))
+    J[..., 0, 0], J[..., 0, 1] = A, -b
+    J[..., 1, 0], J[..., 1, 1] = b, A
+    J[..., 0, 2] = r1 * tC + r2 * B
+    J[..., 1, 2] = -r1 * B + r2 * tC
+    J[..., 2, 2] = 1.0
+    return J
+
+
+def _jl_inv(xi: FloatArray) -> FloatArray:
+    J = _jl(xi)
+    p, q = _vinv(xi[..., 2])
+    c0, c1 = J[..., 0, 2], J[..., 1, 2]
+    out = np.zeros(J.shape)
+    out[..., 0, 0], out[..., 0, 1] = p, q
+    out[..., 1, 0], out[..., 1, 1] = -q, p
+    out[..., 0, 2] = -(p * c0 + q * c1)
+    out[..., 1, 2] = -(-q * c0 + p * c1)
+    out[..., 2, 2] = 1.0
+    return out
+
+
+def _jr(xi: FloatArray) -> FloatArray:
+    return _jl(-xi)
+
+
+def _jr_inv(xi: FloatArray) -> FloatArray:
+    return _jl_inv(-xi)
+
+
+def _tangent(xi: Any, name: str = "xi") -> FloatArray:
+    return v.tangent(xi, name, 3, _ROT)
+
+
+def hat(xi: Any) -> FloatArray:
+    """``(vx, vy, ω)`` → ``[[0, −ω, vx], [ω, 0, vy], [0, 0, 0]]``, ``(..., 3, 3)``."""
+    xi = v.vector(xi, "xi", 3)
+    out = np.zeros((*xi.shape[:-1], 3, 3))
+    out[..., 0, 1], out[..., 1, 0] = -xi[..., 2], xi[..., 2]
+    out[..., :2, 2] = xi[..., :2]
+    return out
+
+
+def vee(X: Any) -> FloatArray:
+    """Inverse of :func:`hat`: ``(..., 3, 3)`` → ``(vx, vy, ω)``."""
+    X = v.square(X, "X", 3)
+    return np.stack([X[..., 0, 2], X[..., 1, 2], 0.5 * (X[..., 1, 0] - X[..., 0, 1])], axis=-1)
+
+
+def exp(xi: Any) -> FloatArray:
+    """SE(2) exponential of ``(vx, vy, ω)`` → ``(..., 3, 3)``. GTSAM ``Pose2.Expmap``."""
+    return v.finite_output(_exp(_tangent(xi)), "se2.exp")
+
+
+def log(T: Any) -> FloatArray:
+    """SE(2) logarithm → ``(vx, vy, ω)``, ``ω ∈ (−π, π]``. GTSAM ``Pose2.Logmap``."""
+    return v.finite_output(_log(v.pose2(T, "T")), "se2.log")
+
+
+def jr(xi: Any) -> FloatArray:
+    """Right Jacobian ``Exp(ξ + δ) ≈ Exp(ξ)·Exp(jr δ)``, ``(..., 3, 3)``."""
+    return v.finite_output(_jr(_tangent(xi)), "se2.jr")
+
+
+def jl(xi: Any) -> FloatArray:
+    """Left Jacobian ``Exp(ξ + δ) ≈ Exp(jl δ)·Exp(ξ)``, ``(..., 3, 3)``."""
+    return v.finite_output(_jl(_tangent(xi)), "se2.jl")
+
+
+def jr_inv(xi: Any) -> FloatArray:
+    """Inverse right Jacobian (closed-form block inverse); GTSAM ``Pose2.LogmapDerivative``."""
+    return v.finite_output(_jr_inv(_tangent(xi)), "se2.jr_inv")
+
+
+def jl_inv(xi: Any) -> FloatArray:
+    """Inverse left Jacobian (closed-form block inverse), ``(..., 3, 3)``."""
+    return v.finite_output(_jl_inv(_tangent(xi)), "se2.jl_inv")
+
+
+def adjoint(T: Any) -> FloatArray:
+    """``Ad_T = [[R, (t_y, −t_x)ᵀ], [0, 1]]`` in ``(vx, vy, ω)``: ``T·Exp(ξ)·T⁻¹ = Exp(Ad_T ξ)``."""
+    return _adjoint(v.pose2(T, "T"))
+
+
+def inverse(T: Any) -> FloatArray:
+    """``[[Rᵀ, −Rᵀt], [0, 1]]``: ``inverse(T_world_body) = T_body_world``."""
+    return _inverse(v.pose2(T, "T"))
+
+
+def compose(T1: Any, T2: Any) -> FloatArray:
+    """``T1·T2`` (broadcast): ``compose(T_a_b, T_b_c) = T_a_c``."""
+    A, B = v.pose2(T1, "T1"), v.pose2(T2, "T2")
+    v.batch_shape(("T1", A.shape[:-2]), ("T2", B.shape[:-2]))
+    return v.finite_output(np.asarray(A @ B, dtype=np.float64), "se2.compose")
+
+
+def act(T: Any, p: Any) -> FloatArray:
+    """``R p + t`` for 2-D points ``(..., 2)``: ``act(T_world_body, p_body) = p_world``."""
+    T = v.pose2(T, "T")
+    p = v.vector(p, "p", 2)
+    v.batch_shape(("T", T.shape[:-2]), ("p", p.shape[:-1]))
+    out = np.einsum("...ij,...j->...i", T[..., :2, :2], p) + T[..., :2, 2]
+    return v.finite_output(np.asarray(out, dtype=np.float64), "se2.act")
+
+
+def interpolate(T0: Any, T1: Any, tau: Any) -> FloatArray:
+    """Geodesic ``T0·Exp(τ·Log(T0⁻¹T1))``; ``τ`` broadcasts against the batch."""
+    T0, T1 = v.pose2(T0, "T0"), v.pose2(T1, "T1")
+    tau_ = v.as_float_array(tau, "tau")
+    v.check_finite(tau_, "tau", core_ndim=0)
+    v.batch_shape(("T0", T0.shape[:-2]), ("T1", T1.shape[:-2]), ("tau", tau_.shape))
+    xi = _tangent(tau_[..., None] * _log(_inverse(T0) @ T1), "tau·Log(T0⁻¹T1)")
+    return v.finite_output(np.asarray(T0 @ _exp(xi), dtype=np.float64), "se2.interpolate")

@@ -1,0 +1,202 @@
+"""SE₂(3) (extended pose) kernel in canonical form (GTSAM ``NavState``): batched, float64.
+
+Canonical conventions (identical to GTSAM 4.3's ``NavState`` group operations, measured):
+
+* an element is ``(..., 5, 5)`` ``X = [[R, p, v], [0, 1, 0], [0, 0, 1]]`` (GTSAM
+  ``NavState.matrix()``): attitude ``R = R_world_body``, position and velocity in the world frame;
+* a tangent is ``ξ = (ω, ρ_p, ρ_v)``, shape ``(..., 9)`` (GTSAM's ``NavState`` order);
+* ``Exp(ξ) = [[Exp(ω), Jl(ω) ρ_p, Jl(ω) ρ_v], [0, I₂]]`` — the coupled exponential (GTSAM
+  ``NavState.Expmap``). **GTSAM's ``NavState.retract`` is not ``X·Exp``**: it is component-wise,
+  ``(R·Exp(δθ), p + R·δp, v + R·δv)`` (the ``gtsam_navstate`` convention);
+* ``jl(ξ) = [[Jl, 0, 0], [Q(ω, ρ_p), Jl, 0], [Q(ω, ρ_v), 0, Jl]]`` (Barfoot's Q of SE(3) per
+  vector), ``jr(ξ) = jl(−ξ)``; inverses by block inversion;
+* ``adjoint(X) = [[R, 0, 0], [hat(p)R, R, 0], [hat(v)R, 0, R]]`` (GTSAM ``NavState.AdjointMap``).
+
+Series and the exact branch at θ = π come from :mod:`liebridge.lie.so3`/:mod:`~liebridge.lie.se3`.
+``act`` applies the element's pose part to points, ``R x + p``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .. import _validate as v
+from .._validate import FloatArray
+from . import se3, so3
+
+__all__ = [
+    "act",
+    "adjoint",
+    "compose",
+    "exp",
+    "hat",
+    "interpolate",
+    "inverse",
+    "jl",
+    "jl_inv",
+    "jr",
+    "jr_inv",
+    "log",
+    "vee",
+]
+
+#: Tangent dimension and matrix size.
+DIM, MATRIX = 9, 5
+
+
+def _assemble(R: FloatArray, p: FloatArray, vel: FloatArray) -> FloatArray:
+    shape = np.broadcast_shapes(R.shape[:-2], p.shape[:-1], vel.shape[:-1])
+    X = np.zeros((*shape, 5, 5))
+    X[..., :3, :3] = R
+    X[..., :3, 3] = p
+    X[..., :3, 4] = vel
+    X[..., 3, 3] = X[..., 4, 4] = 1.0
+    return X
+
+
+def _mv(A: FloatArray, x: FloatArray) -> FloatArray:
+    return np.einsum("...ij,...j->...i", A, x)
+
+
+def _exp(xi: FloatArray) -> FloatArray:
+    w = xi[..., :3]
+    J = so3._jl(w)
+    return _assemble(so3._exp(w), _mv(J, xi[..., 3:6]), _mv(J, xi[..., 6:]))
+
+
+def _log(X: FloatArray) -> FloatArray:
+    w = so3._log(X[..., :3, :3])
+    Ji = so3._jl_inv(w)
+    return np.concatenate([w, _mv(Ji, X[..., :3, 3]), _mv(Ji, X[..., :3, 4])], axis=-1)
+
+
+def _inverse(X: FloatArray) -> FloatArray:
+    Rt = np.swapaxes(X[..., :3, :3], -1, -2)
+    return _assemble(Rt, -_mv(Rt, X[..., :3, 3]), -_mv(Rt, X[..., :3, 4]))
+
+
+def _adjoint(X: FloatArray) -> FloatArray:
+    R = X[..., :3, :3]
+    out = np.zeros((*X.shape[:-2], 9, 9))
+    for k in range(3):
+        out[..., 3 * k : 3 * k + 3, 3 * k : 3 * k + 3] = R
+    out[..., 3:6, :3] = so3._hat(X[..., :3, 3]) @ R
+    out[..., 6:, :3] = so3._hat(X[..., :3, 4]) @ R
+    return out
+
+
+def _jl(xi: FloatArray) -> FloatArray:
+    w = xi[..., :3]
+    J = so3._jl(w)
+    out = np.zeros((*xi.shape[:-1], 9, 9))
+    for k in range(3):
+        out[..., 3 * k : 3 * k + 3, 3 * k : 3 * k + 3] = J
+    out[..., 3:6, :3] = se3._q(w, xi[..., 3:6])
+    out[..., 6:, :3] = se3._q(w, xi[..., 6:])
+    return out
+
+
+def _jl_inv(xi: FloatArray) -> FloatArray:
+    w = xi[..., :3]
+    Ji = so3._jl_inv(w)
+    out = np.zeros((*xi.shape[:-1], 9, 9))
+    for k in range(3):
+        out[..., 3 * k : 3 * k + 3, 3 * k : 3 * k + 3] = Ji
+    out[..., 3:6, :3] = -Ji @ se3._q(w, xi[..., 3:6]) @ Ji
+    out[..., 6:, :3] = -Ji @ se3._q(w, xi[..., 6:]) @ Ji
+    return out
+
+
+def _jr(xi: FloatArray) -> FloatArray:
+    return _jl(-xi)
+
+
+def _jr_inv(xi: FloatArray) -> FloatArray:
+    return _jl_inv(-xi)
+
+
+def _tangent(xi: Any, name: str = "xi") -> FloatArray:
+    return v.tangent(xi, name, 9, slice(0, 3))
+
+
+def hat(xi: Any) -> FloatArray:
+    """``(ω, ρ_p, ρ_v)`` → ``[[hat(ω), ρ_p, ρ_v], [0, 0, 0], [0, 0, 0]]``, ``(..., 5, 5)``."""
+    xi = v.vector(xi, "xi", 9)
+    out = np.zeros((*xi.shape[:-1], 5, 5))
+    out[..., :3, :3] = so3._hat(xi[..., :3])
+    out[..., :3, 3] = xi[..., 3:6]
+    out[..., :3, 4] = xi[..., 6:]
+    return out
+
+
+def vee(X: Any) -> FloatArray:
+    """Inverse of :func:`hat`: ``(..., 5, 5)`` → ``(ω, ρ_p, ρ_v)``."""
+    X = v.square(X, "X", 5)
+    return np.concatenate([so3.vee(X[..., :3, :3]), X[..., :3, 3], X[..., :3, 4]], axis=-1)
+
+
+def exp(xi: Any) -> FloatArray:
+    """SE₂(3) exponential ``(..., 9)`` → ``(..., 5, 5)``. GTSAM ``NavState.Expmap``."""
+    return v.finite_output(_exp(_tangent(xi)), "se23.exp")
+
+
+def log(X: Any) -> FloatArray:
+    """SE₂(3) logarithm → ``(ω, ρ_p, ρ_v)``, ``‖ω‖ ∈ [0, π]``. GTSAM ``NavState.Logmap``."""
+    return v.finite_output(_log(v.extended_pose(X, "X")), "se23.log")
+
+
+def jr(xi: Any) -> FloatArray:
+    """Right Jacobian ``Exp(ξ + δ) ≈ Exp(ξ)·Exp(jr δ)``, ``(..., 9, 9)``."""
+    return v.finite_output(_jr(_tangent(xi)), "se23.jr")
+
+
+def jl(xi: Any) -> FloatArray:
+    """Left Jacobian ``Exp(ξ + δ) ≈ Exp(jl δ)·Exp(ξ)``, ``(..., 9, 9)``."""
+    return v.finite_output(_jl(_tangent(xi)), "se23.jl")
+
+
+def jr_inv(xi: Any) -> FloatArray:
+    """Inverse right Jacobian (closed-form block inverse), ``(..., 9, 9)``."""
+    return v.finite_output(_jr_inv(_tangent(xi)), "se23.jr_inv")
+
+
+def jl_inv(xi: Any) -> FloatArray:
+    """Inverse left Jacobian (closed-form block inverse), ``(..., 9, 9)``."""
+    return v.finite_output(_jl_inv(_tangent(xi)), "se23.jl_inv")
+
+
+def adjoint(X: Any) -> FloatArray:
+    """``Ad_X`` in ``(ω, ρ_p, ρ_v)``: ``X·Exp(ξ)·X⁻¹ = Exp(Ad_X ξ)``. GTSAM ``AdjointMap``."""
+    return v.finite_output(_adjoint(v.extended_pose(X, "X")), "se23.adjoint")
+
+
+def inverse(X: Any) -> FloatArray:
+    """``[[Rᵀ, −Rᵀp, −Rᵀv], [0, I₂]]``."""
+    return v.finite_output(_inverse(v.extended_pose(X, "X")), "se23.inverse")
+
+
+def compose(X1: Any, X2: Any) -> FloatArray:
+    """``X1·X2`` (broadcast): ``(R1R2, p1 + R1p2, v1 + R1v2)``."""
+    A, B = v.extended_pose(X1, "X1"), v.extended_pose(X2, "X2")
+    v.batch_shape(("X1", A.shape[:-2]), ("X2", B.shape[:-2]))
+    return v.finite_output(np.asarray(A @ B, dtype=np.float64), "se23.compose")
+
+
+def act(X: Any, x: Any) -> FloatArray:
+    """Apply the pose part to points: ``R x + p``, ``(..., 3)``."""
+    X = v.extended_pose(X, "X")
+    x = v.vector(x, "x", 3)
+    v.batch_shape(("X", X.shape[:-2]), ("x", x.shape[:-1]))
+    return v.finite_output(np.asarray(_mv(X[..., :3, :3], x) + X[..., :3, 3]), "se23.act")
+
+
+def interpolate(X0: Any, X1: Any, tau: Any) -> FloatArray:
+    """Geodesic ``X0·Exp(τ·Log(X0⁻¹X1))``; ``τ`` broadcasts against the batch."""
+    X0, X1 = v.extended_pose(X0, "X0"), v.extended_pose(X1, "X1")
+    tau_ = v.as_float_array(tau, "tau")
+    v.check_finite(tau_, "tau", core_ndim=0)
+    v.batch_shape(("X0", X0.shape[:-2]), ("X1", X1.shape[:-2]), ("tau", tau_.shape))
+    xi = _tangent(tau_[..., None] * _log(_inverse(X0) @ X1), "tau·Log(X0⁻¹X1)")
+    return v.finite_output(np.asarray(X0 @ _exp(xi), dtype=np.float64), "se23.interpolate")

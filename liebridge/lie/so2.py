@@ -1,0 +1,145 @@
+"""SO(2) kernel in canonical form (GTSAM ``Rot2``): batched, float64, inputs never mutated.
+
+* a rotation is a ``(..., 2, 2)`` matrix ``[[cos θ, −sin θ], [sin θ, cos θ]]``;
+* the tangent is the angle ``(θ,)``, shape ``(..., 1)`` (a 1-vector, like every tangent);
+* the group is commutative: ``jr = jl = jr_inv = jl_inv = adjoint = [[1]]``, and a left and a
+  right perturbation are the same (``Rot2.retract(θ) = R·Exp(θ)`` in GTSAM 4.3, measured).
+
+The logarithm is ``atan2(R₁₀, R₀₀) ∈ (−π, π]``: exact everywhere, no series needed (θ = π gives π).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .. import _validate as v
+from .._validate import FloatArray
+
+__all__ = [
+    "act",
+    "adjoint",
+    "compose",
+    "exp",
+    "hat",
+    "interpolate",
+    "inverse",
+    "jl",
+    "jl_inv",
+    "jr",
+    "jr_inv",
+    "log",
+    "vee",
+]
+
+#: Tangent dimension and matrix size.
+DIM, MATRIX = 1, 2
+
+
+def _exp(w: FloatArray) -> FloatArray:
+    th = w[..., 0]
+    c, s = np.cos(th), np.sin(th)
+    out = np.empty((*w.shape[:-1], 2, 2))
+    out[..., 0, 0], out[..., 0, 1] = c, -s
+    out[..., 1, 0], out[..., 1, 1] = s, c
+    return out
+
+
+def _log(R: FloatArray) -> FloatArray:
+    return np.arctan2(R[..., 1, 0], R[..., 0, 0])[..., None]
+
+
+def _inverse(R: FloatArray) -> FloatArray:
+    return np.array(np.swapaxes(R, -1, -2), dtype=np.float64)
+
+
+def _ones(w: FloatArray) -> FloatArray:
+    return np.ones((*w.shape[:-1], 1, 1))
+
+
+def _adjoint(R: FloatArray) -> FloatArray:
+    return np.ones((*R.shape[:-2], 1, 1))
+
+
+def _tangent(w: Any) -> FloatArray:
+    return v.tangent(w, "w", 1, slice(0, 1))
+
+
+def hat(w: Any) -> FloatArray:
+    """``(θ,)`` → ``[[0, −θ], [θ, 0]]``, ``(..., 2, 2)``."""
+    w = v.vector(w, "w", 1)
+    out = np.zeros((*w.shape[:-1], 2, 2))
+    out[..., 0, 1], out[..., 1, 0] = -w[..., 0], w[..., 0]
+    return out
+
+
+def vee(W: Any) -> FloatArray:
+    """Inverse of :func:`hat` (from the skew part), ``(..., 1)``."""
+    W = v.square(W, "W", 2)
+    return np.asarray(0.5 * (W[..., 1, 0] - W[..., 0, 1]))[..., None]
+
+
+def exp(w: Any) -> FloatArray:
+    """``Exp(θ)``, ``(..., 1)`` → ``(..., 2, 2)``. GTSAM ``Rot2.Expmap``."""
+    return v.finite_output(_exp(_tangent(w)), "so2.exp")
+
+
+def log(R: Any) -> FloatArray:
+    """``Log(R) = atan2(R₁₀, R₀₀) ∈ (−π, π]``, ``(..., 1)``. GTSAM ``Rot2.Logmap``."""
+    return _log(v.rotation2(R, "R"))
+
+
+def jr(w: Any) -> FloatArray:
+    """Right Jacobian, ``[[1]]`` (commutative group), ``(..., 1, 1)``."""
+    return _ones(_tangent(w))
+
+
+def jl(w: Any) -> FloatArray:
+    """Left Jacobian, ``[[1]]``, ``(..., 1, 1)``."""
+    return _ones(_tangent(w))
+
+
+def jr_inv(w: Any) -> FloatArray:
+    """Inverse right Jacobian, ``[[1]]``."""
+    return _ones(_tangent(w))
+
+
+def jl_inv(w: Any) -> FloatArray:
+    """Inverse left Jacobian, ``[[1]]``."""
+    return _ones(_tangent(w))
+
+
+def adjoint(R: Any) -> FloatArray:
+    """``Ad_R = [[1]]``: ``R·Exp(θ)·R⁻¹ = Exp(θ)``, ``(..., 1, 1)``."""
+    return _adjoint(v.rotation2(R, "R"))
+
+
+def inverse(R: Any) -> FloatArray:
+    """``R⁻¹ = Rᵀ``."""
+    return _inverse(v.rotation2(R, "R"))
+
+
+def compose(R1: Any, R2: Any) -> FloatArray:
+    """``R1·R2`` (broadcast)."""
+    A, B = v.rotation2(R1, "R1"), v.rotation2(R2, "R2")
+    v.batch_shape(("R1", A.shape[:-2]), ("R2", B.shape[:-2]))
+    return np.asarray(A @ B, dtype=np.float64)
+
+
+def act(R: Any, p: Any) -> FloatArray:
+    """``R p`` for 2-D points ``(..., 2)``."""
+    R = v.rotation2(R, "R")
+    p = v.vector(p, "p", 2)
+    v.batch_shape(("R", R.shape[:-2]), ("p", p.shape[:-1]))
+    return v.finite_output(np.einsum("...ij,...j->...i", R, p), "so2.act")
+
+
+def interpolate(R0: Any, R1: Any, tau: Any) -> FloatArray:
+    """``R0·Exp(τ·Log(R0⁻¹R1))`` (the shorter arc; τ broadcasts)."""
+    R0, R1 = v.rotation2(R0, "R0"), v.rotation2(R1, "R1")
+    tau_ = v.as_float_array(tau, "tau")
+    v.check_finite(tau_, "tau", core_ndim=0)
+    v.batch_shape(("R0", R0.shape[:-2]), ("R1", R1.shape[:-2]), ("tau", tau_.shape))
+    w = tau_[..., None] * _log(_inverse(R0) @ R1)
+    return v.finite_output(np.asarray(R0 @ _exp(w), dtype=np.float64), "so2.interpolate")
