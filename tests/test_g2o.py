@@ -509,7 +509,7 @@ INFO = "1 0 0 0 0 0 1 0 0 0 0 1 0 0 0 1 0 0 1 0 1"
         (f"EDGE_SE3:QUAT 0 5 1 0 0 0 0 0 1 {INFO}", "vertex 5, which has no VERTEX line"),
         (f"EDGE_SE3:QUAT 0 1 1 0 0 0 0 0 1 -{INFO}", "positive semi-definite"),
         (f"EDGE3 0 1 1 0 0 0 0 0 {INFO} 1", "expects 27 values"),
-        ("VERTEX_SE2 1 0 0 0", "2-D type VERTEX_SE2 in a 3-D file: read it with liebridge.io.g2o2d.read"),
+        ("VERTEX_SE2 1 0 0 0", "2-D type VERTEX_SE2 in a 3-D file: read it with"),
         ("PARAMS_SE3OFFSET 0 0 0 0 0 0 0 1", "unsupported tag 'PARAMS_SE3OFFSET'"),
     ],
 )

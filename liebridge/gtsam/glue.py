@@ -29,7 +29,15 @@ import numpy as np
 from .. import _validate as v
 from .._validate import FloatArray
 
-__all__ = ["from_pose3", "from_values", "to_pose3", "to_values"]
+__all__ = [
+    "GROUPS",
+    "from_gtsam",
+    "from_pose3",
+    "from_values",
+    "to_gtsam",
+    "to_pose3",
+    "to_values",
+]
 
 
 def _poses_2d_or_3d(T: Any, name: str) -> FloatArray:
@@ -122,7 +130,7 @@ def _first_duplicate(keys: Sequence[int]) -> int | None:
     return None
 
 
-def to_values(T: Any, keys: Any, values: Any = None) -> Any:
+def _to_values_pose3(T: Any, keys: Any, values: Any = None) -> Any:
     """Insert a batch of poses into a ``gtsam.Values`` as ``Pose3``.
 
     Parameters
@@ -160,7 +168,7 @@ def to_values(T: Any, keys: Any, values: Any = None) -> Any:
     return out
 
 
-def from_values(values: Any, keys: Any) -> FloatArray:
+def _from_values_pose3(values: Any, keys: Any) -> FloatArray:
     """Read the ``Pose3`` stored under ``keys`` into an ``(N, 4, 4)`` array, in ``keys`` order.
 
     Parameters
@@ -218,4 +226,159 @@ def from_values(values: Any, keys: Any) -> FloatArray:
     out[:, :3, :3] = rows[:, :9].reshape(-1, 3, 3)
     out[:, :3, 3] = rows[:, 9:12]
     out[:, 3, 3] = 1.0
+    return out
+
+
+# --------------------------------------------------------------------------- every group
+# group -> (validator, matrix size, GTSAM class name, matrix -> object, object -> matrix)
+def _sim3_to(X: FloatArray) -> Any:
+    s = float(np.cbrt(np.linalg.det(X[:3, :3])))
+    # liebridge's [sR t; 0 1] maps p ↦ sRp + t; GTSAM's Similarity3(R, t_g, s) maps p ↦ s(Rp + t_g)
+    return gtsam.Similarity3(gtsam.Rot3(X[:3, :3] / s), X[:3, 3] / s, s)
+
+
+def _sim3_from(S: Any) -> FloatArray:
+    s = float(S.scale())
+    out = np.eye(4)
+    out[:3, :3] = s * np.asarray(S.rotation().matrix())
+    out[:3, 3] = s * np.asarray(S.translation())
+    return out
+
+
+def _navstate_to(X: FloatArray) -> Any:
+    return gtsam.NavState(gtsam.Rot3(X[:3, :3]), X[:3, 3], X[:3, 4])
+
+
+def _matrix_of(obj: Any) -> FloatArray:
+    return np.asarray(obj.matrix(), dtype=np.float64)
+
+
+GROUPS: dict[str, tuple[Any, int, str, Any, Any]] = {
+    "se3": (v.pose, 4, "Pose3", _pose3, _matrix_of),
+    "so3": (v.rotation, 3, "Rot3", lambda X: gtsam.Rot3(X), _matrix_of),
+    "se2": (
+        v.pose2,
+        3,
+        "Pose2",
+        lambda X: gtsam.Pose2(gtsam.Rot2.atan2(X[1, 0], X[0, 0]), X[:2, 2]),
+        _matrix_of,
+    ),
+    "so2": (
+        v.rotation2,
+        2,
+        "Rot2",
+        lambda X: gtsam.Rot2.atan2(X[1, 0], X[0, 0]),
+        _matrix_of,
+    ),
+    "sim3": (v.similarity, 4, "Similarity3", _sim3_to, _sim3_from),
+    "se23": (v.extended_pose, 5, "NavState", _navstate_to, _matrix_of),
+}
+"""The GTSAM class of each group's elements and the matrix conventions at the boundary.
+
+``se3``: ``Pose3``; ``so3``: ``Rot3``; ``se2``: ``Pose2`` (``[R t; 0 0 1]``); ``so2``: ``Rot2``
+(2×2); ``sim3``: ``Similarity3`` — liebridge's matrix is ``[sR t; 0 1]`` (``p ↦ sRp + t``) while
+GTSAM's ``Similarity3(R, t_g, s).matrix()`` is ``[R t_g; 0 1/s]`` (``p ↦ s(Rp + t_g)``), so
+``t = s·t_g``: the glue converts, never copies ``t``; ``se23``: ``NavState`` with
+``matrix() = [R p v; 0 1 0; 0 0 1]``.
+"""
+
+
+def _group(group: str) -> tuple[Any, int, str, Any, Any]:
+    if group not in GROUPS:
+        raise ValueError(f"group: expected one of {tuple(GROUPS)}, got {group!r}")
+    return GROUPS[group]
+
+
+def to_gtsam(X: Any, group: str) -> Any:
+    """Build the GTSAM object of ``group`` from one matrix, or a list from a batch ``(N, n, n)``.
+
+    Parameters
+    ----------
+    X : array_like, shape (n, n) or (N, n, n)
+        Elements as liebridge's matrices (see :data:`GROUPS`), validated (a rotation block must be
+        orthonormal, a scale positive, the constant rows exact).
+    group : {"se3", "so3", "se2", "so2", "sim3", "se23"}
+    """
+    check, n, _, make, _ = _group(group)
+    arr = check(X, "X")
+    if arr.ndim == 2:
+        return make(arr)
+    if arr.ndim != 3:
+        raise ValueError(f"X: expected shape ({n}, {n}) or (N, {n}, {n}), got {arr.shape}")
+    return [make(a) for a in arr]
+
+
+def from_gtsam(obj: Any, group: str) -> FloatArray:
+    """Return the matrix of one GTSAM object of ``group`` (``Pose2``, ``NavState``, ...)."""
+    _, _, cls, _, read = _group(group)
+    if type(obj).__name__ != cls:
+        raise TypeError(f"obj: expected gtsam.{cls} for group {group!r}, got {type(obj).__name__}")
+    return np.asarray(read(obj), dtype=np.float64)
+
+
+def to_values(T: Any, keys: Any, values: Any = None, *, group: str = "se3") -> Any:
+    """Insert a batch of elements into a ``gtsam.Values`` as the GTSAM class of ``group``.
+
+    Parameters
+    ----------
+    T : array_like, shape (N, n, n)
+        Elements as liebridge's matrices of ``group`` (see :data:`GROUPS`).
+    keys : sequence of int, length N
+        GTSAM keys; must be unique.
+    values : gtsam.Values, optional
+        Existing values to extend (not modified: a copy is returned). Keys must not collide.
+    group : {"se3", "so3", "se2", "so2", "sim3", "se23"}
+        ``"se3"`` (default) stores ``Pose3``, ``"se2"`` ``Pose2``, ``"sim3"`` ``Similarity3``,
+        ``"se23"`` ``NavState``, and so on.
+
+    Returns
+    -------
+    gtsam.Values
+    """
+    if group == "se3":
+        return _to_values_pose3(T, keys, values)
+    check, n, _, make, _ = _group(group)
+    arr = check(T, "T")
+    if arr.ndim != 3:
+        raise ValueError(f"T: expected shape (N, {n}, {n}), got {arr.shape}")
+    ks = _keys(keys, arr.shape[0])
+    dup = _first_duplicate(ks)
+    if dup is not None:
+        raise ValueError(f"keys: key {ks[dup]} appears twice (second time at index {dup})")
+    if values is None:
+        out = gtsam.Values()
+    elif isinstance(values, gtsam.Values):
+        out = gtsam.Values(values)
+        for i, k in enumerate(ks):
+            if out.exists(k):
+                raise ValueError(f"keys[{i}]: key {k} already exists in values")
+    else:
+        raise TypeError(f"values: expected gtsam.Values or None, got {type(values).__name__}")
+    for k, Xi in zip(ks, arr, strict=True):
+        out.insert(k, make(Xi))
+    return out
+
+
+def from_values(values: Any, keys: Any, *, group: str = "se3") -> FloatArray:
+    """Read the elements of ``group`` stored under ``keys`` into an ``(N, n, n)`` array.
+
+    ``group="se3"`` (default) reads ``Pose3`` in one batched call (see ``_from_values_pose3``);
+    the other groups read ``values.atPose2(k)``, ``atSimilarity3``, ``atNavState``... per key.
+    A missing key or a value of another type is a ``ValueError``/``TypeError`` naming it.
+    """
+    if group == "se3":
+        return _from_values_pose3(values, keys)
+    _, n, cls, _, read = _group(group)
+    if not isinstance(values, gtsam.Values):
+        raise TypeError(f"values: expected gtsam.Values, got {type(values).__name__}")
+    ks = _keys(keys, None)
+    at = getattr(values, f"at{cls}")
+    out = np.empty((len(ks), n, n))
+    for i, k in enumerate(ks):
+        if not values.exists(k):
+            raise ValueError(f"keys[{i}]: key {k} is not in values")
+        try:
+            out[i] = read(at(k))
+        except RuntimeError:
+            raise TypeError(f"keys[{i}]: the value under key {k} is not a {cls}") from None
     return out

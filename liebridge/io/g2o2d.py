@@ -26,8 +26,9 @@ over **GTSAM's Pose2 tangent** of the edge error, ``ξ = (vx, vy, ω) = Logmap(Z
 ``EDGE2`` (TORO 2-D, ``w10000.graph``)
     TORO writes the six numbers as ``Ixx Ixy Iyy Iθθ Ixθ Iyθ`` (its 2-D loader; GTSAM's
     ``w100.graph`` and ``w10000.graph`` hold identities in this order, ``1 0 1 1 0 0``); other
-    writers (``w100_30.g2o`` in GTSAM's data) use g2o's order ``I11 I12 I13 I22 I23 I33``. ``gtsam.readG2o`` always reads g2o's order and refuses a file
-    where that gives an indefinite matrix (``"looks like this is not G2O matrix order"``, on
+    writers (``w100_30.g2o`` in GTSAM's data) use g2o's order ``I11 I12 I13 I22 I23 I33``.
+    ``gtsam.readG2o`` always reads g2o's order and refuses a file where that gives an indefinite
+    matrix (``"looks like this is not G2O matrix order"``, on ``w100.graph`` and
     ``w10000.graph``). ``edge2="auto"`` (default) takes g2o's order when every ``EDGE2`` matrix
     is positive definite in it, else TORO's when every one is in that, else raises naming the
     first line that is neither; ``edge2="g2o"`` / ``"toro"`` force one. The order used is kept in
