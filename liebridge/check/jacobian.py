@@ -40,14 +40,16 @@ def numerical_jacobian(
         ``(k, 3)``-shaped or ``(3, 3)``-shaped array of 3-vectors is differentiated row by row.
     retract : callable, optional
         ``retract(x, d)`` with ``d`` of shape ``(..., dim)``. Default: ``x + d`` (vector input).
-        With a retraction, ``(..., 3, 3)`` and ``(..., 4, 4)`` inputs are group elements.
+        With a retraction, square ``(..., n, n)`` inputs are group elements.
     local : callable, optional
         ``local(y0, y)`` of the *input* chart; used for the output when ``out_local`` is None
         (a map from a group to the same group in the same convention).
     out_local : callable or ``"euclidean"``, optional
         Local map of the output. ``"euclidean"`` (or no ``local`` either) means ``y − y0``.
     dim : int, optional
-        Input tangent dimension; inferred as 3 for ``(3, 3)``, 6 for ``(4, 4)``, else ``n``.
+        Input tangent dimension; inferred for square group elements as 1, 3, 6, 9 for
+        ``(2, 2)``, ``(3, 3)``, ``(4, 4)``, ``(5, 5)`` (SO(2); SO(3) or SE(2); SE(3); SE₂(3)),
+        else ``n``. Pass ``dim=7`` for Sim(3) (also 4×4).
     eps : float
         Step. The default 1e-6 gives errors around 1e-9 for O(1) second derivatives.
     in_convention, out_convention : Convention or str, optional

@@ -22,11 +22,14 @@ def _euclidean_local(y0: Any, y: Any) -> FloatArray:
     return np.asarray(y, dtype=np.float64) - np.asarray(y0, dtype=np.float64)
 
 
+#: Default tangent dimension of a square group element by its size: SO(2), SO(3) or SE(2), SE(3),
+#: SE₂(3). A Sim(3) element is 4×4 too: pass ``dim=7``.
+_SQUARE_DIMS = {2: 1, 3: 3, 4: 6, 5: 9}
+
+
 def _tangent_dim(x: FloatArray) -> int:
-    if x.ndim >= 2 and x.shape[-2:] == (3, 3):
-        return 3
-    if x.ndim >= 2 and x.shape[-2:] == (4, 4):
-        return 6
+    if x.ndim >= 2 and x.shape[-1] == x.shape[-2] and x.shape[-1] in _SQUARE_DIMS:
+        return _SQUARE_DIMS[x.shape[-1]]
     return int(x.shape[-1])
 
 
@@ -48,8 +51,9 @@ def numerical_jacobian(
     The parameters are those of :func:`liebridge.check.numerical_jacobian` (documented there,
     with the convention shorthands it adds): ``retract(x, d)`` perturbs the input (default
     ``x + d``), ``local(y0, y)`` reads the output back (default: the input's ``local`` if given,
-    else ``y − y0``), ``out_local`` overrides it, ``dim`` is the input tangent dimension (3 for
-    ``(3, 3)``, 6 for ``(4, 4)``, else the last axis) and ``eps`` the step.
+    else ``y − y0``), ``out_local`` overrides it, ``dim`` is the input tangent dimension (1, 3,
+    6, 9 for ``(2, 2)`` … ``(5, 5)`` group elements, else the last axis; pass 7 for Sim(3)) and
+    ``eps`` the step.
 
     Returns
     -------
@@ -65,7 +69,7 @@ def numerical_jacobian(
             raise ValueError(f"dim: {dim} does not match the vector length {n} of x")
     else:
         n = dim if dim is not None else _tangent_dim(x_arr)
-        group = x_arr.ndim >= 2 and x_arr.shape[-2:] in ((3, 3), (4, 4))
+        group = x_arr.ndim >= 2 and x_arr.shape[-1] == x_arr.shape[-2]
         batch = x_arr.shape[:-2] if group else x_arr.shape[:-1]
     ret: Retract = retract if retract is not None else (lambda a, d: np.asarray(a) + d)
     if out_local is None:
