@@ -17,6 +17,13 @@ See ``docs/ros.md``.
 """
 
 from .bag import STORAGES, BagError, TopicSummary, bag_info, read_messages, write_messages, write_tum
+from .frames import (
+    TwistFrameCheck,
+    transform_messages,
+    twist_frame_check,
+    twist_from_parent_frame,
+)
+from .graph import increment_covariances, messages_from_gtsam, odometry_factors
 from .messages import MESSAGE_TYPES, RosMessages, from_poses, normalize_msgtype
 
 __all__ = [
@@ -25,10 +32,17 @@ __all__ = [
     "BagError",
     "RosMessages",
     "TopicSummary",
+    "TwistFrameCheck",
     "bag_info",
     "from_poses",
+    "increment_covariances",
+    "messages_from_gtsam",
     "normalize_msgtype",
+    "odometry_factors",
     "read_messages",
+    "transform_messages",
+    "twist_frame_check",
+    "twist_from_parent_frame",
     "write_messages",
     "write_tum",
 ]

@@ -501,6 +501,10 @@ def _storage_for(path: Path, storage: str | None, msgs: RosMessages) -> str:
         storage = {".bag": "rosbag1", ".mcap": "mcap"}.get(suffix, "sqlite3")
     if storage not in STORAGES:
         raise ValueError(f"storage: {storage!r} is not one of {', '.join(STORAGES)}")
+    if storage == "rosbag1" and path.suffix.lower() != ".bag":
+        raise ValueError(f"{path}: a ROS 1 bag needs the suffix .bag (readers go by it)")
+    if storage != "rosbag1" and path.suffix.lower() == ".bag":
+        raise ValueError(f"{path}: the suffix .bag is for ROS 1 bags, not storage {storage!r}")
     return storage
 
 
