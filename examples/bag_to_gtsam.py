@@ -64,7 +64,11 @@ def simulate(n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, 
     Ql = np.diag([SIGMA_LOOP[0] ** 2] * 3 + [SIGMA_LOOP[1] ** 2] * 3)
     for i, j in data.edges.tolist():
         if j < n and i < n and abs(i - j) > 1:
-            Z = se3.inverse(truth[i]) @ truth[j] @ se3.exp(np.linalg.cholesky(Ql) @ rng.normal(size=6))
+            Z = (
+                se3.inverse(truth[i])
+                @ truth[j]
+                @ se3.exp(np.linalg.cholesky(Ql) @ rng.normal(size=6))
+            )
             loops.append((i, j, Z, Ql))
     return truth, np.array(T_odo), np.array(C), loops
 
@@ -83,8 +87,15 @@ def main(argv: list[str] | None = None) -> int:
     stamps = 1_700_000_000.0 + 0.1 * np.arange(n)
 
     # 1. the odometry node's bag (ROS 2, mcap): covariance converted to the message convention
-    odom = ros.from_poses(T_odo, C_gtsam, convention="gtsam", stamps=stamps, frame_id="odom",
-                          child_frame_id="base_link", msgtype="nav_msgs/Odometry")
+    odom = ros.from_poses(
+        T_odo,
+        C_gtsam,
+        convention="gtsam",
+        stamps=stamps,
+        frame_id="odom",
+        child_frame_id="base_link",
+        msgtype="nav_msgs/Odometry",
+    )
     bag_in = ros.write_messages(out / "odometry.mcap", "/odom", odom)
 
     # 2. bag → GTSAM
@@ -98,17 +109,22 @@ def main(argv: list[str] | None = None) -> int:
     assert msgs.cov is not None
     copied = msgs.cov[1:] - msgs.cov[:-1]  # what "copy the message covariance" would give
     err_copy = np.abs(copied - Q).max() / Q.max()
-    print(f"increment covariance vs simulated: converted rel. error {err_conv:.2e}; "
-          f"copied (no conversion) {err_copy:.2e}")
+    print(
+        f"increment covariance vs simulated: converted rel. error {err_conv:.2e}; "
+        f"copied (no conversion) {err_copy:.2e}"
+    )
     for i, j, Z, Ql in loops:
-        graph.add(gtsam.BetweenFactorPose3(i, j, gtsam.Pose3(Z),
-                                           gtsam.noiseModel.Gaussian.Covariance(Ql)))
+        graph.add(
+            gtsam.BetweenFactorPose3(i, j, gtsam.Pose3(Z), gtsam.noiseModel.Gaussian.Covariance(Ql))
+        )
     initial = gtsam.Values()
     for k in range(n):
         initial.insert(k, gtsam.Pose3(msgs.T[k]))
     result = gtsam.LevenbergMarquardtOptimizer(graph, initial).optimize()
-    print(f"{n} poses, {len(loops)} loop closures; error {graph.error(initial):.4g} -> "
-          f"{graph.error(result):.4g}")
+    print(
+        f"{n} poses, {len(loops)} loop closures; error {graph.error(initial):.4g} -> "
+        f"{graph.error(result):.4g}"
+    )
 
     # 3. GTSAM → bag: poses + marginals as PoseWithCovarianceStamped (ROS 1)
     opt = ros.messages_from_gtsam(graph, result, range(n), stamps=msgs.stamps, frame_id="odom")
@@ -120,13 +136,21 @@ def main(argv: list[str] | None = None) -> int:
         return float(np.sqrt(np.mean(np.sum((T[:, :3, 3] - truth[:, :3, 3]) ** 2, axis=-1))))
 
     # NEES under the ROS covariance: the error (t_true - t, Log(R_true Rᵀ)) in the ROS tangent
-    e = np.c_[truth[:, :3, 3] - back.T[:, :3, 3],
-              np.array([se3.log(np.block([[a @ b.T, np.zeros((3, 1))], [np.zeros((1, 3)), 1]]))[:3]
-                        for a, b in zip(truth[:, :3, :3], back.T[:, :3, :3], strict=True)])]
+    e = np.c_[
+        truth[:, :3, 3] - back.T[:, :3, 3],
+        np.array(
+            [
+                se3.log(np.block([[a @ b.T, np.zeros((3, 1))], [np.zeros((1, 3)), 1]]))[:3]
+                for a, b in zip(truth[:, :3, :3], back.T[:, :3, :3], strict=True)
+            ]
+        ),
+    ]
     nees = np.einsum("ni,nij,nj->n", e[1:], np.linalg.inv(back.cov[1:]), e[1:])
     print(f"position RMSE vs truth: odometry {ate(T_odo):.4f} m, optimized {ate(back.T):.4f} m")
-    print(f"NEES of the optimized poses under their ROS marginals: mean {nees.mean():.2f} "
-          f"(6 expected)")
+    print(
+        f"NEES of the optimized poses under their ROS marginals: mean {nees.mean():.2f} "
+        f"(6 expected)"
+    )
     print(f"wrote {bag_in} (/odom) and {bag_out} (/optimized)")
 
     try:

@@ -112,11 +112,7 @@ class MessageFactory:
         unknown = k % 3 == 1  # ROS: orientation_covariance[0] = -1, orientation all zeros
         ocov = _ugly(self.rng, 9)
         ocov[0] = -1.0 if unknown else abs(ocov[0])
-        o = (
-            t["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=0.0)
-            if unknown
-            else self.q()
-        )
+        o = t["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=0.0) if unknown else self.q()
         return t[mt](
             header=self.header(k),
             orientation=o,

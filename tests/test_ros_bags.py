@@ -46,18 +46,30 @@ def test_round_trip_bit_exact(tmp_path: Path, storage: str, mt: str) -> None:
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no temporaries left
 
 
-@pytest.mark.parametrize(("src_storage", "dst_storage"), [("rosbag1", "mcap"), ("sqlite3", "rosbag1")])
+@pytest.mark.parametrize(
+    ("src_storage", "dst_storage"), [("rosbag1", "mcap"), ("sqlite3", "rosbag1")]
+)
 def test_cross_format_keeps_every_field(tmp_path: Path, src_storage: str, dst_storage: str) -> None:
     src = _bag(tmp_path, src_storage, "nav_msgs/msg/Odometry")
     m = ros.read_messages(src, "/t")
     name = "x.bag" if dst_storage == "rosbag1" else "x"
     out = ros.write_messages(tmp_path / name, "/t", m, storage=dst_storage)
     m2 = ros.read_messages(out, "/t")
-    for name in ("position", "orientation_xyzw", "pose_covariance", "twist_linear_angular",
-                 "twist_covariance", "stamp_sec", "stamp_nanosec", "log_time_ns"):
+    for name in (
+        "position",
+        "orientation_xyzw",
+        "pose_covariance",
+        "twist_linear_angular",
+        "twist_covariance",
+        "stamp_sec",
+        "stamp_nanosec",
+        "log_time_ns",
+    ):
         a, b = getattr(m, name), getattr(m2, name)
-        assert np.array_equal(a.view(np.uint64 if a.dtype == np.float64 else a.dtype),
-                              b.view(np.uint64 if b.dtype == np.float64 else b.dtype)), name
+        assert np.array_equal(
+            a.view(np.uint64 if a.dtype == np.float64 else a.dtype),
+            b.view(np.uint64 if b.dtype == np.float64 else b.dtype),
+        ), name
     assert m2.frame_id == m.frame_id and m2.child_frame_id == m.child_frame_id
     if dst_storage == "rosbag1":
         assert (m2.seq == m.seq).all()
@@ -94,9 +106,16 @@ def _odom_with_psd(tmp_path: Path, storage: str = "mcap") -> ros.RosMessages:
     cov = A @ A.transpose(0, 2, 1) * 1e-2
     tw = rng.normal(size=(N, 6))
     B = rng.normal(size=(N, 6, 6))
-    m = ros.from_poses(T, cov, stamps=np.arange(N) * 0.1 + 5.0, msgtype="nav_msgs/Odometry",
-                       child_frame_id="base_link", frame_id="odom", twist=tw,
-                       twist_cov=B @ B.transpose(0, 2, 1))
+    m = ros.from_poses(
+        T,
+        cov,
+        stamps=np.arange(N) * 0.1 + 5.0,
+        msgtype="nav_msgs/Odometry",
+        child_frame_id="base_link",
+        frame_id="odom",
+        twist=tw,
+        twist_cov=B @ B.transpose(0, 2, 1),
+    )
     p = ros.write_messages(tmp_path / "odom", "/odom", m, storage=storage)
     return ros.read_messages(p, "/odom")
 
@@ -151,8 +170,10 @@ def test_from_poses_converts_gtsam_covariance(tmp_path: Path) -> None:
     assert m.cov is not None and m.pose_covariance is not None
     np.testing.assert_allclose(m.cov, cov_g, rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(
-        m.pose_covariance.reshape(4, 6, 6), C.convert_covariance(cov_g, T, "gtsam", "ros"),
-        atol=1e-14)
+        m.pose_covariance.reshape(4, 6, 6),
+        C.convert_covariance(cov_g, T, "gtsam", "ros"),
+        atol=1e-14,
+    )
     assert (m.orientation_xyzw[:, 3] >= 0).all()
     assert list(m.stamp_nanosec) == [0, 0, 0, 500_000_000]
 
@@ -165,8 +186,9 @@ def test_imu_unknown_orientation(tmp_path: Path) -> None:
 
 
 def test_tum_export_full_precision(tmp_path: Path) -> None:
-    m = ros.read_messages(_bag(tmp_path, "rosbag1", "geometry_msgs/msg/PoseWithCovarianceStamped"),
-                          "/t")
+    m = ros.read_messages(
+        _bag(tmp_path, "rosbag1", "geometry_msgs/msg/PoseWithCovarianceStamped"), "/t"
+    )
     out = tmp_path / "t.tum"
     ros.write_tum(out, m)
     rows = [ln.split() for ln in out.read_text().splitlines() if not ln.startswith("#")]
@@ -175,8 +197,9 @@ def test_tum_export_full_precision(tmp_path: Path) -> None:
         s, ns = r[0].split(".")
         assert int(s) == m.stamp_sec[k] and int(ns) == m.stamp_nanosec[k]
         vals = np.array([float(x) for x in r[1:]])
-        assert np.array_equal(vals[:3], m.position[k]) and np.array_equal(vals[3:],
-                                                                          m.orientation_xyzw[k])
+        assert np.array_equal(vals[:3], m.position[k]) and np.array_equal(
+            vals[3:], m.orientation_xyzw[k]
+        )
 
 
 # ---- bad input -------------------------------------------------------------------------------
@@ -197,7 +220,7 @@ def test_truncated_or_corrupt_bag(tmp_path: Path, storage: str) -> None:
 def test_garbage_file(tmp_path: Path) -> None:
     p = tmp_path / "x.bag"
     p.write_bytes(b"#ROSBAG V2.0\n" + bytes(range(256)) * 4)
-    with pytest.raises(ros.BagError, match="x.bag"):
+    with pytest.raises(ros.BagError, match=r"x\.bag"):
         ros.read_messages(p, "/t")
     with pytest.raises(ros.BagError, match="no such bag"):
         ros.read_messages(tmp_path / "missing.bag", "/t")
@@ -229,8 +252,12 @@ def test_covariance_of_wrong_length(tmp_path: Path, storage: str) -> None:
     fac = MessageFactory(ts, storage == "rosbag1", np.random.default_rng(0))
     msgs = [fac.make("geometry_msgs/msg/PoseWithCovarianceStamped", k) for k in range(4)]
     msgs[2].pose.covariance = msgs[2].pose.covariance[:35]
-    p = write_bag(bag_path(tmp_path, storage), storage,
-                  {"/pose": ("geometry_msgs/msg/PoseWithCovarianceStamped", msgs)}, ts)
+    p = write_bag(
+        bag_path(tmp_path, storage),
+        storage,
+        {"/pose": ("geometry_msgs/msg/PoseWithCovarianceStamped", msgs)},
+        ts,
+    )
     with pytest.raises(ros.BagError) as e:
         ros.read_messages(p, "/pose")
     msg = str(e.value)
@@ -243,8 +270,12 @@ def test_bad_quaternion_names_message(tmp_path: Path) -> None:
     fac = MessageFactory(ts, False, np.random.default_rng(0))
     msgs = [fac.make("geometry_msgs/msg/PoseWithCovarianceStamped", k) for k in range(4)]
     msgs[3].pose.pose.orientation.w *= 1.1
-    p = write_bag(bag_path(tmp_path, "sqlite3"), "sqlite3",
-                  {"/pose": ("geometry_msgs/msg/PoseWithCovarianceStamped", msgs)}, ts)
+    p = write_bag(
+        bag_path(tmp_path, "sqlite3"),
+        "sqlite3",
+        {"/pose": ("geometry_msgs/msg/PoseWithCovarianceStamped", msgs)},
+        ts,
+    )
     with pytest.raises(ValueError, match=r"topic /pose, message 3: orientation quaternion norm"):
         ros.read_messages(p, "/pose")
 
@@ -274,9 +305,21 @@ def test_failed_write_leaves_nothing(tmp_path: Path, monkeypatch: pytest.MonkeyP
 
 def test_bad_batch_fields() -> None:
     with pytest.raises(ValueError, match=r"pose_covariance: expected shape \(2, 36\)"):
-        ros.RosMessages(msgtype="geometry_msgs/PoseWithCovarianceStamped", stamp_sec=[1, 2],
-                        stamp_nanosec=[0, 0], frame_id=("a", "a"), position=np.zeros((2, 3)),
-                        orientation_xyzw=[[0, 0, 0, 1.0]] * 2, pose_covariance=np.zeros((2, 35)))
+        ros.RosMessages(
+            msgtype="geometry_msgs/PoseWithCovarianceStamped",
+            stamp_sec=[1, 2],
+            stamp_nanosec=[0, 0],
+            frame_id=("a", "a"),
+            position=np.zeros((2, 3)),
+            orientation_xyzw=[[0, 0, 0, 1.0]] * 2,
+            pose_covariance=np.zeros((2, 35)),
+        )
     with pytest.raises(ValueError, match="msgtype: 'std_msgs/String' is not supported"):
-        ros.RosMessages(msgtype="std_msgs/String", stamp_sec=[], stamp_nanosec=[], frame_id=(),
-                        position=np.zeros((0, 3)), orientation_xyzw=np.zeros((0, 4)))
+        ros.RosMessages(
+            msgtype="std_msgs/String",
+            stamp_sec=[],
+            stamp_nanosec=[],
+            frame_id=(),
+            position=np.zeros((0, 3)),
+            orientation_xyzw=np.zeros((0, 4)),
+        )

@@ -30,11 +30,16 @@ def test_twist_frame_correct_and_world_frame(tmp_path: Path, storage: str) -> No
     world = np.concatenate([R @ v_b, R @ w_b], axis=-1)  # a driver's world-frame twist: wrong
     name = "o.bag" if storage == "rosbag1" else "o"
     for label, tw in (("correct", body), ("world", world)):
-        m = ros.from_poses(T, np.tile(np.eye(6) * 1e-4, (len(t), 1, 1)), stamps=t + 100.0,
-                           msgtype="nav_msgs/Odometry", frame_id="odom",
-                           child_frame_id="base_link", twist=tw,
-                           twist_cov=np.tile(np.diag([1e-2, 2e-2, 3e-2, 1e-3, 2e-3, 3e-3]),
-                                             (len(t), 1, 1)))
+        m = ros.from_poses(
+            T,
+            np.tile(np.eye(6) * 1e-4, (len(t), 1, 1)),
+            stamps=t + 100.0,
+            msgtype="nav_msgs/Odometry",
+            frame_id="odom",
+            child_frame_id="base_link",
+            twist=tw,
+            twist_cov=np.tile(np.diag([1e-2, 2e-2, 3e-2, 1e-3, 2e-3, 3e-3]), (len(t), 1, 1)),
+        )
         p = ros.write_messages(tmp_path / f"{label}_{name}", "/odom", m, storage=storage)
         got = ros.read_messages(p, "/odom", convention="gtsam")
         chk = ros.twist_frame_check(got)
@@ -60,20 +65,22 @@ def test_twist_frame_correct_and_world_frame(tmp_path: Path, storage: str) -> No
             assert m.twist_covariance is not None
             cov_in = m.twist_covariance[k].reshape(6, 6)
             assert fixed.twist_covariance is not None
-            np.testing.assert_allclose(fixed.twist_covariance[k].reshape(6, 6),
-                                       B @ cov_in @ B.T, atol=1e-15)
+            np.testing.assert_allclose(
+                fixed.twist_covariance[k].reshape(6, 6), B @ cov_in @ B.T, atol=1e-15
+            )
 
 
 def test_twist_frame_undetermined_without_rotation() -> None:
     t = np.arange(10) * 0.1
     T = se3.exp(t[:, None] * np.array([0, 0, 0, 1.0, 0, 0]))
-    m = ros.from_poses(T, None, stamps=t, msgtype="nav_msgs/Odometry",
-                       twist=np.tile([1.0, 0, 0, 0, 0, 0], (10, 1)))
+    m = ros.from_poses(
+        T, None, stamps=t, msgtype="nav_msgs/Odometry", twist=np.tile([1.0, 0, 0, 0, 0, 0], (10, 1))
+    )
     assert ros.twist_frame_check(m).frame == "undetermined"
 
 
 def test_tf_rotates_pose_covariance_monte_carlo(tmp_path: Path) -> None:
-    """PoseWithCovarianceStamped in `odom`, transformed to `map` by a fixed TF (rotation 1.2 rad)."""
+    """PoseWithCovarianceStamped in `odom`, moved to `map` by a fixed TF (rotation 1.2 rad)."""
     rng = np.random.default_rng(11)
     T_odom_base = se3.exp(np.array([0.3, 0.5, -0.2, 4.0, 1.0, 0.5]))
     A = rng.normal(size=(6, 6))

@@ -29,8 +29,14 @@ def _odometry_bag(tmp_path: Path, n: int = 25, name: str = "od.bag") -> tuple[Pa
         A = se3.adjoint(se3.inverse(Z))
         Ts.append(Ts[-1] @ Z)
         C.append(A @ C[-1] @ A.T + Q)
-    m = ros.from_poses(np.array(Ts), np.array(C), convention="gtsam", stamps=np.arange(n) * 0.1,
-                       msgtype="nav_msgs/Odometry", frame_id="odom")
+    m = ros.from_poses(
+        np.array(Ts),
+        np.array(C),
+        convention="gtsam",
+        stamps=np.arange(n) * 0.1,
+        msgtype="nav_msgs/Odometry",
+        frame_id="odom",
+    )
     return ros.write_messages(tmp_path / name, "/odom", m), Q
 
 
@@ -68,11 +74,16 @@ def test_gtsam_round_trip_reproduces_message_covariance(tmp_path: Path) -> None:
 
 def test_increment_difference_rejects_non_growing_covariance(tmp_path: Path) -> None:
     T = se3.exp(np.random.default_rng(0).normal(size=(5, 6)))
-    m = ros.from_poses(T, np.tile(np.eye(6) * 1e-2, (5, 1, 1)), stamps=np.arange(5.0),
-                       msgtype="nav_msgs/Odometry", twist_cov=np.tile(np.eye(6) * 1e-2, (5, 1, 1)))
+    m = ros.from_poses(
+        T,
+        np.tile(np.eye(6) * 1e-2, (5, 1, 1)),
+        stamps=np.arange(5.0),
+        msgtype="nav_msgs/Odometry",
+        twist_cov=np.tile(np.eye(6) * 1e-2, (5, 1, 1)),
+    )
     with pytest.raises(ValueError, match=r"message 1: pose covariance does not grow"):
         ros.increment_covariances(m)
-    Z, cz = ros.increment_covariances(m, "twist")  # dt = 1: Σ_Z = Σ_twist reordered
+    _, cz = ros.increment_covariances(m, "twist")  # dt = 1: Σ_Z = Σ_twist reordered
     np.testing.assert_allclose(cz, np.tile(np.eye(6) * 1e-2, (4, 1, 1)))
 
 
@@ -82,7 +93,9 @@ def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
     return rc, o.out, o.err
 
 
-def test_cli_info_export_write_marginals(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_cli_info_export_write_marginals(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     p, _ = _odometry_bag(tmp_path)
     rc, out, _ = run(capsys, "bag", "info", str(p))
     assert rc == 0 and "/odom" in out and "nav_msgs/msg/Odometry" in out and "[reads]" in out
@@ -92,8 +105,19 @@ def test_cli_info_export_write_marginals(tmp_path: Path, capsys: pytest.CaptureF
     first = tum.read_text().splitlines()[2].split()
     assert np.array_equal([float(x) for x in first[1:]], [*m.position[1], *m.orientation_xyzw[1]])
     npz = tmp_path / "o.npz"
-    rc, *_ = run(capsys, "bag", "export", str(p), "--topic", "/odom", "--to", "npz", str(npz),
-                 "--convention", "gtsam")
+    rc, *_ = run(
+        capsys,
+        "bag",
+        "export",
+        str(p),
+        "--topic",
+        "/odom",
+        "--to",
+        "npz",
+        str(npz),
+        "--convention",
+        "gtsam",
+    )
     assert rc == 0
     d = np.load(npz)
     g = m.with_convention("gtsam")
@@ -114,8 +138,9 @@ def test_cli_info_export_write_marginals(tmp_path: Path, capsys: pytest.CaptureF
     assert back.cov is not None and m.cov is not None
     assert np.abs(back.cov - m.cov).max() / np.abs(m.cov).max() < 1e-8
     data = gtsam.findExampleDataFile("pose3example.txt")
-    rc, out, _ = run(capsys, "bag", "write-marginals", data, str(tmp_path / "pe.bag"),
-                     "--msgtype", "odometry")
+    rc, out, _ = run(
+        capsys, "bag", "write-marginals", data, str(tmp_path / "pe.bag"), "--msgtype", "odometry"
+    )
     assert rc == 0
     pe = ros.read_messages(tmp_path / "pe.bag", "/liebridge/poses")
     assert pe.msgtype == "nav_msgs/msg/Odometry" and len(pe) == 5
@@ -125,34 +150,55 @@ def test_cli_info_export_write_marginals(tmp_path: Path, capsys: pytest.CaptureF
     ("argv", "expected"),
     [
         (["bag", "info", "{tmp}/missing.bag"], "missing.bag: no such bag"),
-        (["bag", "export", "{bag}", "--topic", "/nope", "--to", "tum", "{tmp}/x.tum"],
-         "no topic '/nope' (topics: /odom)"),
+        (
+            ["bag", "export", "{bag}", "--topic", "/nope", "--to", "tum", "{tmp}/x.tum"],
+            "no topic '/nope' (topics: /odom)",
+        ),
         (["bag", "info", "{tmp}/trunc.bag"], "trunc.bag: not a readable bag"),
-        (["bag", "export", "{bag}", "--topic", "/odom", "--to", "npz", "{tmp}/x.npz",
-          "--convention", "nope"], "--convention"),
+        (
+            [
+                "bag",
+                "export",
+                "{bag}",
+                "--topic",
+                "/odom",
+                "--to",
+                "npz",
+                "{tmp}/x.npz",
+                "--convention",
+                "nope",
+            ],
+            "--convention",
+        ),
         (["bag", "write-marginals", "{bag}", "{tmp}/x.bag"], "--topic: required"),
     ],
 )
-def test_cli_bad_input_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str],
-                                argv: list[str], expected: str) -> None:
+def test_cli_bad_input_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], argv: list[str], expected: str
+) -> None:
     p, _ = _odometry_bag(tmp_path)
     data = p.read_bytes()
     (tmp_path / "trunc.bag").write_bytes(data[: len(data) // 3])
-    rc, out, err = run(capsys, *[a.format(tmp=tmp_path, bag=p) for a in argv])
+    rc, _, err = run(capsys, *[a.format(tmp=tmp_path, bag=p) for a in argv])
     assert rc == 2
     assert err.count("\n") == 1 and expected in err and "Traceback" not in err, err
     assert not (tmp_path / "x.tum").exists() and not (tmp_path / "x.npz").exists()
 
 
-def test_cli_wrong_covariance_length_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_cli_wrong_covariance_length_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     from rosbags.rosbag1 import Writer
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
     base = get_typestore(Stores.ROS1_NOETIC)
     ts = get_typestore(Stores.EMPTY)
     ts.register({k: d for k, d in base.fielddefs.items() if not k.endswith("/PoseWithCovariance")})
-    ts.register(get_types_from_msg("geometry_msgs/Pose pose\nfloat64[] covariance",
-                                   "geometry_msgs/msg/PoseWithCovariance"))
+    ts.register(
+        get_types_from_msg(
+            "geometry_msgs/Pose pose\nfloat64[] covariance", "geometry_msgs/msg/PoseWithCovariance"
+        )
+    )
     t = ts.types
     mt = "geometry_msgs/msg/PoseWithCovarianceStamped"
     with Writer(tmp_path / "w.bag") as w:
@@ -160,15 +206,28 @@ def test_cli_wrong_covariance_length_one_line(tmp_path: Path, capsys: pytest.Cap
         for k, n in enumerate((36, 36, 36, 6)):
             msg = t[mt](
                 header=t["std_msgs/msg/Header"](
-                    seq=k, stamp=t["builtin_interfaces/msg/Time"](sec=k, nanosec=0), frame_id="map"),
+                    seq=k, stamp=t["builtin_interfaces/msg/Time"](sec=k, nanosec=0), frame_id="map"
+                ),
                 pose=t["geometry_msgs/msg/PoseWithCovariance"](
                     pose=t["geometry_msgs/msg/Pose"](
                         position=t["geometry_msgs/msg/Point"](x=0.0, y=0.0, z=0.0),
-                        orientation=t["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)),
-                    covariance=np.eye(6).ravel()[:n]))
+                        orientation=t["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0),
+                    ),
+                    covariance=np.eye(6).ravel()[:n],
+                ),
+            )
             w.write(c, k + 1, ts.serialize_ros1(msg, mt))
-    rc, _, err = run(capsys, "bag", "export", str(tmp_path / "w.bag"), "--topic", "/pose", "--to",
-                     "tum", str(tmp_path / "w.tum"))
+    rc, _, err = run(
+        capsys,
+        "bag",
+        "export",
+        str(tmp_path / "w.bag"),
+        "--topic",
+        "/pose",
+        "--to",
+        "tum",
+        str(tmp_path / "w.tum"),
+    )
     assert rc == 2 and err.count("\n") == 1
     assert "w.bag: topic /pose, message 3: field pose.covariance: expected 36 numbers, got 6" in err
     assert not (tmp_path / "w.tum").exists()
@@ -176,9 +235,17 @@ def test_cli_wrong_covariance_length_one_line(tmp_path: Path, capsys: pytest.Cap
 
 def test_example_bag_to_gtsam(tmp_path: Path) -> None:
     r = subprocess.run(
-        [sys.executable, str(ROOT / "examples" / "bag_to_gtsam.py"), "--quick", "--out",
-         str(tmp_path)],
-        capture_output=True, text=True, timeout=300, cwd=ROOT,
+        [
+            sys.executable,
+            str(ROOT / "examples" / "bag_to_gtsam.py"),
+            "--quick",
+            "--out",
+            str(tmp_path),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=ROOT,
         env={"PYTHONPATH": str(ROOT), "MPLBACKEND": "Agg", "PATH": "/usr/bin:/bin"},
     )
     assert r.returncode == 0, r.stderr

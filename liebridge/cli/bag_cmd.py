@@ -31,7 +31,7 @@ def _ros() -> Any:
     try:
         from .. import ros
 
-        ros.bag._rosbags()
+        ros.require_rosbags()
     except ImportError as exc:
         raise CLIError(str(exc)) from None
     return ros
@@ -48,8 +48,10 @@ def _progress(what: str) -> Any:
 def _info(args: argparse.Namespace) -> int:
     ros = _ros()
     storage, start, end, topics = ros.bag_info(args.bag)
-    print(f"{args.bag}: {storage}, {sum(t.count for t in topics)} messages, "
-          f"{end - start:.3f} s ({start!r} .. {end!r})")
+    print(
+        f"{args.bag}: {storage}, {sum(t.count for t in topics)} messages, "
+        f"{end - start:.3f} s ({start!r} .. {end!r})"
+    )
     width = max([len(t.topic) for t in topics] + [5])
     for t in topics:
         mark = "reads" if t.supported else "-"
@@ -69,8 +71,11 @@ def _export(args: argparse.Namespace) -> int:
     m = _read(ros, args.bag, args.topic, conv)
     if args.to == "tum":
         ros.write_tum(out, m)
-        print(f"wrote {out}: {len(m)} poses T_{m.frame_id[0] if len(m) else ''}_"
-              f"{(m.child_frame_id or ['body'])[0] if len(m) else ''} (TUM, exact stamps, repr floats)")
+        print(
+            f"wrote {out}: {len(m)} poses T_{m.frame_id[0] if len(m) else ''}_"
+            f"{(m.child_frame_id or ['body'])[0] if len(m) else ''} "
+            "(TUM, exact stamps, repr floats)"
+        )
         return 0
     if args.to == "g2o":
         from ..io import g2o as g2o_io
@@ -82,10 +87,12 @@ def _export(args: argparse.Namespace) -> int:
         g = g2o_io.G2OGraph.from_matrices(
             np.arange(n), m.T, np.c_[np.arange(n - 1), np.arange(1, n)], Z, info
         )
-        with ros.bag.atomic_output(out) as tmp:
+        with ros.atomic_output(out) as tmp:
             g2o_io.write(tmp, g)
-        print(f"wrote {out}: {n} vertices, {n - 1} odometry edges (increment covariance "
-              f"'{args.increment}', converted from the messages' ROS covariance)")
+        print(
+            f"wrote {out}: {n} vertices, {n - 1} odometry edges (increment covariance "
+            f"'{args.increment}', converted from the messages' ROS covariance)"
+        )
         return 0
     arrays: dict[str, Any] = {
         "stamps": m.stamps,
@@ -100,7 +107,7 @@ def _export(args: argparse.Namespace) -> int:
         val = getattr(m, name)
         if val is not None:
             arrays[name] = np.array(val, dtype=str) if name == "child_frame_id" else val
-    with ros.bag.atomic_output(out) as tmp, open(tmp, "wb") as fh:
+    with ros.atomic_output(out) as tmp, open(tmp, "wb") as fh:
         np.savez(fh, **arrays)
     print(f"wrote {out}: {len(m)} poses; cov in {conv.name!r} ({', '.join(sorted(arrays))})")
     return 0
@@ -120,12 +127,17 @@ def _write_marginals(args: argparse.Namespace) -> int:
         graph, initial = g.to_gtsam()
         keys = [int(k) for k in g.vertex_ids]
         k0 = keys[0] if not g.fixed else int(g.fixed[0])
-        graph.add(gtsam.PriorFactorPose3(k0, initial.atPose3(k0),
-                                         gtsam.noiseModel.Isotropic.Sigma(6, args.prior_sigma)))
+        graph.add(
+            gtsam.PriorFactorPose3(
+                k0, initial.atPose3(k0), gtsam.noiseModel.Isotropic.Sigma(6, args.prior_sigma)
+            )
+        )
         stamps = np.arange(len(keys), dtype=np.float64) * args.period
         frame = args.frame_id or "map"
-        say(f"read {inp}: {len(keys)} poses, {g.edges.shape[0]} edges; prior sigma "
-            f"{args.prior_sigma} on pose {k0}")
+        say(
+            f"read {inp}: {len(keys)} poses, {g.edges.shape[0]} edges; prior sigma "
+            f"{args.prior_sigma} on pose {k0}"
+        )
     else:
         if args.topic is None:
             raise CLIError("--topic: required when IN is a bag (the trajectory topic to optimize)")
@@ -142,16 +154,30 @@ def _write_marginals(args: argparse.Namespace) -> int:
         say(f"read {args.input} {args.topic}: {len(m)} poses as an odometry chain")
     params = gtsam.LevenbergMarquardtParams()
     result = gtsam.LevenbergMarquardtOptimizer(graph, initial, params).optimize()
-    say(f"optimized: error {graph.error(initial):.6g} -> {graph.error(result):.6g}; "
-        f"marginals of {len(keys)} poses")
+    say(
+        f"optimized: error {graph.error(initial):.6g} -> {graph.error(result):.6g}; "
+        f"marginals of {len(keys)} poses"
+    )
     msgs = ros.messages_from_gtsam(
-        graph, result, keys, stamps=stamps, frame_id=frame, msgtype=_MSGTYPES[args.msgtype],
+        graph,
+        result,
+        keys,
+        stamps=stamps,
+        frame_id=frame,
+        msgtype=_MSGTYPES[args.msgtype],
         child_frame_id=args.child_frame_id,
     )
-    ros.write_messages(out, args.out_topic, msgs, storage=args.storage,
-                       progress=_progress(f"write {args.out_topic}"))
-    print(f"wrote {out}: {len(msgs)} {msgs.msgtype} on {args.out_topic} in frame {frame!r}, "
-          f"covariance = GTSAM marginals converted to ROS (x, y, z, rotX, rotY, rotZ)")
+    ros.write_messages(
+        out,
+        args.out_topic,
+        msgs,
+        storage=args.storage,
+        progress=_progress(f"write {args.out_topic}"),
+    )
+    print(
+        f"wrote {out}: {len(msgs)} {msgs.msgtype} on {args.out_topic} in frame {frame!r}, "
+        f"covariance = GTSAM marginals converted to ROS (x, y, z, rotX, rotY, rotZ)"
+    )
     return 0
 
 
@@ -180,11 +206,18 @@ def add_parser(sub: Any) -> None:
     e.add_argument("--topic", required=True)
     e.add_argument("--to", required=True, choices=("tum", "g2o", "npz"))
     e.add_argument("out", metavar="OUT")
-    e.add_argument("--convention", default="ros",
-                   help="covariance convention of the npz 'cov' (default ros: as stored)")
-    e.add_argument("--increment", default="difference", choices=("difference", "twist"),
-                   help="g2o: increment covariance from growing pose covariances (difference) "
-                   "or from the Odometry twist covariance × dt² (twist)")
+    e.add_argument(
+        "--convention",
+        default="ros",
+        help="covariance convention of the npz 'cov' (default ros: as stored)",
+    )
+    e.add_argument(
+        "--increment",
+        default="difference",
+        choices=("difference", "twist"),
+        help="g2o: increment covariance from growing pose covariances (difference) "
+        "or from the Odometry twist covariance × dt² (twist)",
+    )
     e.set_defaults(func=_export)
 
     w = bsub.add_parser(
@@ -199,15 +232,27 @@ def add_parser(sub: Any) -> None:
     w.add_argument("output", metavar="OUT")
     w.add_argument("--topic", help="trajectory topic of IN when IN is a bag")
     w.add_argument("--out-topic", default="/liebridge/poses")
-    w.add_argument("--msgtype", choices=tuple(_MSGTYPES), default="pose",
-                   help="pose: PoseWithCovarianceStamped (default); odometry: nav_msgs/Odometry "
-                   "with a zero twist")
+    w.add_argument(
+        "--msgtype",
+        choices=tuple(_MSGTYPES),
+        default="pose",
+        help="pose: PoseWithCovarianceStamped (default); odometry: nav_msgs/Odometry "
+        "with a zero twist",
+    )
     w.add_argument("--frame-id", help="parent frame (default: the input's, or 'map')")
     w.add_argument("--child-frame-id", default=None, help="Odometry child frame (base_link)")
     w.add_argument("--storage", choices=("rosbag1", "sqlite3", "mcap"), default=None)
     w.add_argument("--increment", default="difference", choices=("difference", "twist"))
-    w.add_argument("--prior-sigma", type=float, default=1e-6,
-                   help="g2o input: sigma of the prior on the first vertex")
-    w.add_argument("--period", type=float, default=1.0,
-                   help="g2o input: seconds between the stamps of consecutive vertices")
+    w.add_argument(
+        "--prior-sigma",
+        type=float,
+        default=1e-6,
+        help="g2o input: sigma of the prior on the first vertex",
+    )
+    w.add_argument(
+        "--period",
+        type=float,
+        default=1.0,
+        help="g2o input: seconds between the stamps of consecutive vertices",
+    )
     w.set_defaults(func=_write_marginals)

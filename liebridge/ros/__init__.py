@@ -16,7 +16,17 @@ it is imported when a bag is opened, with that hint if missing.
 See ``docs/ros.md``.
 """
 
-from .bag import STORAGES, BagError, TopicSummary, bag_info, read_messages, write_messages, write_tum
+from .bag import (
+    STORAGES,
+    BagError,
+    TopicSummary,
+    atomic_output,
+    bag_info,
+    read_messages,
+    require_rosbags,
+    write_messages,
+    write_tum,
+)
 from .frames import (
     TwistFrameCheck,
     transform_messages,
@@ -33,6 +43,7 @@ __all__ = [
     "RosMessages",
     "TopicSummary",
     "TwistFrameCheck",
+    "atomic_output",
     "bag_info",
     "from_poses",
     "increment_covariances",
@@ -40,6 +51,7 @@ __all__ = [
     "normalize_msgtype",
     "odometry_factors",
     "read_messages",
+    "require_rosbags",
     "transform_messages",
     "twist_frame_check",
     "twist_from_parent_frame",

@@ -32,6 +32,7 @@ __all__ = [
     "atomic_output",
     "bag_info",
     "read_messages",
+    "require_rosbags",
     "write_messages",
     "write_tum",
 ]
@@ -49,7 +50,7 @@ class BagError(ValueError):
     """A bag that cannot be read or written; the message names the file, topic and message."""
 
 
-def _rosbags() -> Any:
+def require_rosbags() -> Any:
     """Import ``rosbags`` or fail naming the extra that installs it."""
     try:
         import rosbags.highlevel
@@ -66,7 +67,7 @@ def _rosbags() -> Any:
 
 @dataclass(frozen=True)
 class TopicSummary:
-    """One topic of a bag: name, type (ROS 2 spelling), message count, whether liebridge reads it."""
+    """One topic of a bag: name, type (ROS 2 spelling), message count, whether liebridge reads."""
 
     topic: str
     msgtype: str
@@ -85,7 +86,7 @@ def _storage_of(path: Path) -> str:
 
 @contextmanager
 def _open_reader(path: Path) -> Iterator[Any]:
-    rb = _rosbags()
+    rb = require_rosbags()
     if not path.exists():
         raise BagError(f"{path}: no such bag")
     try:
@@ -100,7 +101,7 @@ def _open_reader(path: Path) -> Iterator[Any]:
     finally:
         try:
             reader.close()
-        except Exception:  # noqa: S110 - closing a corrupt bag may fail again; the first error counts
+        except Exception:
             pass
 
 
@@ -136,7 +137,8 @@ def _fixed(value: Any, n: int, where: str) -> list[float]:
     a = np.asarray(value, dtype=np.float64).ravel()
     if a.shape != (n,):
         raise BagError(f"{where}: expected {n} numbers, got {a.shape[0]}")
-    return a.tolist()  # type: ignore[no-any-return]
+    out: list[float] = a.tolist()
+    return out
 
 
 class _Rows:
@@ -347,7 +349,8 @@ def read_messages(
                 kw[name] = np.zeros((0, _FLOAT_WIDTH[name]))
         if mt in ("nav_msgs/msg/Odometry", "geometry_msgs/msg/TransformStamped"):
             kw["child_frame_id"] = ()
-    kw_tol = {} if quaternion_tol is None else {"quaternion_tol": float(quaternion_tol)}
+    if quaternion_tol is not None:
+        kw["quaternion_tol"] = float(quaternion_tol)
     try:
         return RosMessages(
             msgtype=mt,
@@ -360,7 +363,6 @@ def read_messages(
             topic=topic,
             storage=storage,
             convention=conv,
-            **kw_tol,
             **kw,
         )
     except ValueError as exc:
@@ -540,7 +542,7 @@ def write_messages(
     """
     if not isinstance(msgs, RosMessages):
         raise TypeError(f"msgs: expected RosMessages, got {type(msgs).__name__}")
-    rb = _rosbags()
+    rb = require_rosbags()
     path = Path(bag)
     kind = _storage_for(path, storage, msgs)
     ts_name = rb.typesys.Stores.ROS1_NOETIC if kind == "rosbag1" else rb.typesys.Stores.ROS2_HUMBLE
@@ -559,10 +561,12 @@ def write_messages(
     if total != len(bounds) - 1 and len(msgs):
         raise ValueError(f"msgs: {total} receive times for {len(bounds) - 1} messages")
 
+    log_time_ns = msgs.log_time_ns
+
     def records() -> Iterator[tuple[int, Any]]:
         for k in range(total):
             rows = range(int(bounds[k]), int(bounds[k + 1])) if len(msgs) else range(0)
-            yield int(msgs.log_time_ns[k]), builder.build(rows)
+            yield int(log_time_ns[k]), builder.build(rows)
             if progress is not None and (k + 1) % _PROGRESS_EVERY == 0:
                 progress(k + 1, total)
 
@@ -575,7 +579,11 @@ def write_messages(
         else:
             bare = kind == "mcap" and path.suffix.lower() == ".mcap"
             bagdir = tmp.parent / (tmp.stem if bare else tmp.name)
-            plugin = rb.rosbag2.StoragePlugin.MCAP if kind == "mcap" else rb.rosbag2.StoragePlugin.SQLITE3
+            plugin = (
+                rb.rosbag2.StoragePlugin.MCAP
+                if kind == "mcap"
+                else rb.rosbag2.StoragePlugin.SQLITE3
+            )
             with rb.rosbag2.Writer(bagdir, version=9, storage_plugin=plugin) as w:
                 conn = w.add_connection(topic, mt, typestore=typestore)
                 for t_ns, msg in records():

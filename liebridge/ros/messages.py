@@ -73,7 +73,11 @@ _WITH_POSE_COV = {
     "geometry_msgs/msg/PoseWithCovarianceStamped",
     "nav_msgs/msg/Odometry",
 }
-_WITH_CHILD = {"geometry_msgs/msg/TransformStamped", "tf2_msgs/msg/TFMessage", "nav_msgs/msg/Odometry"}
+_WITH_CHILD = {
+    "geometry_msgs/msg/TransformStamped",
+    "tf2_msgs/msg/TFMessage",
+    "nav_msgs/msg/Odometry",
+}
 _ODOM = "nav_msgs/msg/Odometry"
 _IMU = "sensor_msgs/msg/Imu"
 
@@ -93,7 +97,7 @@ def _readonly(a: npt.NDArray[Any]) -> npt.NDArray[Any]:
 
 
 def _swap_halves(x: FloatArray) -> FloatArray:
-    """(a, b) → (b, a) on the last axis of a 6-vector, on both axes of a 6×6 matrix."""
+    """Swap (a, b) → (b, a) on the last axis of a 6-vector, on both axes of a 6×6 matrix."""
     p = np.r_[3:6, 0:3]
     if x.shape[-1] == 6 and x.ndim >= 2 and x.shape[-2] == 6:
         return np.asarray(x[..., p, :][..., :, p], dtype=np.float64)
@@ -201,7 +205,8 @@ class RosMessages:
         mt = normalize_msgtype(self.msgtype)
         if mt not in MESSAGE_TYPES:
             raise ValueError(
-                f"msgtype: {self.msgtype!r} is not supported (supported: {', '.join(MESSAGE_TYPES)})"
+                f"msgtype: {self.msgtype!r} is not supported "
+                f"(supported: {', '.join(MESSAGE_TYPES)})"
             )
         self._set("msgtype", mt)
         self._set("convention", get(self.convention))
@@ -237,7 +242,9 @@ class RosMessages:
         self._set("stamp_nanosec", ints("stamp_nanosec", self.stamp_nanosec, n))
         if ((self.stamp_nanosec < 0) | (self.stamp_nanosec >= 1_000_000_000)).any():
             k = int(np.argmax((self.stamp_nanosec < 0) | (self.stamp_nanosec >= 1_000_000_000)))
-            raise ValueError(f"stamp_nanosec: {int(self.stamp_nanosec[k])} at row {k} not in [0, 1e9)")
+            raise ValueError(
+                f"stamp_nanosec: {int(self.stamp_nanosec[k])} at row {k} not in [0, 1e9)"
+            )
         self._set("frame_id", strings("frame_id", self.frame_id))
         if mt in _WITH_CHILD:
             if self.child_frame_id is None:
@@ -346,7 +353,7 @@ class RosMessages:
                 ) from None
 
     def with_convention(self, convention: ConventionLike) -> RosMessages:
-        """The same messages with ``cov``/``twist``/``twist_cov`` in ``convention``.
+        """Return the same messages with ``cov``/``twist``/``twist_cov`` in ``convention``.
 
         The raw fields (what is written back) do not change.
         """
