@@ -11,7 +11,9 @@ it is imported when a bag is opened, with that hint if missing.
 * :func:`twist_frame_check`: whether an ``Odometry`` twist is in the child frame (as ROS says)
   or in the parent frame (a common driver bug);
 * :func:`odometry_factors`, :func:`messages_from_gtsam`: bag trajectories into GTSAM and GTSAM
-  estimates with marginals back into messages.
+  estimates with marginals back into messages; :func:`odometry_from_gtsam` /
+  :func:`odometry_from_navstate`: a pose + velocity estimate as ``Odometry`` (the pose–twist
+  cross-covariance reported as dropped).
 
 See ``docs/ros.md``.
 """
@@ -33,13 +35,21 @@ from .frames import (
     twist_frame_check,
     twist_from_parent_frame,
 )
-from .graph import increment_covariances, messages_from_gtsam, odometry_factors
+from .graph import (
+    DroppedCrossCovariance,
+    increment_covariances,
+    messages_from_gtsam,
+    odometry_factors,
+    odometry_from_gtsam,
+    odometry_from_navstate,
+)
 from .messages import MESSAGE_TYPES, RosMessages, from_poses, normalize_msgtype
 
 __all__ = [
     "MESSAGE_TYPES",
     "STORAGES",
     "BagError",
+    "DroppedCrossCovariance",
     "RosMessages",
     "TopicSummary",
     "TwistFrameCheck",
@@ -50,6 +60,8 @@ __all__ = [
     "messages_from_gtsam",
     "normalize_msgtype",
     "odometry_factors",
+    "odometry_from_gtsam",
+    "odometry_from_navstate",
     "read_messages",
     "require_rosbags",
     "transform_messages",

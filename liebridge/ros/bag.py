@@ -129,7 +129,7 @@ def bag_info(bag: PathLike) -> tuple[str, float, float, list[TopicSummary]]:
         ]
         count = sum(t.count for t in topics)
         start = r.start_time * 1e-9 if count else 0.0
-        end = r.end_time * 1e-9 if count else 0.0
+        end = (r.end_time - 1) * 1e-9 if count else 0.0  # rosbags: one past the last
     return _storage_of(path), start, end, topics
 
 

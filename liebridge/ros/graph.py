@@ -17,22 +17,37 @@ rotation) are first converted to GTSAM's body-frame tangent at each pose with
 Out of GTSAM (:func:`messages_from_gtsam`): poses from ``gtsam.Values`` and marginals from
 :func:`liebridge.gtsam.marginals` converted to ``ros`` — the message covariance rviz,
 robot_localization and evo read as ROS defines it.
+
+Navigation state as ``Odometry`` (:func:`odometry_from_navstate`, :func:`odometry_from_gtsam`):
+pose covariance converted to ROS; twist in the child frame — linear velocity ``Rᵀ v_world`` from
+the state, angular velocity from the bias-corrected gyro with its covariance; the pose–twist
+cross-covariance, which ``Odometry`` cannot hold, is returned as dropped (with its largest
+correlation coefficient).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
 
 from .. import _validate as v
 from .._validate import FloatArray
+from ..conventions import convert_covariance, tangent_map
 from ..gtsam import between, from_values, marginals, prior
-from ..lie import se3
+from ..lie import se3, so3
 from .messages import RosMessages, from_poses
 
-__all__ = ["increment_covariances", "messages_from_gtsam", "odometry_factors"]
+__all__ = [
+    "DroppedCrossCovariance",
+    "increment_covariances",
+    "messages_from_gtsam",
+    "odometry_factors",
+    "odometry_from_gtsam",
+    "odometry_from_navstate",
+]
 
 
 def _swap(cov: FloatArray) -> FloatArray:
@@ -176,5 +191,159 @@ def messages_from_gtsam(
         stamps=t,
         frame_id=frame_id,
         msgtype=msgtype,
+        child_frame_id=child_frame_id,
+    )
+
+
+@dataclass(frozen=True)
+class DroppedCrossCovariance:
+    """What an ``Odometry`` message cannot hold: the pose–twist cross-covariance.
+
+    Attributes
+    ----------
+    cov_pose_twist : ndarray, shape (N, 6, 6)
+        Cross-covariance between the pose error in the ROS pose tangent
+        ``(x, y, z, rotX, rotY, rotZ)`` and the twist error in ROS twist order
+        ``(vx, vy, vz, wx, wy, wz)`` (child frame); its angular columns are zero (the gyro's
+        correlation with the state is not modelled).
+    max_abs_correlation : ndarray, shape (N,)
+        Largest ``|ρ|`` among those entries per message (0: nothing of substance was dropped).
+    """
+
+    cov_pose_twist: FloatArray
+    max_abs_correlation: FloatArray
+
+
+def odometry_from_navstate(
+    T: Any,
+    v_world: Any,
+    cov_joint: Any,
+    omega_body: Any,
+    omega_cov: Any,
+    *,
+    stamps: Any,
+    frame_id: str = "map",
+    child_frame_id: str = "base_link",
+) -> tuple[RosMessages, DroppedCrossCovariance]:
+    """Express a navigation-state estimate as ``nav_msgs/Odometry``; report what it drops.
+
+    Parameters
+    ----------
+    T : array_like, shape (N, 4, 4)
+        ``T_world_body`` estimates (GTSAM ``Pose3``).
+    v_world : array_like, shape (N, 3)
+        Velocity of the body origin in the world frame (GTSAM's ``NavState`` / ``Vector3``
+        velocity).
+    cov_joint : array_like, shape (N, 9, 9)
+        Joint marginal over ``(δθ, δp, δv)``: GTSAM's ``Pose3`` tangent ``(ω, v)`` (body frame,
+        ``T·Exp(ξ)``) then the additive world-frame velocity error — e.g.
+        ``gtsam.Marginals.jointMarginalCovariance([x_k, v_k]).fullMatrix()``.
+    omega_body : array_like, shape (N, 3)
+        Angular velocity in the body frame (the bias-corrected gyro, ``ω_meas − b_g``).
+    omega_cov : array_like, shape (N, 3, 3)
+        Its covariance (gyro noise plus the bias marginal).
+    stamps, frame_id, child_frame_id :
+        As in :func:`liebridge.ros.from_poses`.
+
+    Returns
+    -------
+    msgs : RosMessages
+        ``Odometry``: pose covariance = the pose block converted to ROS with
+        :func:`liebridge.conventions.convert_covariance`; twist = ``(Rᵀ v_world, ω_body)`` in
+        the child frame with covariance ``[[J Σ Jᵀ, 0], [0, omega_cov]]``,
+        ``J = [[v_b]×, 0, Rᵀ]`` (from ``Exp(δθ)ᵀRᵀ(v + δv) ≈ v_b + [v_b]× δθ + Rᵀ δv``).
+    dropped : DroppedCrossCovariance
+        The pose–twist cross-covariance the message cannot carry.
+    """
+    Tm = v.pose(T, "T")
+    if Tm.ndim != 3:
+        raise ValueError(f"T: expected shape (N, 4, 4), got {Tm.shape}")
+    n = Tm.shape[0]
+    vw = v.vector(v_world, "v_world", 3)
+    S = v.covariance(cov_joint, "cov_joint", 9)
+    om = v.vector(omega_body, "omega_body", 3)
+    oc = v.covariance(omega_cov, "omega_cov", 3)
+    for name, a, shape in (
+        ("v_world", vw, (n, 3)),
+        ("cov_joint", S, (n, 9, 9)),
+        ("omega_body", om, (n, 3)),
+        ("omega_cov", oc, (n, 3, 3)),
+    ):
+        if a.shape != shape:
+            raise ValueError(f"{name}: expected shape {shape}, got {a.shape}")
+    Rt = np.swapaxes(Tm[:, :3, :3], -1, -2)
+    vb = np.einsum("nij,nj->ni", Rt, vw)
+    J = np.zeros((n, 3, 9))
+    J[:, :, :3] = so3.hat(vb)
+    J[:, :, 6:] = Rt
+    cov_vb = J @ S @ np.swapaxes(J, -1, -2)
+    pose_cov = convert_covariance(S[:, :6, :6], Tm, "gtsam", "ros")
+    twist_cov = np.zeros((n, 6, 6))
+    twist_cov[:, :3, :3] = cov_vb
+    twist_cov[:, 3:, 3:] = oc
+    msgs = from_poses(
+        Tm,
+        pose_cov,
+        convention="ros",
+        stamps=stamps,
+        frame_id=frame_id,
+        child_frame_id=child_frame_id,
+        msgtype="nav_msgs/msg/Odometry",
+        twist=np.concatenate([vb, om], axis=-1),
+        twist_cov=twist_cov,
+    )
+    # cross-covariance, pose in the ROS tangent: the same first-order map as the pose block
+    M = tangent_map(Tm, "gtsam", "ros")
+    cross = np.zeros((n, 6, 6))
+    cross[:, :, :3] = M @ S[:, :6, :] @ np.swapaxes(J, -1, -2)
+    sd_pose = np.sqrt(np.maximum(np.einsum("nii->ni", pose_cov), 0.0))
+    sd_tw = np.sqrt(np.maximum(np.einsum("nii->ni", twist_cov), 0.0))
+    denom = sd_pose[:, :, None] * sd_tw[:, None, :]
+    rho = np.divide(np.abs(cross), denom, out=np.zeros_like(cross), where=denom > 0)
+    return msgs, DroppedCrossCovariance(cross, rho.max(axis=(-1, -2)))
+
+
+def odometry_from_gtsam(
+    graph: Any,
+    values: Any,
+    pose_keys: Sequence[int],
+    velocity_keys: Sequence[int],
+    omega_body: Any,
+    omega_cov: Any,
+    *,
+    stamps: Any,
+    frame_id: str = "map",
+    child_frame_id: str = "base_link",
+    marginals_object: Any = None,
+) -> tuple[RosMessages, DroppedCrossCovariance]:
+    """:func:`odometry_from_navstate` from a GTSAM graph with ``Pose3`` and ``Vector3`` keys.
+
+    The joint marginal of each ``(pose_keys[k], velocity_keys[k])`` pair comes from
+    ``gtsam.Marginals.jointMarginalCovariance`` (GTSAM's ``Pose3`` tangent, then the velocity).
+    """
+    import gtsam
+
+    pk = [int(k) for k in pose_keys]
+    vk = [int(k) for k in velocity_keys]
+    if len(pk) != len(vk):
+        raise ValueError(f"velocity_keys: expected {len(pk)} keys, got {len(vk)}")
+    m = marginals_object if marginals_object is not None else gtsam.Marginals(graph, values)
+    S = np.stack(
+        [
+            np.asarray(m.jointMarginalCovariance([a, b]).fullMatrix())
+            for a, b in zip(pk, vk, strict=True)
+        ]
+    )
+    S = 0.5 * (S + np.swapaxes(S, -1, -2))
+    T = from_values(values, pk)
+    vw = np.stack([np.asarray(values.atVector(b), dtype=np.float64) for b in vk])
+    return odometry_from_navstate(
+        T,
+        vw,
+        S,
+        omega_body,
+        omega_cov,
+        stamps=stamps,
+        frame_id=frame_id,
         child_frame_id=child_frame_id,
     )
