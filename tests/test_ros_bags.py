@@ -323,3 +323,32 @@ def test_bad_batch_fields() -> None:
             position=np.zeros((0, 3)),
             orientation_xyzw=np.zeros((0, 4)),
         )
+
+
+@pytest.mark.parametrize("preset", [c.name for c in C.PRESETS])
+def test_every_preset_round_trips_through_the_message(preset: str) -> None:
+    """from_poses(cov in preset) → raw ROS numbers → cov in preset again: the same matrix."""
+    rng = np.random.default_rng(4)
+    T = se3.exp(rng.normal(size=(3, 6)) * [1, 1, 1, 10, 10, 10])
+    A = rng.normal(size=(3, 6, 6))
+    cov = A @ A.transpose(0, 2, 1) * 1e-3
+    m = ros.from_poses(T, cov, convention=preset, stamps=[0.0, 1.0, 2.0])
+    assert m.cov is not None and m.pose_covariance is not None
+    np.testing.assert_allclose(m.cov, cov, rtol=1e-9, atol=1e-12 * np.abs(cov).max())
+    expected_ros = C.convert_covariance(cov, m.T, preset, "ros")
+    np.testing.assert_allclose(
+        m.pose_covariance.reshape(3, 6, 6), expected_ros, rtol=1e-9, atol=1e-15
+    )
+
+
+def test_empty_topic_and_select(tmp_path: Path) -> None:
+    ts = typestore("mcap")
+    p = write_bag(bag_path(tmp_path, "mcap"), "mcap", {"/odom": ("nav_msgs/msg/Odometry", [])}, ts)
+    m = ros.read_messages(p, "/odom")
+    assert len(m) == 0 and m.T.shape == (0, 4, 4)
+    assert m.cov is not None and m.cov.shape == (0, 6, 6)
+    tf = ros.read_messages(_bag(tmp_path, "sqlite3", "tf2_msgs/msg/TFMessage"), "/t")
+    sub = tf.select(np.flatnonzero(np.asarray(tf.child_frame_id) == "base2"))
+    assert len(sub) == 3 and list(sub.message_index) == [0, 0, 0]  # message 2: 3 transforms
+    assert len(sub.log_time_ns) == 1 and sub.log_time_ns[0] == tf.log_time_ns[2]
+    assert np.array_equal(sub.T, tf.T[tf.message_index == 2])

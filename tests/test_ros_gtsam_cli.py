@@ -261,3 +261,27 @@ def test_example_bag_to_gtsam(tmp_path: Path) -> None:
     assert png.is_file() and png.stat().st_size > 10_000
     back = ros.read_messages(tmp_path / "optimized.bag", "/optimized")
     assert len(back) == 60 and back.storage == "rosbag1"
+
+
+def test_cli_progress_on_long_bag(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    n = 4500
+    m = ros.from_poses(
+        np.tile(np.eye(4), (n, 1, 1)),
+        None,
+        stamps=np.arange(n) * 0.01,
+        msgtype="geometry_msgs/TransformStamped",
+    )
+    p = ros.write_messages(tmp_path / "long.bag", "/tf_one", m)
+    rc, _, err = run(
+        capsys,
+        "bag",
+        "export",
+        str(p),
+        "--topic",
+        "/tf_one",
+        "--to",
+        "tum",
+        str(tmp_path / "l.tum"),
+    )
+    assert rc == 0
+    assert "read /tf_one: 2000/4500 messages" in err and "read /tf_one: 4500/4500 messages" in err
