@@ -323,7 +323,7 @@ def read_messages(
             raise
         except Exception as exc:  # a truncated chunk, a bad index, a decompression error
             raise BagError(
-                f"{path}: topic {topic}: bag is truncated or corrupt after message {k - 1} "
+                f"{path}: topic {topic}, message {k}: bag is truncated or corrupt "
                 f"({type(exc).__name__}: {exc})"
             ) from None
         if progress is not None:
