@@ -6,12 +6,12 @@ position error in the parent frame and the rotation error about the parent's fix
 **must rotate** with the parent: ``Σ' = B Σ Bᵀ``, ``B = diag(R_new_old, R_new_old)``. False, and
 shipped: "the covariance is unchanged" (ROS 2 ``tf2_geometry_msgs`` copied it unrotated:
 ros2/geometry2 issues #372 (C++, fixed by PR #430) and #431 (Python); ROS 1's
-``tf2::transformCovariance`` applies ``B``). liebridge gets ``B`` from the conventions, not by
-hand: the body-frame (GTSAM, right-perturbation) covariance of ``T_old_child`` does not change
-when a fixed transform is applied on the left, so ``Σ' = M(T', gtsam→ros) · M(T, ros→gtsam) Σ (…)ᵀ`` with
-:func:`liebridge.conventions.convert_covariance` — the product of the two first-order maps is
-``B`` exactly (``[[0, R'], [R', 0]]·[[0, Rᵀ], [Rᵀ, 0]] = diag(R_new_old, R_new_old)``), checked by
-Monte Carlo in ``tests/test_ros_frames.py``.
+``tf2::transformCovariance`` applies ``B``). liebridge gets ``B`` from the conventions, not by hand:
+the body-frame (GTSAM, right-perturbation) covariance of ``T_old_child`` does not change when a
+fixed transform is applied on the left, so ``Σ' = M(T', gtsam→ros) · M(T, ros→gtsam) Σ (…)ᵀ`` with
+:func:`liebridge.conventions.convert_covariance` — the product of the two first-order maps is ``B``
+exactly (``[[0, R'], [R', 0]]·[[0, Rᵀ], [Rᵀ, 0]] = diag(R_new_old, R_new_old)``), checked by Monte
+Carlo in ``tests/test_ros_frames.py``.
 
 The ``Odometry`` twist is defined in ``child_frame_id`` (``nav_msgs/Odometry.msg``) and does not
 change under re-parenting. Drivers that publish it in ``header.frame_id`` instead are found by
