@@ -327,9 +327,14 @@ class RosMessages:
             cov_ros = self.pose_covariance.reshape(n, 6, 6)
             if conv.name == "ros":
                 cov = cov_ros
+            elif n:
+                try:  # batched; only a failure goes row by row to name the message
+                    cov = convert_covariance(cov_ros, T, "ros", conv)
+                except ValueError:
+                    self._check_cov(cov_ros, "pose.covariance")
+                    raise
             else:
-                self._check_cov(cov_ros, "pose.covariance")
-                cov = convert_covariance(cov_ros, T, "ros", conv) if n else cov_ros
+                cov = cov_ros
             cov = _readonly(cov)
         self._set("cov", cov)
         tw = twc = None
