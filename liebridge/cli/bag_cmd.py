@@ -1,0 +1,258 @@
+"""``liebridge bag``: ROS 1 / ROS 2 bags without ROS (info, export, write-marginals).
+
+``bag info BAG`` lists the topics and which ones liebridge reads; ``bag export BAG --topic T
+--to tum|g2o|npz OUT`` writes one trajectory topic as a TUM file (exact stamps, ``repr`` floats),
+a g2o odometry chain (information over GTSAM's tangent, converted from the messages' ROS
+covariances — never copied) or an ``.npz`` of arrays with the covariance in ``--convention``;
+``bag write-marginals IN OUT`` optimizes a pose graph (a g2o file, or a bag trajectory topic as an
+odometry chain) with GTSAM and writes the estimates with their marginal covariances, converted
+to ROS's ``PoseWithCovariance`` convention, as messages into a new bag. Bad input is one line.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ._common import CLIError, check_output_path, convention_arg, say
+
+__all__ = ["add_parser"]
+
+_MSGTYPES = {
+    "pose": "geometry_msgs/msg/PoseWithCovarianceStamped",
+    "odometry": "nav_msgs/msg/Odometry",
+}
+
+
+def _ros() -> Any:
+    try:
+        from .. import ros
+
+        ros.require_rosbags()
+    except ImportError as exc:
+        raise CLIError(str(exc)) from None
+    return ros
+
+
+def _progress(what: str) -> Any:
+    def report(done: int, total: int) -> None:
+        if total >= 2000:
+            say(f"{what}: {done}/{total} messages")
+
+    return report
+
+
+def _info(args: argparse.Namespace) -> int:
+    ros = _ros()
+    storage, start, end, topics = ros.bag_info(args.bag)
+    print(
+        f"{args.bag}: {storage}, {sum(t.count for t in topics)} messages, "
+        f"{end - start:.3f} s ({start!r} .. {end!r})"
+    )
+    width = max([len(t.topic) for t in topics] + [5])
+    for t in topics:
+        mark = "reads" if t.supported else "-"
+        print(f"  {t.topic.ljust(width)}  {t.count:8d}  {t.msgtype}  [{mark}]")
+    return 0
+
+
+def _read(ros: Any, bag: str, topic: str, convention: Any) -> Any:
+    return ros.read_messages(bag, topic, convention=convention, progress=_progress(f"read {topic}"))
+
+
+def _export(args: argparse.Namespace) -> int:
+    ros = _ros()
+    conv = convention_arg(args.convention, "--convention")
+    suffixes = {"tum": None, "g2o": (".g2o", ".txt"), "npz": (".npz",)}[args.to]
+    out = check_output_path(args.out, "OUT", suffixes)
+    m = _read(ros, args.bag, args.topic, conv)
+    if args.to == "tum":
+        ros.write_tum(out, m)
+        print(
+            f"wrote {out}: {len(m)} poses T_{m.frame_id[0] if len(m) else ''}_"
+            f"{(m.child_frame_id or ['body'])[0] if len(m) else ''} "
+            "(TUM, exact stamps, repr floats)"
+        )
+        return 0
+    if args.to == "g2o":
+        from ..io import g2o as g2o_io
+
+        Z, cz = ros.increment_covariances(m, args.increment)
+        info = np.linalg.inv(cz)
+        info = 0.5 * (info + np.swapaxes(info, -1, -2))
+        n = len(m)
+        g = g2o_io.G2OGraph.from_matrices(
+            np.arange(n), m.T, np.c_[np.arange(n - 1), np.arange(1, n)], Z, info
+        )
+        with ros.atomic_output(out) as tmp:
+            g2o_io.write(tmp, g)
+        print(
+            f"wrote {out}: {n} vertices, {n - 1} odometry edges (increment covariance "
+            f"'{args.increment}', converted from the messages' ROS covariance)"
+        )
+        return 0
+    arrays: dict[str, Any] = {
+        "stamps": m.stamps,
+        "stamp_sec": m.stamp_sec,
+        "stamp_nanosec": m.stamp_nanosec,
+        "T": m.T,
+        "frame_id": np.array(m.frame_id, dtype=str),
+        "convention": np.array(conv.name),
+        "msgtype": np.array(m.msgtype),
+    }
+    for name in ("cov", "twist", "twist_cov", "child_frame_id"):
+        val = getattr(m, name)
+        if val is not None:
+            arrays[name] = np.array(val, dtype=str) if name == "child_frame_id" else val
+    with ros.atomic_output(out) as tmp, open(tmp, "wb") as fh:
+        np.savez(fh, **arrays)
+    print(f"wrote {out}: {len(m)} poses; cov in {conv.name!r} ({', '.join(sorted(arrays))})")
+    return 0
+
+
+def _write_marginals(args: argparse.Namespace) -> int:
+    import gtsam
+
+    ros = _ros()
+    inp = Path(args.input)
+    is_g2o = inp.is_file() and inp.suffix.lower() in (".g2o", ".txt")
+    out = check_output_path(args.output, "OUT")
+    if is_g2o:
+        from ..io import g2o as g2o_io
+
+        g = g2o_io.read(inp)
+        graph, initial = g.to_gtsam()
+        keys = [int(k) for k in g.vertex_ids]
+        k0 = keys[0] if not g.fixed else int(g.fixed[0])
+        graph.add(
+            gtsam.PriorFactorPose3(
+                k0, initial.atPose3(k0), gtsam.noiseModel.Isotropic.Sigma(6, args.prior_sigma)
+            )
+        )
+        stamps = np.arange(len(keys), dtype=np.float64) * args.period
+        frame = args.frame_id or "map"
+        say(
+            f"read {inp}: {len(keys)} poses, {g.edges.shape[0]} edges; prior sigma "
+            f"{args.prior_sigma} on pose {k0}"
+        )
+    else:
+        if args.topic is None:
+            raise CLIError("--topic: required when IN is a bag (the trajectory topic to optimize)")
+        m = _read(ros, args.input, args.topic, "ros")
+        graph = gtsam.NonlinearFactorGraph()
+        for f in ros.odometry_factors(m, increment=args.increment):
+            graph.add(f)
+        keys = list(range(len(m)))
+        initial = gtsam.Values()
+        for k in keys:
+            initial.insert(k, gtsam.Pose3(m.T[k]))
+        stamps = m.stamps
+        frame = args.frame_id or (m.frame_id[0] if len(m) else "map")
+        say(f"read {args.input} {args.topic}: {len(m)} poses as an odometry chain")
+    params = gtsam.LevenbergMarquardtParams()
+    result = gtsam.LevenbergMarquardtOptimizer(graph, initial, params).optimize()
+    say(
+        f"optimized: error {graph.error(initial):.6g} -> {graph.error(result):.6g}; "
+        f"marginals of {len(keys)} poses"
+    )
+    msgs = ros.messages_from_gtsam(
+        graph,
+        result,
+        keys,
+        stamps=stamps,
+        frame_id=frame,
+        msgtype=_MSGTYPES[args.msgtype],
+        child_frame_id=args.child_frame_id,
+    )
+    ros.write_messages(
+        out,
+        args.out_topic,
+        msgs,
+        storage=args.storage,
+        progress=_progress(f"write {args.out_topic}"),
+    )
+    print(
+        f"wrote {out}: {len(msgs)} {msgs.msgtype} on {args.out_topic} in frame {frame!r}, "
+        f"covariance = GTSAM marginals converted to ROS (x, y, z, rotX, rotY, rotZ)"
+    )
+    return 0
+
+
+def add_parser(sub: Any) -> None:
+    """Register ``liebridge bag`` and its subcommands."""
+    p = sub.add_parser(
+        "bag",
+        help="ROS 1/2 bags without ROS: info, export a topic, write GTSAM marginals as messages",
+        description="ROS 1 (.bag) and ROS 2 (sqlite3, mcap) bags via the rosbags library "
+        '(pip install "liebridge[ros]").',
+    )
+    bsub = p.add_subparsers(dest="bag_command", metavar="SUBCOMMAND")
+    i = bsub.add_parser("info", help="topics, types, counts; which topics liebridge reads")
+    i.add_argument("bag", metavar="BAG")
+    i.set_defaults(func=_info)
+
+    e = bsub.add_parser(
+        "export",
+        help="one pose topic as TUM, g2o or npz",
+        description="Export a PoseWithCovariance(Stamped), Odometry, TransformStamped or "
+        "TFMessage topic. tum: 'sec.nanosec x y z qx qy qz qw' exactly as stored; g2o: an "
+        "odometry chain whose edge information is the increment covariance in GTSAM's tangent; "
+        "npz: stamps, T (N,4,4), cov (N,6,6) in --convention, twist/twist_cov (child frame).",
+    )
+    e.add_argument("bag", metavar="BAG")
+    e.add_argument("--topic", required=True)
+    e.add_argument("--to", required=True, choices=("tum", "g2o", "npz"))
+    e.add_argument("out", metavar="OUT")
+    e.add_argument(
+        "--convention",
+        default="ros",
+        help="covariance convention of the npz 'cov' (default ros: as stored)",
+    )
+    e.add_argument(
+        "--increment",
+        default="difference",
+        choices=("difference", "twist"),
+        help="g2o: increment covariance from growing pose covariances (difference) "
+        "or from the Odometry twist covariance × dt² (twist)",
+    )
+    e.set_defaults(func=_export)
+
+    w = bsub.add_parser(
+        "write-marginals",
+        help="optimize a pose graph with GTSAM, write poses + marginals as messages to a bag",
+        description="IN is a g2o file (.g2o/.txt; a prior fixes its first vertex) or a bag with "
+        "--topic (a trajectory topic read as an odometry chain with a prior on its first pose). "
+        "OUT is a new bag (.bag: ROS 1; .mcap: mcap; otherwise a ROS 2 sqlite3 directory) with "
+        "one message per pose, its covariance the GTSAM marginal converted to ROS's convention.",
+    )
+    w.add_argument("input", metavar="IN")
+    w.add_argument("output", metavar="OUT")
+    w.add_argument("--topic", help="trajectory topic of IN when IN is a bag")
+    w.add_argument("--out-topic", default="/liebridge/poses")
+    w.add_argument(
+        "--msgtype",
+        choices=tuple(_MSGTYPES),
+        default="pose",
+        help="pose: PoseWithCovarianceStamped (default); odometry: nav_msgs/Odometry "
+        "with a zero twist",
+    )
+    w.add_argument("--frame-id", help="parent frame (default: the input's, or 'map')")
+    w.add_argument("--child-frame-id", default=None, help="Odometry child frame (base_link)")
+    w.add_argument("--storage", choices=("rosbag1", "sqlite3", "mcap"), default=None)
+    w.add_argument("--increment", default="difference", choices=("difference", "twist"))
+    w.add_argument(
+        "--prior-sigma",
+        type=float,
+        default=1e-6,
+        help="g2o input: sigma of the prior on the first vertex",
+    )
+    w.add_argument(
+        "--period",
+        type=float,
+        default=1.0,
+        help="g2o input: seconds between the stamps of consecutive vertices",
+    )
+    w.set_defaults(func=_write_marginals)
