@@ -56,7 +56,7 @@ def optimized(dataset: str) -> tuple[Any, Any, list[int]]:
 
 
 def draw(cov: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:
-    """Samples of ``N(0, cov)`` (eigen square root: a semi-definite ``cov`` is fine)."""
+    """Draw samples of ``N(0, cov)`` (eigen square root: a semi-definite ``cov`` is fine)."""
     lam, Q = np.linalg.eigh(cov)
     return rng.standard_normal((n, cov.shape[0])) @ (Q * np.sqrt(np.clip(lam, 0, None))).T
 
@@ -102,7 +102,9 @@ def main(argv: list[str] | None = None) -> int:
     inv_wrong = u.UncertainPose(inv_ok.T, Ad @ Bl.cov @ Ad.T, "barfoot")
     db = draw(np.asarray(Bl.cov), n, rng)
     inv_samples = se3.inverse(get("barfoot").retract(Bl.T, db))
-    mc_inv = sample_cov(get("barfoot").local(np.broadcast_to(inv_ok.T, inv_samples.shape), inv_samples))
+    mc_inv = sample_cov(
+        get("barfoot").local(np.broadcast_to(inv_ok.T, inv_samples.shape), inv_samples)
+    )
 
     # 3. tf2: re-express b in a map frame rotated 90° about z (T_map_world): rotate the covariance
     F = se3.exp(np.r_[0.0, 0.0, np.pi / 2, 2.0, 0.0, 0.0])

@@ -20,7 +20,10 @@ def test_uncertain_relative_pose_example(tmp_path: Path) -> None:
         text=True,
         timeout=300,
         # the liebridge next to this test (a checkout need not be the installed one)
-        env={**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])},
+        env={
+            **os.environ,
+            "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]),
+        },
     )
     assert proc.returncode == 0, proc.stderr
     errors = {

@@ -95,7 +95,10 @@ def test_rotations_against_monte_carlo(name: str) -> None:
     assert _rel(u.compose(A, B, X).cov, check.monte_carlo_compose(A, B, X, n=n).cov) < 0.02
     assert _rel(u.inverse(A).cov, check.monte_carlo_inverse(A, n=n).cov) < 0.02
     assert _rel(u.relative(A, B, X).cov, check.monte_carlo_relative(A, B, X, n=n).cov) < 0.02
-    assert _rel(u.transform(A, R2, "right").cov, check.monte_carlo_transform(A, R2, "right").cov) < 0.02
+    assert (
+        _rel(u.transform(A, R2, "right").cov, check.monte_carlo_transform(A, R2, "right").cov)
+        < 0.02
+    )
     assert _rel(u.act(A, P).cov, check.monte_carlo_act(A, P, n=n).cov) < 0.02
 
 
@@ -338,7 +341,7 @@ def test_fuse_equal_means_is_information_fusion() -> None:
 
 
 def test_fuse_equals_gtsam_two_priors() -> None:
-    """MAP and covariance of two PriorFactorPose3 on one key, optimized and marginalized by GTSAM."""
+    """MAP and covariance of two PriorFactorPose3 on one key, optimized and marginalized."""
     Tb = T1 @ se3.exp(np.r_[0.05, -0.03, 0.02, 0.1, 0.2, -0.1])
     A = u.UncertainPose(T1, JOINT[:6, :6], "gtsam")
     B = u.UncertainPose(Tb, JOINT[6:, 6:], "gtsam")

@@ -1,4 +1,4 @@
-"""Monte Carlo counterparts of :mod:`liebridge.uncertain`'s operations: the reference they must match.
+"""Monte Carlo counterparts of :mod:`liebridge.uncertain`'s operations (their reference).
 
 Each function draws the inputs' perturbations from their joint Gaussian in the convention's
 tangent, ``δ ~ N(0, Σ_joint)``, builds the samples with the convention's own ``retract``, applies
@@ -122,8 +122,9 @@ def monte_carlo_relative(
     c = _same(A, B)
     d = _draw(_joint(A, B, cross), n, _rng(rng))
     k = A.dim
-    Y = np.linalg.inv(_samples(c, A.T, d[..., :k])) @ _samples(c, B.T, d[..., k:])
-    return _result(c, _clean(np.linalg.inv(A.T) @ B.T), _clean(Y))
+    Y = np.asarray(np.linalg.inv(_samples(c, A.T, d[..., :k])) @ _samples(c, B.T, d[..., k:]))
+    TC = np.asarray(np.linalg.inv(A.T) @ B.T, dtype=np.float64)
+    return _result(c, _clean(TC), _clean(Y))
 
 
 def monte_carlo_transform(
@@ -134,7 +135,7 @@ def monte_carlo_transform(
     n: int = 20000,
     rng: np.random.Generator | None = None,
 ) -> UncertainPose:
-    """Monte Carlo of ``transform(A, T_fixed, side)`` for a known ``T_fixed``: ``F·A_k``/``A_k·F``."""
+    """Monte Carlo of ``transform(A, T_fixed, side)``, known ``T_fixed``: ``F·A_k`` or ``A_k·F``."""
     _check_n(n)
     F = group_input(T_fixed, "T_fixed")
     d = _draw(np.asarray(A.cov), n, _rng(rng))

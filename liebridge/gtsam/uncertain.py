@@ -39,7 +39,7 @@ def _pose(values: Any, key: int) -> FloatArray:
 def marginal(
     marginals: Any, values: Any, key: int, convention: ConventionLike = "gtsam"
 ) -> UncertainPose:
-    """The marginal of ``Pose3`` ``key`` as an :class:`UncertainPose` in ``convention``.
+    """Return the marginal of ``Pose3`` ``key`` as an :class:`UncertainPose` in ``convention``.
 
     Parameters
     ----------

@@ -12,7 +12,7 @@ When the means agree this is information-weighted fusion, ``Σ = (Σ_A⁻¹ + Σ
 covariances (a direction known exactly) are allowed for all but one estimate: the step is taken
 in covariance (Kalman) form with a positive definite estimate as the prior, so nothing singular
 is inverted. False: the fused mean is the weighted average of the matrices or of their
-``log``\\ s at the identity (neither is the MAP, and the first is not a pose).
+logarithms at the identity (neither is the MAP, and the first is not a pose).
 """
 
 from __future__ import annotations

@@ -84,7 +84,7 @@ def _check_uncertain(A: Any, name: str) -> UncertainPose:
 
 
 def _check_pair(A: Any, B: Any, na: str = "A", nb: str = "B") -> tuple[int, ...]:
-    """Same group, same convention (by its retraction fields), broadcastable batch shapes."""
+    """Check: same group, same convention (by its retraction fields), broadcastable batch shapes."""
     A = _check_uncertain(A, na)
     B = _check_uncertain(B, nb)
     if A.is_rotation != B.is_rotation:
@@ -309,7 +309,7 @@ def transform(
     *,
     cross: Any = None,
 ) -> UncertainPose:
-    """Change the reference frame (``side="left"``: ``F·A``) or the body frame (``"right"``: ``A·F``).
+    """Change the parent frame (``side="left"``: ``F·A``) or the body frame (``"right"``: ``A·F``).
 
     ``T_fixed`` is a known transform (an array ``(..., 4, 4)``/``(..., 3, 3)`` or a GTSAM object
     with ``.matrix()``): ``side="left"`` re-expresses ``T_old_body`` as
@@ -356,7 +356,7 @@ def transform(
 
 
 def act(A: UncertainPose, p: Any, cov_p: Any = None, method: Method = "linear") -> UncertainPoint:
-    """An uncertain point seen through an uncertain pose: ``q = T·p`` (``R p + t``; ``R p``).
+    """Map an uncertain point through an uncertain pose: ``q = T·p`` (``R p + t``; ``R p``).
 
     ``p``, ``cov_p`` are in A's body frame (``p_body``), the result in A's parent frame
     (``p_parent``); ``p`` and ``A`` are independent. Linear, GTSAM's tangent:

@@ -31,7 +31,7 @@ __all__ = [
 
 
 def position(X: UncertainPose | UncertainPoint) -> UncertainPoint:
-    """The parent-frame position of an uncertain pose (``act(X, 0)``), or the point itself."""
+    """Return the parent-frame position of an uncertain pose (``act(X, 0)``) or the point."""
     if isinstance(X, UncertainPoint):
         return X
     if not isinstance(X, UncertainPose) or X.is_rotation:

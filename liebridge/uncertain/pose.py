@@ -23,7 +23,7 @@ __all__ = ["UncertainPoint", "UncertainPose"]
 
 
 def _frozen(a: Any) -> FloatArray:
-    """A read-only float64 copy (the objects are immutable; the caller's array is not touched)."""
+    """Return a read-only float64 copy (immutable objects; the caller's array is untouched)."""
     out = np.array(a, dtype=np.float64, copy=True)
     out.setflags(write=False)
     return out
@@ -125,7 +125,7 @@ class UncertainPose:
     def to(
         self, convention: ConventionLike, *, method: Literal["linear", "unscented"] = "linear"
     ) -> UncertainPose:
-        """The same random pose described in another convention's tangent.
+        """Describe the same random pose in another convention's tangent.
 
         ``cov_dst = M cov Mᵀ``, ``M = tangent_map(T, self.convention, convention)``
         (``method="linear"``, exact when :func:`~liebridge.conventions.is_exactly_linear`), or
@@ -137,9 +137,7 @@ class UncertainPose:
         return UncertainPose(self.T, cov, dst)
 
     @classmethod
-    def from_gtsam(
-        cls, pose: Any, cov: Any, convention: ConventionLike = "gtsam"
-    ) -> UncertainPose:
+    def from_gtsam(cls, pose: Any, cov: Any, convention: ConventionLike = "gtsam") -> UncertainPose:
         """From a GTSAM pose (``gtsam.Pose3``/``Rot3`` or its matrix) and a GTSAM covariance.
 
         ``cov`` is in GTSAM's tangent (``X·Exp(ξ)``, ``ξ = (ω, v)``), e.g.
@@ -150,7 +148,7 @@ class UncertainPose:
         return cls(pose, cov, "gtsam").to(convention)
 
     def gtsam_cov(self) -> FloatArray:
-        """The covariance in GTSAM's tangent (what ``gtsam.noiseModel.Gaussian.Covariance`` takes)."""
+        """Return the covariance in GTSAM's tangent (for ``noiseModel.Gaussian.Covariance``)."""
         return self.to("gtsam").cov
 
 
