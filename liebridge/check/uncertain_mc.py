@@ -105,8 +105,9 @@ def monte_carlo_inverse(
     """Monte Carlo of ``inverse(A)``: samples ``A_k⁻¹`` read at ``A.T⁻¹``."""
     _check_n(n)
     d = _draw(np.asarray(A.cov), n, _rng(rng))
-    Y = np.linalg.inv(_samples(A.convention, A.T, d))
-    return _result(A.convention, np.linalg.inv(A.T), _clean(Y))
+    Y = np.asarray(np.linalg.inv(_samples(A.convention, A.T, d)), dtype=np.float64)
+    TC = np.asarray(np.linalg.inv(A.T), dtype=np.float64)
+    return _result(A.convention, _clean(TC), _clean(Y))
 
 
 def monte_carlo_relative(
