@@ -24,7 +24,7 @@ import numpy as np
 from .. import _validate as v
 from .._validate import FloatArray
 from ..conventions import Convention, unchecked
-from .ops import _check_pair, _sym
+from .ops import _check_pair, _check_uncertain, _sym
 from .pose import UncertainPose
 
 __all__ = ["average", "fuse"]
@@ -49,7 +49,7 @@ def fuse(A: UncertainPose, B: UncertainPose) -> UncertainPose:
     covariance; for equal means ``Σ = (Σ_A⁻¹ + Σ_B⁻¹)⁻¹`` (information-weighted fusion).
     At least one of the two covariances must be positive definite.
     """
-    return average([A, B])
+    return _average([A, B], ("A", "B"))
 
 
 def average(estimates: Sequence[UncertainPose]) -> UncertainPose:
@@ -74,11 +74,15 @@ def average(estimates: Sequence[UncertainPose]) -> UncertainPose:
     inside the chart's domain, rotation angles below π); otherwise a ``ValueError`` says so.
     """
     est = list(estimates)
+    return _average(est, tuple(f"estimates[{i}]" for i in range(len(est))))
+
+
+def _average(est: list[UncertainPose], names: tuple[str, ...]) -> UncertainPose:
     if not est:
         raise ValueError("estimates: need at least one UncertainPose")
-    shape = est[0].batch_shape if isinstance(est[0], UncertainPose) else ()
+    shape = _check_uncertain(est[0], names[0]).batch_shape
     for i, E in enumerate(est[1:], 1):
-        shape = v.batch_shape(("A", shape), (f"estimates[{i}]", _check_pair(est[0], E)))
+        shape = v.batch_shape((names[0], shape), (names[i], _check_pair(est[0], E, names[0], names[i])))
     c = est[0].convention
     n = est[0].dim
     Ts = [np.broadcast_to(E.T, (*shape, *E.T.shape[-2:])) for E in est]
