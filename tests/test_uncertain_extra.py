@@ -125,3 +125,12 @@ def test_uncertain_imports_only_lower_layers() -> None:
                     else [a.name for a in node.names]
                 )
                 assert not any(str(m).startswith("liebridge") for m in mods), path.name
+
+
+def test_unscented_outside_the_chart_domain_names_the_covariance() -> None:
+    cov = 0.01 * np.eye(6)
+    cov[3:, 3:] = 0.3**2 * np.eye(3)  # g2o: (u, quaternion vector); 3.7σ leaves ‖r‖ ≤ 1
+    A = u.UncertainPose(T1, cov, "g2o")
+    with pytest.raises(ValueError, match=r"A\.cov: a cubature point .* 'g2o' chart's domain"):
+        u.compose(A, A, method="unscented")
+    assert np.isfinite(u.compose(A, A).cov).all()  # linear is fine

@@ -82,7 +82,9 @@ def _average(est: list[UncertainPose], names: tuple[str, ...]) -> UncertainPose:
         raise ValueError("estimates: need at least one UncertainPose")
     shape = _check_uncertain(est[0], names[0]).batch_shape
     for i, E in enumerate(est[1:], 1):
-        shape = v.batch_shape((names[0], shape), (names[i], _check_pair(est[0], E, names[0], names[i])))
+        shape = v.batch_shape(
+            (names[0], shape), (names[i], _check_pair(est[0], E, names[0], names[i]))
+        )
     c = est[0].convention
     n = est[0].dim
     Ts = [np.broadcast_to(E.T, (*shape, *E.T.shape[-2:])) for E in est]

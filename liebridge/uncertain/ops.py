@@ -31,8 +31,9 @@ False (the public bugs these functions exist to avoid): the inverse's covariance
 ``Ad_A Σ Ad_Aᵀ`` in every convention (it is in right-perturbation tangents; in left ones, e.g.
 Barfoot's, it is ``Ad_{A⁻¹} Σ Ad_{A⁻¹}ᵀ``); a composition of correlated poses is the sum of the
 two propagated covariances (the cross term ``J_A cross J_Bᵀ + (·)ᵀ`` is missing); a pose moved to
-another frame keeps its covariance (tf2 copied a ``PoseWithCovariance``'s covariance unrotated,
-which is right only when the new parent frame has the old one's orientation).
+another frame keeps its covariance (ROS 2's tf2_geometry_msgs copied a ``PoseWithCovariance``'s
+covariance unrotated, ros2/geometry2 issue #372; right only when the new parent frame has the old
+one's orientation).
 """
 
 from __future__ import annotations
@@ -188,9 +189,15 @@ def _check_method(method: str) -> None:
         raise ValueError(f"method: expected 'linear' or 'unscented', got {method!r}")
 
 
-def _sample(c: Convention, T: FloatArray, d: FloatArray) -> FloatArray:
+def _sample(c: Convention, T: FloatArray, d: FloatArray, name: str = "A.cov") -> FloatArray:
     """``c.retract(T, d)`` for cubature points ``d`` (..., K, n) at means ``T`` (..., 4, 4)."""
-    return c.retract(T[..., None, :, :], d)
+    try:
+        return c.retract(T[..., None, :, :], d)
+    except ValueError as exc:
+        raise ValueError(
+            f"{name}: a cubature point of this covariance leaves the {c.name!r} chart's domain "
+            f"({exc}); use method='linear' or a smaller covariance"
+        ) from None
 
 
 def _read(c: Convention, C: FloatArray, Y: FloatArray) -> FloatArray:
@@ -243,7 +250,9 @@ def compose(
     else:
         cov = _unscented(
             joint,
-            lambda d: _read(c, TC, _sample(c, TA, d[..., :n]) @ _sample(c, TB, d[..., n:])),
+            lambda d: _read(
+                c, TC, _sample(c, TA, d[..., :n]) @ _sample(c, TB, d[..., n:], "B.cov")
+            ),
         )
     return UncertainPose(TC, cov, c)
 
@@ -296,7 +305,9 @@ def relative(
     else:
         cov = _unscented(
             joint,
-            lambda d: _read(c, TC, _inv(_sample(c, TA, d[..., :n])) @ _sample(c, TB, d[..., n:])),
+            lambda d: _read(
+                c, TC, _inv(_sample(c, TA, d[..., :n])) @ _sample(c, TB, d[..., n:], "B.cov")
+            ),
         )
     return UncertainPose(TC, cov, c)
 
@@ -319,8 +330,9 @@ def transform(
     Linear, GTSAM's tangent: left ``ξ_C = ξ_A`` (a right perturbation does not see the parent
     frame), right ``ξ_C = Ad_{F⁻¹} ξ_A``; in a left or world-frame convention (ROS, Barfoot) the
     left change rotates the covariance (``[[R_F, 0], [0, R_F]]`` for ROS, ``Ad_F`` for Barfoot).
-    False (tf2's ``doTransform`` for ``PoseWithCovarianceStamped`` before the fix): the
-    covariance unchanged by a change of parent frame.
+    False: the covariance unchanged by a change of parent frame (ROS 2 tf2_geometry_msgs'
+    ``doTransform`` for ``PoseWithCovarianceStamped`` copied it: ros2/geometry2 issue #372,
+    fixed in C++ by PR #430 with ``transformCovariance``; the Python twin was issue #431).
 
     An uncertain extrinsic: pass an :class:`UncertainPose` as ``T_fixed``; the result is
     :func:`compose` (``F·A`` or ``A·F``) with ``cross = E[δA δFᵀ]`` (default independent).
