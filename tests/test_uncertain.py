@@ -504,3 +504,19 @@ def test_bad_construction() -> None:
         u.UncertainPose(T1, np.eye(3), "gtsam")
     with pytest.raises(ValueError, match="T: not a rotation"):
         u.UncertainPose(2 * T1, np.eye(6), "gtsam")
+
+
+# one preset per distinct retraction (presets with equal fields give identical numbers)
+DISTINCT = list({c.fields: c.name for c in PRESETS}.values())
+
+
+@pytest.mark.parametrize("name", DISTINCT)
+def test_fuse_against_importance_sampled_monte_carlo(name: str) -> None:
+    """Means about one standard deviation apart: the MAP and its inverse Hessian against the
+    importance-sampled product of the two densities (posterior mean and covariance)."""
+    Tb = T1 @ se3.exp(0.25 * np.r_[0.01, -0.02, 0.01, 0.02, 0.01, -0.01])
+    A = u.UncertainPose(T1, JOINT[:6, :6], name)
+    B = u.UncertainPose(Tb, JOINT[6:, 6:], name)
+    F, mc = u.fuse(A, B), check.monte_carlo_fuse(A, B, n=100000)
+    assert _rel(F.cov, mc.cov) < 0.02
+    assert np.abs(get(name).local(F.T, mc.T)).max() < 5e-4  # 0.1 σ: mode ≈ mean
