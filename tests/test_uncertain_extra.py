@@ -134,3 +134,19 @@ def test_unscented_outside_the_chart_domain_names_the_covariance() -> None:
     with pytest.raises(ValueError, match=r"A\.cov: a cubature point .* 'g2o' chart's domain"):
         u.compose(A, A, method="unscented")
     assert np.isfinite(u.compose(A, A).cov).all()  # linear is fine
+
+
+def test_average_of_three_against_monte_carlo_and_bad_input() -> None:
+    rng = np.random.default_rng(4)
+    covs = [1e-4 * (np.eye(6) + 0.3 * np.diag(rng.random(6))) for _ in range(3)]
+    Ts = [T1 @ se3.exp(0.004 * rng.normal(size=6)) for _ in range(3)]
+    E = [u.UncertainPose(T, C, "ros") for T, C in zip(Ts, covs, strict=True)]
+    avg, mc = u.average(E), check.monte_carlo_average(E, n=100000)
+    assert _rel(avg.cov, mc.cov) < 0.02
+    with pytest.raises(ValueError, match="at least two"):
+        check.monte_carlo_average(E[:1])
+    singular = u.UncertainPose(T1, np.diag([1e-4] * 5 + [0.0]), "ros")
+    with pytest.raises(ValueError, match=r"estimates\[1\]: covariance must be positive definite"):
+        check.monte_carlo_average([E[0], singular])
+    with pytest.raises(ValueError, match="need at least one"):
+        u.average([])
