@@ -7,5 +7,25 @@ note's lesson: finite differences through raw matrix addition test nothing).
 
 from .jacobian import assert_jacobian, numerical_jacobian
 from .montecarlo import monte_carlo_covariance
+from .uncertain_mc import (
+    monte_carlo_act,
+    monte_carlo_average,
+    monte_carlo_compose,
+    monte_carlo_fuse,
+    monte_carlo_inverse,
+    monte_carlo_relative,
+    monte_carlo_transform,
+)
 
-__all__ = ["assert_jacobian", "monte_carlo_covariance", "numerical_jacobian"]
+__all__ = [
+    "assert_jacobian",
+    "monte_carlo_act",
+    "monte_carlo_average",
+    "monte_carlo_compose",
+    "monte_carlo_covariance",
+    "monte_carlo_fuse",
+    "monte_carlo_inverse",
+    "monte_carlo_relative",
+    "monte_carlo_transform",
+    "numerical_jacobian",
+]

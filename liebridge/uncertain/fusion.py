@@ -1,0 +1,166 @@
+"""Fusion of several estimates of one pose: the MAP of the product of their densities.
+
+Each estimate ``(T_i, Σ_i)`` in a convention ``c`` contributes the factor
+``½‖c.local(T_i, X)‖²_{Σ_i⁻¹}`` — the cost of GTSAM's ``PriorFactor`` when ``c`` is GTSAM's
+(``traits<Pose3>::Local(prior, x)``, ``gtsam/slam/PriorFactor.h``); as in every factor graph the
+chart's Jacobian determinant is not part of the density. :func:`average` minimises the sum by
+Gauss–Newton in ``c``'s chart at the iterate, ``X ← c.retract(X, δ)``, and returns the minimiser
+with the inverse Gauss–Newton Hessian there, ``(Σ_i J_iᵀ Σ_i⁻¹ J_i)⁻¹`` with
+``J_i = c.local_jacobian(T_i, X)``, as its covariance (in ``c``'s tangent at ``X``).
+
+When the means agree this is information-weighted fusion, ``Σ = (Σ_A⁻¹ + Σ_B⁻¹)⁻¹``. Singular
+covariances (a direction known exactly) are allowed for all but one estimate: the step is taken
+in covariance (Kalman) form with a positive definite estimate as the prior, so nothing singular
+is inverted. False: the fused mean is the weighted average of the matrices or of their
+logarithms at the identity (neither is the MAP, and the first is not a pose).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from .. import _validate as v
+from .._validate import FloatArray
+from ..conventions import Convention, unchecked
+from .ops import _check_pair, _check_uncertain, _sym
+from .pose import UncertainPose
+
+__all__ = ["average", "fuse"]
+
+#: Gauss–Newton stops when the step's largest entry is below this (radians / translation units
+#: relative to the poses' scale).
+STEP_TOL = 1e-12
+MAX_ITERATIONS = 50
+
+
+def _is_pd(cov: FloatArray) -> FloatArray:
+    """Per batch element: positive definite (relative to its scale)."""
+    lam = np.linalg.eigvalsh(_sym(cov))
+    scale = np.maximum(np.abs(lam).max(axis=-1), 1e-300)
+    return np.asarray(lam[..., 0] > 1e-12 * scale)
+
+
+def fuse(A: UncertainPose, B: UncertainPose) -> UncertainPose:
+    """Fuse two estimates of the same pose: ``average([A, B])``.
+
+    The MAP of the product of the two densities, with the inverse Hessian there as its
+    covariance; for equal means ``Σ = (Σ_A⁻¹ + Σ_B⁻¹)⁻¹`` (information-weighted fusion).
+    At least one of the two covariances must be positive definite.
+    """
+    return _average([A, B], ("A", "B"))
+
+
+def average(estimates: Sequence[UncertainPose]) -> UncertainPose:
+    """MAP pose of ``n`` estimates of one pose and its covariance (see the module docstring).
+
+    Parameters
+    ----------
+    estimates : sequence of UncertainPose
+        Same group and convention, broadcastable batch shapes. At every batch index at least
+        one covariance must be positive definite.
+
+    Returns
+    -------
+    UncertainPose
+        In the estimates' convention; the covariance is in its tangent at the returned pose.
+
+    Notes
+    -----
+    The stationarity condition is ``Σ_i J_iᵀ Σ_i⁻¹ c.local(T_i, X) = 0``: with ``J_i ≈ I``
+    (estimates close together) it is the weighted Karcher (Fréchet) mean of the ``T_i`` in the
+    chart. The estimates must agree well enough for Gauss–Newton to converge (their differences
+    inside the chart's domain, rotation angles below π); otherwise a ``ValueError`` says so.
+    """
+    est = list(estimates)
+    return _average(est, tuple(f"estimates[{i}]" for i in range(len(est))))
+
+
+def _average(est: list[UncertainPose], names: tuple[str, ...]) -> UncertainPose:
+    if not est:
+        raise ValueError("estimates: need at least one UncertainPose")
+    shape = _check_uncertain(est[0], names[0]).batch_shape
+    for i, E in enumerate(est[1:], 1):
+        shape = v.batch_shape(
+            (names[0], shape), (names[i], _check_pair(est[0], E, names[0], names[i]))
+        )
+    c = est[0].convention
+    n = est[0].dim
+    Ts = [np.broadcast_to(E.T, (*shape, *E.T.shape[-2:])) for E in est]
+    Cs = [np.broadcast_to(E.cov, (*shape, n, n)) for E in est]
+    if len(est) == 1:
+        return UncertainPose(Ts[0], Cs[0], c)
+    pd = np.stack([_is_pd(C) for C in Cs])  # (n_est, *shape)
+    if not pd.any(axis=0).all():
+        bad = np.argwhere(~pd.any(axis=0))
+        idx = tuple(int(i) for i in bad[0]) if bad.size else ()
+        raise ValueError(
+            f"estimates: every covariance is singular at batch index {idx}: the product of "
+            "degenerate densities has no unique MAP and no covariance; at least one estimate "
+            "must have a positive definite covariance"
+        )
+    # prior: per batch element the first positive definite estimate; the rest are measurements
+    k = np.argmax(pd, axis=0)  # (*shape)
+    sel = np.arange(len(est)).reshape((-1, *([1] * len(shape)))) == k[None]
+    T_all, C_all = np.stack(Ts), np.stack(Cs)
+    T_prior = np.where(sel[..., None, None], T_all, 0.0).sum(axis=0)
+    C_prior = np.where(sel[..., None, None], C_all, 0.0).sum(axis=0)
+    # the other estimates' indices, per batch element (a stable sort puts the prior last)
+    others = np.moveaxis(np.argsort(sel, axis=0, kind="stable")[:-1], 0, -1)  # (*shape, m)
+    T_oth = np.take_along_axis(
+        np.moveaxis(T_all, 0, len(shape)), others[..., None, None], axis=len(shape)
+    )
+    C_oth = np.take_along_axis(
+        np.moveaxis(C_all, 0, len(shape)), others[..., None, None], axis=len(shape)
+    )
+    m = len(est) - 1
+    R_big = np.zeros((*shape, m * n, m * n))
+    for j in range(m):
+        R_big[..., j * n : (j + 1) * n, j * n : (j + 1) * n] = C_oth[..., j, :, :]
+
+    X = T_prior.copy()
+    P = C_prior
+    for _ in range(MAX_ITERATIONS):
+        delta, P = _step(c, X, T_prior, C_prior, T_oth, R_big, n, m)
+        X = unchecked.retract(c, X, delta)
+        if not np.isfinite(X).all():
+            break
+        if np.abs(delta).max(initial=0.0) <= STEP_TOL * max(1.0, np.abs(X).max(initial=0.0)):
+            _, P = _step(c, X, T_prior, C_prior, T_oth, R_big, n, m)
+            return UncertainPose(X, _sym(P), c)
+    raise ValueError(
+        f"estimates: Gauss–Newton did not converge in {MAX_ITERATIONS} iterations (last step "
+        f"{float(np.abs(delta).max()):.3g}): the estimates disagree too much for one MAP in the "
+        f"{c.name!r} chart"
+    )
+
+
+def _step(
+    c: Convention,
+    X: FloatArray,
+    T_prior: FloatArray,
+    C_prior: FloatArray,
+    T_oth: FloatArray,
+    R_big: FloatArray,
+    n: int,
+    m: int,
+) -> tuple[FloatArray, FloatArray]:
+    """One Gauss–Newton step in covariance form; returns ``δ`` and the posterior covariance."""
+    r0 = unchecked.local(c, T_prior, X)
+    J0 = unchecked.local_jacobian(c, T_prior, X)
+    # prior on δ: r0 + J0 δ ~ N(0, Σ0)  =>  δ ~ N(−J0⁻¹ r0, J0⁻¹ Σ0 J0⁻ᵀ)
+    J0i = np.linalg.inv(J0)
+    mean = -np.einsum("...ij,...j->...i", J0i, r0)
+    P = J0i @ C_prior @ np.swapaxes(J0i, -1, -2)
+    Xb = np.broadcast_to(X[..., None, :, :], T_oth.shape)
+    r = unchecked.local(c, T_oth, Xb).reshape((*X.shape[:-2], m * n))
+    Jb = unchecked.local_jacobian(c, T_oth, Xb).reshape((*X.shape[:-2], m * n, n))
+    # measurements: r + H δ ~ N(0, R)
+    PHt = P @ np.swapaxes(Jb, -1, -2)
+    S = _sym(Jb @ PHt + R_big)
+    innov = -r - np.einsum("...ij,...j->...i", Jb, mean)
+    K = np.swapaxes(np.linalg.solve(S, np.swapaxes(PHt, -1, -2)), -1, -2)
+    delta = mean + np.einsum("...ij,...j->...i", K, innov)
+    P_post = P - K @ np.swapaxes(PHt, -1, -2)
+    return np.asarray(delta, dtype=np.float64), np.asarray(P_post, dtype=np.float64)

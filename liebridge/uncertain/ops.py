@@ -1,0 +1,421 @@
+"""Operations on uncertain poses: compose, inverse, relative, change of frame, action on a point.
+
+Every operation is an exact group operation on the means and a propagation of the covariance.
+
+``method="linear"``: first-order (Jacobian) propagation. Written in GTSAM's tangent (right
+perturbation ``X·Exp(ξ)``, ``ξ = (ω, v)``, ``Ad_X = [[R, 0], [hat(t)R, R]]``), where
+
+* ``compose``  ``C = A·B``:      ``ξ_C = Ad_{B⁻¹} ξ_A + ξ_B``
+* ``inverse``  ``C = A⁻¹``:      ``ξ_C = −Ad_A ξ_A``
+* ``relative`` ``C = A⁻¹·B``:    ``ξ_C = −Ad_{B⁻¹A} ξ_A + ξ_B``
+* ``transform`` ``F·A`` (left):  ``ξ_C = ξ_A``;  ``A·F`` (right): ``ξ_C = Ad_{F⁻¹} ξ_A``
+* ``act``      ``q = R p + t``:  ``δq = [−R hat(p), R] ξ_A + R δp``
+
+(for rotations ``Ad_R = R`` and ``δq = −R hat(p) ω + R δp``). These are GTSAM's own Jacobians
+(``Pose3::compose``/``inverse``/``between``/``transformFrom`` with their ``H`` arguments, GTSAM 4.3
+``gtsam/geometry/Pose3.cpp``; checked against the wheel in the tests). In a convention ``c`` each
+Jacobian becomes ``J_c = M_{g→c}(C) · J_g · M_{c→g}(X)`` with the closed-form maps of
+:func:`~liebridge.conventions.tangent_map`, and ``Σ_C = J Σ_joint Jᵀ`` where ``Σ_joint`` is the
+joint covariance of the inputs, ``[[Σ_A, cross], [crossᵀ, Σ_B]]`` (``cross = E[δA δBᵀ]``,
+zero for independent inputs).
+
+``method="unscented"``: the joint covariance is factored, ``S Sᵀ = Σ_joint``, and the points of
+Stroud's fifth-degree Gaussian cubature (rule En^r² 5-2, ``2N² + 1`` points for ``N`` input
+dimensions, exact for polynomials of degree ≤ 5; the same rule as
+:func:`liebridge.conventions.convert_covariance`'s ``method="unscented"``) are pushed through the
+exact operation on samples ``c.retract(X, δ)`` and read back with ``c.local(C̄, ·)`` at the
+operation's value on the means ``C̄``. The covariance is taken about the cubature mean of those
+tangents (the mean shift, second order, is not applied to the pose).
+
+False (the public bugs these functions exist to avoid): the inverse's covariance is
+``Ad_A Σ Ad_Aᵀ`` in every convention (it is in right-perturbation tangents; in left ones, e.g.
+Barfoot's, it is ``Ad_{A⁻¹} Σ Ad_{A⁻¹}ᵀ``); a composition of correlated poses is the sum of the
+two propagated covariances (the cross term ``J_A cross J_Bᵀ + (·)ᵀ`` is missing); a pose moved to
+another frame keeps its covariance (ROS 2's tf2_geometry_msgs copied a ``PoseWithCovariance``'s
+covariance unrotated, ros2/geometry2 issue #372; right only when the new parent frame has the old
+one's orientation).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, Literal
+
+import numpy as np
+
+from .. import _validate as v
+from .._validate import FloatArray
+from ..conventions import CANONICAL, Convention, group_input, unchecked
+from ..lie import unchecked as U
+from .pose import UncertainPoint, UncertainPose, _matrix_of
+
+__all__ = ["act", "compose", "inverse", "relative", "sigma_points", "transform"]
+
+Method = Literal["linear", "unscented"]
+
+
+# --------------------------------------------------------------------------- group helpers
+def _ad(X: FloatArray) -> FloatArray:
+    """``Ad_X`` in GTSAM's ``(ω, v)`` (a rotation's adjoint is itself)."""
+    return U.se3_adjoint(X) if X.shape[-1] == 4 else X
+
+
+def _inv(X: FloatArray) -> FloatArray:
+    return U.se3_inverse(X) if X.shape[-1] == 4 else np.swapaxes(X, -1, -2)
+
+
+def _to_g(X: FloatArray, c: Convention) -> FloatArray:
+    """``M`` with ``ξ_gtsam = M δ_c`` at ``X``."""
+    return unchecked.tangent_map(X, c, CANONICAL)
+
+
+def _from_g(X: FloatArray, c: Convention) -> FloatArray:
+    """``M`` with ``δ_c = M ξ_gtsam`` at ``X``."""
+    return unchecked.tangent_map(X, CANONICAL, c)
+
+
+def _kind(A: UncertainPose) -> str:
+    return "rotation" if A.is_rotation else "pose"
+
+
+def _check_uncertain(A: Any, name: str) -> UncertainPose:
+    if not isinstance(A, UncertainPose):
+        raise TypeError(f"{name}: expected an UncertainPose, got {type(A).__name__}")
+    return A
+
+
+def _check_pair(A: Any, B: Any, na: str = "A", nb: str = "B") -> tuple[int, ...]:
+    """Check: same group, same convention (by its retraction fields), broadcastable batch shapes."""
+    A = _check_uncertain(A, na)
+    B = _check_uncertain(B, nb)
+    if A.is_rotation != B.is_rotation:
+        raise ValueError(f"{nb}: a {_kind(B)}, but {na} is a {_kind(A)}")
+    if A.convention.fields != B.convention.fields:
+        raise ValueError(
+            f"{nb}: convention {B.convention.name!r} {B.convention.fields} differs from {na}'s "
+            f"{A.convention.name!r} {A.convention.fields}; convert one first, e.g. "
+            f"{nb}.to({na}.convention)"
+        )
+    try:
+        return v.batch_shape((na, A.batch_shape), (nb, B.batch_shape))
+    except ValueError as exc:
+        raise ValueError(f"{na}, {nb}: {exc}") from None
+
+
+def _joint(
+    A: UncertainPose, B: UncertainPose, cross: Any, shape: tuple[int, ...]
+) -> tuple[FloatArray, tuple[int, ...]]:
+    """``[[Σ_A, cross], [crossᵀ, Σ_B]]`` validated positive semi-definite."""
+    n = A.dim
+    if cross is not None:
+        X = v.as_float_array(cross, "cross")
+        if X.ndim < 2 or X.shape[-2:] != (n, n):
+            raise ValueError(f"cross: expected shape (..., {n}, {n}), got {X.shape}")
+        v.check_finite(X, "cross", core_ndim=2)
+        shape = v.batch_shape(("A and B", shape), ("cross", X.shape[:-2]))
+    J = np.zeros((*shape, 2 * n, 2 * n))
+    J[..., :n, :n] = A.cov
+    J[..., n:, n:] = B.cov
+    if cross is None:
+        return J, shape
+    J[..., :n, n:] = X
+    J[..., n:, :n] = np.swapaxes(X, -1, -2)
+    v.covariance(J, "cross (the joint covariance [[A.cov, cross], [crossᵀ, B.cov]])", 2 * n)
+    return J, shape
+
+
+def _sym(S: FloatArray) -> FloatArray:
+    return np.asarray(0.5 * (S + np.swapaxes(S, -1, -2)), dtype=np.float64)
+
+
+def _sandwich(J: FloatArray, S: FloatArray) -> FloatArray:
+    return _sym(J @ S @ np.swapaxes(J, -1, -2))
+
+
+# --------------------------------------------------------------------------- cubature
+def sigma_points(n: int) -> tuple[FloatArray, FloatArray]:
+    """Fifth-degree Gaussian cubature for ``N(0, I_n)``: ``2n² + 1`` points and weights.
+
+    Stroud's rule En^r² 5-2 (A. H. Stroud, *Approximate Calculation of Multiple Integrals*, 1971;
+    also Lu & Darmofal, SIAM J. Sci. Comput. 26(2), 2004): the origin with weight ``2/(n+2)``,
+    ``±√(n+2)·e_i`` with weight ``(4−n)/(2(n+2)²)``, ``√((n+2)/2)·(±e_i ± e_j)`` (``i < j``) with
+    weight ``1/(n+2)²``. It integrates every polynomial of degree ≤ 5 exactly (tested), so a
+    covariance through a map quadratic in the perturbation is exact. For ``n > 4`` some weights
+    are negative: it is a cubature rule, not a set of samples.
+
+    Returns
+    -------
+    points : ndarray, shape (2n² + 1, n)
+    weights : ndarray, shape (2n² + 1,)
+    """
+    if n < 1:
+        raise ValueError(f"n: expected a positive dimension, got {n}")
+    eye = np.eye(n)
+    r = np.sqrt((n + 2.0) / 2.0)
+    i, j = np.triu_indices(n, 1)
+    pairs = [eye[i] * si + eye[j] * sj for si in (r, -r) for sj in (r, -r)]
+    pts = np.concatenate(
+        [np.zeros((1, n)), np.sqrt(n + 2.0) * eye, -np.sqrt(n + 2.0) * eye, *pairs]
+    )
+    w = np.concatenate(
+        [
+            [2.0 / (n + 2)],
+            np.full(2 * n, (4.0 - n) / (2.0 * (n + 2) ** 2)),
+            np.full(4 * len(i), 1.0 / (n + 2) ** 2),
+        ]
+    )
+    return pts, w
+
+
+def _sqrt_psd(cov: FloatArray) -> FloatArray:
+    lam, Q = np.linalg.eigh(_sym(cov))
+    return np.asarray(Q * np.sqrt(np.clip(lam, 0.0, None))[..., None, :], dtype=np.float64)
+
+
+def _unscented(joint: FloatArray, f: Callable[[FloatArray], FloatArray]) -> FloatArray:
+    """Covariance of ``f(δ)``, ``δ ~ N(0, joint)`` by the fifth-degree cubature.
+
+    ``f`` maps ``(..., K, N)`` perturbations to ``(..., K, m)`` outputs.
+    """
+    pts, w = sigma_points(joint.shape[-1])
+    d = np.einsum("...ij,kj->...ki", _sqrt_psd(joint), pts)
+    y = f(d)
+    dy = y - np.einsum("k,...ki->...i", w, y)[..., None, :]
+    return _sym(np.einsum("k,...ki,...kj->...ij", w, dy, dy))
+
+
+def _check_method(method: str) -> None:
+    if method not in ("linear", "unscented"):
+        raise ValueError(f"method: expected 'linear' or 'unscented', got {method!r}")
+
+
+def _sample(c: Convention, T: FloatArray, d: FloatArray, name: str = "A.cov") -> FloatArray:
+    """``c.retract(T, d)`` for cubature points ``d`` (..., K, n) at means ``T`` (..., 4, 4)."""
+    try:
+        return c.retract(T[..., None, :, :], d)
+    except ValueError as exc:
+        raise ValueError(
+            f"{name}: a cubature point of this covariance leaves the {c.name!r} chart's domain "
+            f"({exc}); use method='linear' or a smaller covariance"
+        ) from None
+
+
+def _read(c: Convention, C: FloatArray, Y: FloatArray) -> FloatArray:
+    """``c.local(C̄, Y)`` for samples ``Y`` (..., K, 4, 4) about the mean ``C̄`` (..., 4, 4)."""
+    return c.local(np.broadcast_to(C[..., None, :, :], Y.shape), Y)
+
+
+def _bshape(X: FloatArray, shape: tuple[int, ...]) -> FloatArray:
+    return np.broadcast_to(X, (*shape, *X.shape[-2:]))
+
+
+# --------------------------------------------------------------------------- operations
+def compose(
+    A: UncertainPose, B: UncertainPose, cross: Any = None, method: Method = "linear"
+) -> UncertainPose:
+    """Uncertain composition ``C = A·B`` (e.g. ``T_world_cam = T_world_body · T_body_cam``).
+
+    Linear: in GTSAM's tangent ``ξ_C = Ad_{B⁻¹} ξ_A + ξ_B``, so
+    ``Σ_C = J_A Σ_A J_Aᵀ + J_B Σ_B J_Bᵀ + J_A X J_Bᵀ + J_B Xᵀ J_Aᵀ`` with, in the convention,
+    ``J_A = M_{g→c}(C) Ad_{B⁻¹} M_{c→g}(A)``, ``J_B = M_{g→c}(C) M_{c→g}(B)`` (GTSAM
+    ``Pose3::compose``'s ``H1 = Ad_{B⁻¹}``, ``H2 = I``).
+
+    Parameters
+    ----------
+    A, B : UncertainPose
+        Same group and convention (compared by its retraction fields); batch shapes broadcast.
+    cross : array_like, shape (..., n, n), optional
+        ``E[δA δBᵀ]`` in the convention's tangents (A's error in rows, B's in columns), e.g. the
+        off-diagonal block of a GTSAM joint marginal converted with
+        :func:`liebridge.gtsam.uncertain.joint_marginal`. ``None``: independent. The joint
+        covariance must be positive semi-definite.
+    method : {"linear", "unscented"}
+
+    Returns
+    -------
+    UncertainPose
+        ``T = A.T @ B.T`` in ``A.convention``.
+    """
+    shape = _check_pair(A, B)
+    _check_method(method)
+    joint, shape = _joint(A, B, cross, shape)
+    c = A.convention
+    TA, TB = _bshape(A.T, shape), _bshape(B.T, shape)
+    TC = np.asarray(TA @ TB, dtype=np.float64)
+    n = A.dim
+    if method == "linear":
+        Mo = _from_g(TC, c)
+        J = np.concatenate([Mo @ _ad(_inv(TB)) @ _to_g(TA, c), Mo @ _to_g(TB, c)], axis=-1)
+        cov = _sandwich(J, joint)
+    else:
+        cov = _unscented(
+            joint,
+            lambda d: _read(
+                c, TC, _sample(c, TA, d[..., :n]) @ _sample(c, TB, d[..., n:], "B.cov")
+            ),
+        )
+    return UncertainPose(TC, cov, c)
+
+
+def inverse(A: UncertainPose, method: Method = "linear") -> UncertainPose:
+    """Uncertain inverse ``C = A⁻¹`` (``T_body_world`` from ``T_world_body``).
+
+    Linear: ``ξ_C = −Ad_A ξ_A`` in GTSAM's tangent (``Pose3::inverse``'s ``H = −Ad_A``), so
+    ``Σ_C = J Σ_A Jᵀ``, ``J = −M_{g→c}(A⁻¹) Ad_A M_{c→g}(A)``. Right-perturbation conventions
+    get ``Ad_A Σ Ad_Aᵀ``; left ones (Barfoot, pytransform3d's global) get
+    ``Ad_{A⁻¹} Σ Ad_{A⁻¹}ᵀ``; ROS's get a rotation of the blocks. False: ``Ad_A`` (or ``Ad_{A⁻¹}``)
+    in every convention. In an SE(3)-exponential chart the inverse is exactly linear
+    (``(A·Exp(ξ))⁻¹ = A⁻¹·Exp(−Ad_A ξ)``): ``method="unscented"`` gains nothing there.
+    """
+    A = _check_uncertain(A, "A")
+    _check_method(method)
+    c, TA = A.convention, A.T
+    TC = _inv(TA).copy()
+    if method == "linear":
+        J = -_from_g(TC, c) @ _ad(TA) @ _to_g(TA, c)
+        cov = _sandwich(J, A.cov)
+    else:
+        cov = _unscented(A.cov, lambda d: _read(c, TC, _inv(_sample(c, TA, d))))
+    return UncertainPose(TC, cov, c)
+
+
+def relative(
+    A: UncertainPose, B: UncertainPose, cross: Any = None, method: Method = "linear"
+) -> UncertainPose:
+    """Uncertain relative pose ``C = A⁻¹·B`` (``T_a_b`` from ``T_w_a``, ``T_w_b``; GTSAM's between).
+
+    Linear: ``ξ_C = −Ad_{B⁻¹A} ξ_A + ξ_B`` in GTSAM's tangent (``Pose3::between``'s
+    ``H1 = −Ad_{C⁻¹}``, ``H2 = I``), then converted as in :func:`compose`. With a GTSAM joint
+    marginal pass its off-diagonal block as ``cross`` (``E[δA δBᵀ]``): for two poses estimated
+    from the same graph it is usually large, and dropping it overstates the relative uncertainty
+    (the poses' common error cancels in ``A⁻¹B``).
+    """
+    shape = _check_pair(A, B)
+    _check_method(method)
+    joint, shape = _joint(A, B, cross, shape)
+    c = A.convention
+    TA, TB = _bshape(A.T, shape), _bshape(B.T, shape)
+    TC = np.asarray(_inv(TA) @ TB, dtype=np.float64)
+    n = A.dim
+    if method == "linear":
+        Mo = _from_g(TC, c)
+        JA = -Mo @ _ad(_inv(TC)) @ _to_g(TA, c)
+        J = np.concatenate([JA, Mo @ _to_g(TB, c)], axis=-1)
+        cov = _sandwich(J, joint)
+    else:
+        cov = _unscented(
+            joint,
+            lambda d: _read(
+                c, TC, _inv(_sample(c, TA, d[..., :n])) @ _sample(c, TB, d[..., n:], "B.cov")
+            ),
+        )
+    return UncertainPose(TC, cov, c)
+
+
+def transform(
+    A: UncertainPose,
+    T_fixed: Any,
+    side: Literal["left", "right"] = "left",
+    method: Method = "linear",
+    *,
+    cross: Any = None,
+) -> UncertainPose:
+    """Change the parent frame (``side="left"``: ``F·A``) or the body frame (``"right"``: ``A·F``).
+
+    ``T_fixed`` is a known transform (an array ``(..., 4, 4)``/``(..., 3, 3)`` or a GTSAM object
+    with ``.matrix()``): ``side="left"`` re-expresses ``T_old_body`` as
+    ``T_new_body = T_new_old · T_old_body``; ``side="right"`` moves the body frame,
+    ``T_parent_sensor = T_parent_body · T_body_sensor`` (a calibrated extrinsic).
+
+    Linear, GTSAM's tangent: left ``ξ_C = ξ_A`` (a right perturbation does not see the parent
+    frame), right ``ξ_C = Ad_{F⁻¹} ξ_A``; in a left or world-frame convention (ROS, Barfoot) the
+    left change rotates the covariance (``[[R_F, 0], [0, R_F]]`` for ROS, ``Ad_F`` for Barfoot).
+    False: the covariance unchanged by a change of parent frame (ROS 2 tf2_geometry_msgs'
+    ``doTransform`` for ``PoseWithCovarianceStamped`` copied it: ros2/geometry2 issue #372,
+    fixed in C++ by PR #430 with ``transformCovariance``; the Python twin was issue #431).
+
+    An uncertain extrinsic: pass an :class:`UncertainPose` as ``T_fixed``; the result is
+    :func:`compose` (``F·A`` or ``A·F``) with ``cross = E[δA δFᵀ]`` (default independent).
+    """
+    A = _check_uncertain(A, "A")
+    if side not in ("left", "right"):
+        raise ValueError(f"side: expected 'left' (F·A) or 'right' (A·F), got {side!r}")
+    _check_method(method)
+    if isinstance(T_fixed, UncertainPose):
+        _check_pair(A, T_fixed, "A", "T_fixed")
+        if side == "left":
+            X = None if cross is None else np.swapaxes(v.as_float_array(cross, "cross"), -1, -2)
+            return compose(T_fixed, A, X, method)
+        return compose(A, T_fixed, cross, method)
+    if cross is not None:
+        raise ValueError("cross: only meaningful with an uncertain T_fixed (an UncertainPose)")
+    F = group_input(_matrix_of(T_fixed), "T_fixed")
+    if F.shape[-2:] != A.T.shape[-2:]:
+        raise ValueError(f"T_fixed: a {F.shape[-2:]} matrix, but A holds {A.T.shape[-2:]}")
+    shape = v.batch_shape(("A", A.batch_shape), ("T_fixed", F.shape[:-2]))
+    c = A.convention
+    TA, F = _bshape(A.T, shape), _bshape(F, shape)
+    TC = np.asarray(F @ TA if side == "left" else TA @ F, dtype=np.float64)
+    cov_A = np.broadcast_to(A.cov, (*shape, A.dim, A.dim))
+    if method == "linear":
+        Jg = _to_g(TA, c) if side == "left" else _ad(_inv(F)) @ _to_g(TA, c)
+        cov = _sandwich(_from_g(TC, c) @ Jg, cov_A)
+    elif side == "left":
+        cov = _unscented(cov_A, lambda d: _read(c, TC, F[..., None, :, :] @ _sample(c, TA, d)))
+    else:
+        cov = _unscented(cov_A, lambda d: _read(c, TC, _sample(c, TA, d) @ F[..., None, :, :]))
+    return UncertainPose(TC, cov, c)
+
+
+def act(A: UncertainPose, p: Any, cov_p: Any = None, method: Method = "linear") -> UncertainPoint:
+    """Map an uncertain point through an uncertain pose: ``q = T·p`` (``R p + t``; ``R p``).
+
+    ``p``, ``cov_p`` are in A's body frame (``p_body``), the result in A's parent frame
+    (``p_parent``); ``p`` and ``A`` are independent. Linear, GTSAM's tangent:
+    ``δq = [−R hat(p), R] ξ_A + R δp`` (``Pose3::transformFrom``'s ``H1``, ``H2 = R``), so
+    ``Σ_q = J_A Σ_A J_Aᵀ + R Σ_p Rᵀ`` with ``J_A = [−R hat(p), R] M_{c→g}(A)``.
+    The position of the pose itself is ``act(A, zeros(3))``: its covariance in the parent frame.
+
+    Parameters
+    ----------
+    A : UncertainPose
+    p : array_like, shape (..., 3)
+    cov_p : array_like, shape (..., 3, 3), optional
+        Default: an exact point.
+    method : {"linear", "unscented"}
+
+    Returns
+    -------
+    UncertainPoint
+    """
+    A = _check_uncertain(A, "A")
+    _check_method(method)
+    pa = v.vector(p, "p", 3)
+    Cp = np.zeros((3, 3)) if cov_p is None else v.covariance(cov_p, "cov_p", 3)
+    shape = v.batch_shape(("A", A.batch_shape), ("p", pa.shape[:-1]), ("cov_p", Cp.shape[:-2]))
+    c, n = A.convention, A.dim
+    TA = _bshape(A.T, shape)
+    pa = np.broadcast_to(pa, (*shape, 3))
+    R = TA[..., :3, :3]
+    q = np.einsum("...ij,...j->...i", R, pa)
+    if n == 6:
+        q = q + TA[..., :3, 3]
+    joint = np.zeros((*shape, n + 3, n + 3))
+    joint[..., :n, :n] = A.cov
+    joint[..., n:, n:] = Cp
+    if method == "linear":
+        Jg = -R @ U.so3_hat(pa)
+        if n == 6:
+            Jg = np.concatenate([Jg, R], axis=-1)
+        J = np.concatenate([Jg @ _to_g(TA, c), R], axis=-1)
+        cov = _sandwich(J, joint)
+    else:
+
+        def f(d: FloatArray) -> FloatArray:
+            X = _sample(c, TA, d[..., :n])
+            pk = pa[..., None, :] + d[..., n:]
+            out = np.einsum("...ij,...j->...i", X[..., :3, :3], pk)
+            return out + X[..., :3, 3] if n == 6 else out
+
+        cov = _unscented(joint, f)
+    return UncertainPoint(q, cov)
