@@ -246,7 +246,7 @@ def test_numerical_jacobian_convention_shorthand():
 @pytest.mark.parametrize("n", [3, 6, 9])
 def test_cubature_rule_reproduces_gaussian_moments_to_degree_five(n):
     """The unscented rule's own moments: a wrong weight (e.g. the centre's) fails here directly."""
-    from liebridge.conventions.convert import cubature_rule_5
+    from liebridge.conventions.cubature import cubature_rule_5
 
     x, w = cubature_rule_5(n)
     assert x.shape == (2 * n * n + 1, n) and w.shape == (2 * n * n + 1,)

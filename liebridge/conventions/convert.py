@@ -25,6 +25,7 @@ import numpy as np
 from .. import _validate as v
 from .._validate import FloatArray
 from .convention import Convention, group_input
+from .cubature import cubature_rule_5, sqrt_psd
 from .registry import ConventionLike, get
 from .unchecked import tangent_map as unchecked_map
 
@@ -96,11 +97,6 @@ def convert_tangent(
     return v.finite_output(np.asarray(out, dtype=np.float64), "convert_tangent")
 
 
-def _sqrt_psd(cov: FloatArray) -> FloatArray:
-    lam, U = np.linalg.eigh(0.5 * (cov + np.swapaxes(cov, -1, -2)))
-    return np.asarray(U * np.sqrt(np.clip(lam, 0.0, None))[..., None, :], dtype=np.float64)
-
-
 def convert_covariance(
     cov: Any,
     X: Any,
@@ -145,7 +141,7 @@ def convert_covariance(
     if method != "unscented":
         raise ValueError(f"method: expected 'linear' or 'unscented', got {method!r}")
     pts, w = cubature_rule_5(n)
-    S = _sqrt_psd(cov)  # (..., n, n), S Sᵀ = Σ
+    S = sqrt_psd(cov)  # (..., n, n), S Sᵀ = Σ
     deltas = np.einsum("...ij,kj->...ki", S, pts)  # (..., K, n)
     a._increment(deltas, so3, "cov (its sigma points)")  # increments the kernel can evaluate
     Xb = Xa[..., None, :, :]
@@ -155,35 +151,6 @@ def convert_covariance(
     out = np.einsum("k,...ki,...kj->...ij", w, dy, dy)
     out = np.asarray(0.5 * (out + np.swapaxes(out, -1, -2)), dtype=np.float64)
     return v.finite_output(out, "convert_covariance")
-
-
-def cubature_rule_5(n: int) -> tuple[FloatArray, FloatArray]:
-    """Fifth-degree Gaussian cubature for ``N(0, I_n)``: ``2n² + 1`` points and weights.
-
-    The sigma points of ``method="unscented"``: ``Σ_k w_k f(x_k) = E[f(x)]`` for ``x ~ N(0, I_n)``
-    and every polynomial ``f`` of degree ≤ 5. Returns ``(points (2n²+1, n), weights (2n²+1,))``;
-    the weights sum to 1 (one is negative for ``n > 4``).
-
-    Stroud's rule (Stroud, *Approximate Calculation of Multiple Integrals*, 1971, rule En^r² 5-2;
-    also Lu & Darmofal 2004): the origin with weight ``2/(n+2)``, ``±√(n+2)·e_i`` with weight
-    ``(4−n)/(2(n+2)²)`` and ``√((n+2)/2)·(±e_i ± e_j)`` with weight ``1/(n+2)²``. It integrates
-    every polynomial of degree ≤ 5 exactly, so the covariance of a map that is quadratic in the
-    perturbation — e.g. the ``V(ω)·v`` coupling between the SE(3) exponential and a decoupled
-    chart — is exact; the classic 2n-point unscented set only matches degree 3 and misses it.
-    """
-    eye = np.eye(n)
-    pts = [np.zeros((1, n)), np.sqrt(n + 2.0) * eye, -np.sqrt(n + 2.0) * eye]
-    wts = [np.array([2.0 / (n + 2)]), np.full(2 * n, (4.0 - n) / (2.0 * (n + 2) ** 2))]
-    r = np.sqrt((n + 2.0) / 2.0)
-    pairs = [(i, j) for i in range(n) for j in range(i + 1, n)]
-    for si in (1.0, -1.0):
-        for sj in (1.0, -1.0):
-            for i, j in pairs:
-                p = np.zeros(n)
-                p[i], p[j] = si * r, sj * r
-                pts.append(p[None, :])
-    wts.append(np.full(4 * len(pairs), 1.0 / (n + 2) ** 2))
-    return np.concatenate(pts), np.concatenate(wts)
 
 
 def convert_information(info: Any, X: Any, src: ConventionLike, dst: ConventionLike) -> FloatArray:

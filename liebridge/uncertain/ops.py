@@ -46,6 +46,7 @@ import numpy as np
 from .. import _validate as v
 from .._validate import FloatArray
 from ..conventions import CANONICAL, Convention, group_input, unchecked
+from ..conventions.cubature import cubature_rule_5, sqrt_psd
 from ..lie import unchecked as U
 from .pose import UncertainPoint, UncertainPose, _matrix_of
 
@@ -132,44 +133,8 @@ def _sandwich(J: FloatArray, S: FloatArray) -> FloatArray:
     return _sym(J @ S @ np.swapaxes(J, -1, -2))
 
 
-# --------------------------------------------------------------------------- cubature
-def sigma_points(n: int) -> tuple[FloatArray, FloatArray]:
-    """Fifth-degree Gaussian cubature for ``N(0, I_n)``: ``2n² + 1`` points and weights.
-
-    Stroud's rule En^r² 5-2 (A. H. Stroud, *Approximate Calculation of Multiple Integrals*, 1971;
-    also Lu & Darmofal, SIAM J. Sci. Comput. 26(2), 2004): the origin with weight ``2/(n+2)``,
-    ``±√(n+2)·e_i`` with weight ``(4−n)/(2(n+2)²)``, ``√((n+2)/2)·(±e_i ± e_j)`` (``i < j``) with
-    weight ``1/(n+2)²``. It integrates every polynomial of degree ≤ 5 exactly (tested), so a
-    covariance through a map quadratic in the perturbation is exact. For ``n > 4`` some weights
-    are negative: it is a cubature rule, not a set of samples.
-
-    Returns
-    -------
-    points : ndarray, shape (2n² + 1, n)
-    weights : ndarray, shape (2n² + 1,)
-    """
-    if n < 1:
-        raise ValueError(f"n: expected a positive dimension, got {n}")
-    eye = np.eye(n)
-    r = np.sqrt((n + 2.0) / 2.0)
-    i, j = np.triu_indices(n, 1)
-    pairs = [eye[i] * si + eye[j] * sj for si in (r, -r) for sj in (r, -r)]
-    pts = np.concatenate(
-        [np.zeros((1, n)), np.sqrt(n + 2.0) * eye, -np.sqrt(n + 2.0) * eye, *pairs]
-    )
-    w = np.concatenate(
-        [
-            [2.0 / (n + 2)],
-            np.full(2 * n, (4.0 - n) / (2.0 * (n + 2) ** 2)),
-            np.full(4 * len(i), 1.0 / (n + 2) ** 2),
-        ]
-    )
-    return pts, w
-
-
-def _sqrt_psd(cov: FloatArray) -> FloatArray:
-    lam, Q = np.linalg.eigh(_sym(cov))
-    return np.asarray(Q * np.sqrt(np.clip(lam, 0.0, None))[..., None, :], dtype=np.float64)
+sigma_points = cubature_rule_5
+_sqrt_psd = sqrt_psd
 
 
 def _unscented(joint: FloatArray, f: Callable[[FloatArray], FloatArray]) -> FloatArray:
