@@ -37,6 +37,11 @@ ROTATION_TOL = 1e-6
 QUATERNION_TOL = 1e-6
 #: Relative tolerance on the asymmetry and the negative eigenvalues of a covariance.
 COVARIANCE_TOL = 1e-9
+#: A covariance with ``λ_min ≤ SINGULAR_RTOL · dim · λ_max`` is singular for a factor's noise model.
+SINGULAR_RTOL = float(np.finfo(np.float64).eps)
+#: GTSAM keys are unsigned 64-bit integers; this is the largest one liebridge accepts (the
+#: largest, ``2**64 − 1``, is reserved by :mod:`liebridge.gtsam.custom`).
+MAX_KEY = 2**64 - 2
 #: Largest norm of the rotation part of a tangent (rotation vector, increment), in radians.
 MAX_ANGLE = 1e12
 _MAX_COMPONENT = MAX_ANGLE / math.sqrt(3.0)  # every component below it: the norm is too
@@ -375,3 +380,37 @@ def covariance(x: Any, name: str, dim: int, tol: float = COVARIANCE_TOL) -> Floa
             f"smallest eigenvalue {float(lam[i]):.3g}"
         )
     return arr
+
+
+def positive_definite(x: Any, name: str, dim: int, tol: float = COVARIANCE_TOL) -> FloatArray:
+    """Validate a batch of covariances that a noise model can invert, shape ``(..., dim, dim)``.
+
+    As :func:`covariance`, and the smallest eigenvalue must exceed
+    ``SINGULAR_RTOL · dim · λ_max``: a zero or singular covariance is a hard constraint, which
+    needs a constrained noise model, not a Gaussian one (GTSAM's ``Gaussian.Covariance`` would
+    give NaN errors or an information matrix with no correct digit).
+    """
+    arr = covariance(x, name, dim, tol)
+    if arr.size == 0:
+        return arr
+    lam = np.linalg.eigvalsh(0.5 * (arr + np.swapaxes(arr, -1, -2)))
+    lo, hi = lam[..., 0], lam[..., -1]
+    bad = ~(lo > SINGULAR_RTOL * dim * hi)
+    if bad.any():
+        i = _batch_index(np.asarray(bad))
+        raise ValueError(
+            f"{name}: singular covariance at batch index {i}: smallest eigenvalue "
+            f"{float(lo[i]):.3g} (largest {float(hi[i]):.3g}); a hard constraint needs "
+            "gtsam.noiseModel.Constrained, not a covariance"
+        )
+    return arr
+
+
+def key(x: Any, name: str) -> int:
+    """Validate a GTSAM key: an integer in ``[0, MAX_KEY]`` (keys are unsigned 64-bit)."""
+    if isinstance(x, bool) or not isinstance(x, (int, np.integer)):
+        raise TypeError(f"{name}: expected an integer key, got {type(x).__name__} ({x!r})")
+    k = int(x)
+    if not 0 <= k <= MAX_KEY:
+        raise ValueError(f"{name}: key {k} is outside [0, 2**64 - 2] (GTSAM keys are uint64)")
+    return k

@@ -113,3 +113,117 @@ def test_class13_params_of_another_kind_are_refused(params: object) -> None:
     g, v = _small_graph()
     with pytest.raises(TypeError, match=r"params: expected gtsam\.LevenbergMarquardtParams"):
         optimize(g, v, params)
+
+
+# --------------------------------------------------------------------------- class 7
+SINGULAR = [
+    ("zero", np.zeros((6, 6))),
+    ("rank5", np.diag([1.0, 1.0, 1.0, 1.0, 1.0, 0.0])),
+    ("numerically-singular", np.diag([1.0, 1.0, 1.0, 1.0, 1.0, 1e-17])),
+]
+
+
+@pytest.mark.parametrize(("label", "cov"), SINGULAR, ids=[s[0] for s in SINGULAR])
+@pytest.mark.parametrize("native", [True, False])
+@pytest.mark.parametrize("kind", ["between", "prior"])
+def test_class7_singular_covariance_is_refused_at_construction(
+    label: str, cov: np.ndarray, native: bool, kind: str
+) -> None:
+    with pytest.raises(ValueError, match=r"cov: singular covariance .*smallest eigenvalue"):
+        if kind == "between":
+            between(0, 1, T1, cov, "barfoot", native=native)
+        else:
+            prior(0, T1, cov, "sophus", native=native)
+
+
+def test_class7_well_conditioned_but_anisotropic_covariance_is_accepted() -> None:
+    cov = np.diag([1e-8, 1e-8, 1e-8, 1e4, 1e4, 1e4])  # condition 1e12: legitimate
+    between(0, 1, T1, cov, native=False)
+    prior(0, T1, cov)
+
+
+def _imu_params(gyro_var: float = 1e-4) -> gtsam.PreintegrationParams:
+    p = gtsam.PreintegrationParams.MakeSharedU(9.81)
+    p.setAccelerometerCovariance(1e-3 * np.eye(3))
+    p.setGyroscopeCovariance(gyro_var * np.eye(3))
+    p.setIntegrationCovariance(0.0 * np.eye(3))
+    return p
+
+
+def test_class7_imu_factor_with_singular_covariance_is_refused() -> None:
+    from liebridge.imu import imu, preintegrate
+
+    p = _imu_params()
+    p.setAccelerometerCovariance(np.zeros((3, 3)))
+    p.setGyroscopeCovariance(np.zeros((3, 3)))
+    pim = preintegrate(np.ones((4, 3)), np.zeros((4, 3)), 0.01, bias=np.zeros(6), params=p)
+    with pytest.raises(ValueError, match=r"preintegrated\.covariance: singular"):
+        imu(0, 1, 2, 3, 4, pim)
+
+
+# --------------------------------------------------------------------------- class 13 (IMU keys)
+def test_class13_imu_factor_with_duplicate_keys_is_refused() -> None:
+    from liebridge.imu import imu, preintegrate
+
+    pim = preintegrate(
+        np.ones((4, 3)), np.full((4, 3), 0.1), 0.01, bias=np.zeros(6), params=_imu_params()
+    )
+    with pytest.raises(ValueError, match=r"pose_j: the same key as pose_i \(0\)"):
+        imu(0, 1, 0, 3, 4, pim)
+
+
+# --------------------------------------------------------------------------- class 6
+EXTREME = [
+    ("gyro", "gyro", np.full((5, 3), 1e160)),
+    ("dt", "dt", 1e300),
+    ("acc", "acc", np.full((5, 3), 1e308)),
+    ("bias", "bias", np.full(6, 1e300)),
+]
+
+
+@pytest.mark.parametrize(("label", "name", "value"), EXTREME, ids=[e[0] for e in EXTREME])
+@pytest.mark.parametrize("streaming", [False, True])
+def test_class6_extreme_finite_imu_inputs_are_a_clear_error(
+    label: str, name: str, value: object, streaming: bool
+) -> None:
+    import warnings
+
+    from liebridge.imu import ImuPreintegrator, preintegrate
+
+    kw: dict[str, object] = {
+        "acc": np.ones((5, 3)),
+        "gyro": np.full((5, 3), 0.1),
+        "dt": 0.01,
+        "bias": np.zeros(6),
+    }
+    kw[name] = value
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(ValueError, match=r"preintegration overflows float64"):
+            if streaming:
+                pre = ImuPreintegrator(_imu_params(), kw["bias"])
+                pre.integrate(kw["acc"], kw["gyro"], kw["dt"])
+                pre.result()
+            else:
+                preintegrate(kw["acc"], kw["gyro"], kw["dt"], bias=kw["bias"], params=_imu_params())
+
+
+# --------------------------------------------------------------------------- class 2 (factors)
+@pytest.mark.parametrize("batch", [True, False])
+def test_class2_keys_at_or_above_2_63_work_in_factors_and_optimize(batch: bool) -> None:
+    k0, k1 = 2**63, 2**64 - 2
+    g = gtsam.NonlinearFactorGraph()
+    g.add(prior(k0, np.eye(4), np.eye(6), native=False))
+    g.add(between(k0, k1, T1, np.eye(6), "sophus", native=False))
+    v = gtsam.Values()
+    v.insert(k0, gtsam.Pose3(gtsam.Rot3.Rx(0.2), [0.1, 0.0, 0.0]))
+    v.insert(k1, gtsam.Pose3())
+    res = optimize(g, v, batch=batch)
+    assert res.final_error < 1e-12
+    np.testing.assert_allclose(res.values.atPose3(k1).matrix(), T1, atol=1e-8)
+
+
+@pytest.mark.parametrize("key", [-1, 2**64, 2**64 - 1, 1.5, True])
+def test_class2_keys_outside_uint64_or_reserved_are_refused(key: object) -> None:
+    with pytest.raises((ValueError, TypeError), match=r"^i: .*key"):
+        prior(key, np.eye(4), np.eye(6), native=False)  # type: ignore[arg-type]

@@ -740,17 +740,51 @@ def compose(d1: Delta, d2: Delta) -> Delta:
 def integrate_blocks(
     acc: FloatArray, gyro: FloatArray, dt: FloatArray, bias: FloatArray, P: Params, **kw: Any
 ) -> Delta:
-    """:func:`integrate` on blocks of :data:`BLOCK` samples, concatenated with :func:`compose`."""
+    """:func:`integrate` on blocks of :data:`BLOCK` samples, concatenated with :func:`compose`.
+
+    Raises
+    ------
+    ValueError
+        The inputs are finite but so large that the result is not (issue 21, class 6): the
+        message gives the largest ``|acc|``, ``|gyro|``, ``dt`` and ``|bias|``.
+    """
     n = dt.shape[0]
     out: Delta | None = None
     ws = thread_workspace()
-    for s in range(0, n, BLOCK):
-        e = min(n, s + BLOCK)
-        if n - e < BLOCK // 4:  # fold a short tail into the last block
-            e = n
-        d = integrate(acc[s:e], gyro[s:e], dt[s:e], bias, P, ws=ws, **kw)
-        out = d if out is None else compose(out, d)
-        if e == n:
-            break
+    with np.errstate(all="ignore"):  # an overflow is reported below, as one ValueError
+        for s in range(0, n, BLOCK):
+            e = min(n, s + BLOCK)
+            if n - e < BLOCK // 4:  # fold a short tail into the last block
+                e = n
+            d = integrate(acc[s:e], gyro[s:e], dt[s:e], bias, P, ws=ws, **kw)
+            out = d if out is None else compose(out, d)
+            if e == n:
+                break
     assert out is not None
+    check_delta_finite(out, acc, gyro, dt, bias)
     return out
+
+
+def check_delta_finite(
+    d: Delta,
+    acc: FloatArray | None = None,
+    gyro: FloatArray | None = None,
+    dt: FloatArray | None = None,
+    bias: FloatArray | None = None,
+) -> None:
+    """Raise ``ValueError`` if any preintegrated number is NaN or Inf (inputs overflowed)."""
+    parts = {"delta_R": d.R, "delta_p": d.p, "delta_v": d.v, "covariance": d.cov, "J": d.J}
+    bad = [k for k, x in parts.items() if not np.isfinite(x).all()]
+    if not bad and math.isfinite(d.delta_t):
+        return
+    sizes = ""
+    if acc is not None and gyro is not None and dt is not None and bias is not None:
+        sizes = (
+            f": max |acc| {float(np.abs(acc).max()):.3g}, max |gyro| "
+            f"{float(np.abs(gyro).max()):.3g}, max dt {float(dt.max()):.3g}, "
+            f"max |bias| {float(np.abs(bias).max()):.3g}"
+        )
+    raise ValueError(
+        f"acc, gyro, dt, bias: finite inputs whose preintegration overflows float64 "
+        f"({', '.join(bad) or 'delta_t'} not finite after {d.n} samples){sizes}"
+    )
