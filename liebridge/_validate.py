@@ -365,14 +365,14 @@ def covariance(x: Any, name: str, dim: int, tol: float = COVARIANCE_TOL) -> Floa
         return arr
     check_finite(arr, name, core_ndim=2)
     scale = np.maximum(np.abs(arr).max(axis=(-1, -2)), 1e-300)
-    asym = np.abs(arr - np.swapaxes(arr, -1, -2)).max(axis=(-1, -2)) / scale
+    half, half_t = 0.5 * arr, 0.5 * np.swapaxes(arr, -1, -2)  # halves first: no overflow
+    asym = 2.0 * (np.abs(half - half_t).max(axis=(-1, -2)) / scale)
     if (asym > tol).any():
         i = _batch_index(np.asarray(asym > tol))
         raise ValueError(
             f"{name}: not symmetric at batch index {i}: relative asymmetry {float(asym[i]):.3g}"
         )
-    sym = 0.5 * (arr + np.swapaxes(arr, -1, -2))
-    lam = np.linalg.eigvalsh(sym)[..., 0]
+    lam = np.linalg.eigvalsh(half + half_t)[..., 0]
     if (lam < -tol * scale).any():
         i = _batch_index(np.asarray(lam < -tol * scale))
         raise ValueError(
@@ -393,7 +393,7 @@ def positive_definite(x: Any, name: str, dim: int, tol: float = COVARIANCE_TOL) 
     arr = covariance(x, name, dim, tol)
     if arr.size == 0:
         return arr
-    lam = np.linalg.eigvalsh(0.5 * (arr + np.swapaxes(arr, -1, -2)))
+    lam = np.linalg.eigvalsh(0.5 * arr + 0.5 * np.swapaxes(arr, -1, -2))
     lo, hi = lam[..., 0], lam[..., -1]
     bad = ~(lo > SINGULAR_RTOL * dim * hi)
     if bad.any():

@@ -227,3 +227,157 @@ def test_class2_keys_at_or_above_2_63_work_in_factors_and_optimize(batch: bool) 
 def test_class2_keys_outside_uint64_or_reserved_are_refused(key: object) -> None:
     with pytest.raises((ValueError, TypeError), match=r"^i: .*key"):
         prior(key, np.eye(4), np.eye(6), native=False)  # type: ignore[arg-type]
+
+
+# --------------------------------------------------------------------------- readers: 1, 2, 3, 4
+from pathlib import Path  # noqa: E402
+
+from liebridge.io import g2o  # noqa: E402
+from liebridge.io import trajectory as tio  # noqa: E402
+
+INFO21 = " ".join(
+    ("1.0" if r == c else "0.0") for r in range(6) for c in range(r, 6)
+)  # identity, upper triangle
+
+
+@pytest.mark.parametrize(
+    "fmt",
+    ["g2o", "tum", "kitti"],
+)
+def test_class1_extreme_exponent_zero_in_a_rotation_field_reads(tmp_path: Path, fmt: str) -> None:
+    p = tmp_path / f"x.{fmt}"
+    if fmt == "g2o":
+        p.write_text(f"VERTEX_SE3:QUAT 0 0 0 0 0e400 0 0 1\nVERTEX_SE3:QUAT 1 1 0 0 0 0 0 1\n"
+                     f"EDGE_SE3:QUAT 0 1 1 0 0 0e-400 0e400 0 1 {INFO21}\n")
+        g = g2o.read(p)
+        assert np.array_equal(g.vertex_xyz_qxyzw[0, 3:], [0.0, 0.0, 0.0, 1.0])
+    elif fmt == "tum":
+        p.write_text("0.0 1 2 3 0e400 0 0 1\n")
+        _, T = tio.read_tum(p)
+        assert np.array_equal(T[0, :3, :3], np.eye(3))
+    else:
+        p.write_text("1 0e400 0 0 0 1 0 0 0 0 1 0\n")
+        assert np.array_equal(tio.read_kitti(p)[0], np.eye(4))
+
+
+def test_class1_text_tolerance_of_extreme_exponents_is_finite() -> None:
+    from liebridge.io import poses
+
+    for fields in (["0e400", "0", "0", "1"], ["1e-400", "0", "0", "1"], ["0e99999999", "1"]):
+        tol = poses.text_quaternion_tol(fields)
+        assert math.isfinite(tol) and tol > 0
+
+
+def test_class2_g2o_vertex_ids_at_or_above_2_63_round_trip(tmp_path: Path) -> None:
+    big = [2**63, 2**64 - 2]
+    p = tmp_path / "big.g2o"
+    p.write_text(
+        f"VERTEX_SE3:QUAT {big[0]} 0 0 0 0 0 0 1\nVERTEX_SE3:QUAT {big[1]} 1 0 0 0 0 0 1\n"
+        f"EDGE_SE3:QUAT {big[0]} {big[1]} 1 0 0 0 0 0 1 {INFO21}\nFIX {big[0]}\n"
+    )
+    g = g2o.read(p)
+    assert [int(k) for k in g.vertex_ids] == big
+    assert [int(k) for k in g.edges[0]] == big
+    graph, values = g.to_gtsam()
+    assert values.exists(big[1]) and graph.size() == 1
+    g2o.write(tmp_path / "out.g2o", g)
+    assert (tmp_path / "out.g2o").read_text().split()[1] == str(big[0])
+
+
+def test_class2_g2o_vertex_id_beyond_uint64_names_the_line(tmp_path: Path) -> None:
+    p = tmp_path / "bad.g2o"
+    p.write_text(f"VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nVERTEX_SE3:QUAT {2**64} 0 0 0 0 0 0 1\n")
+    with pytest.raises(ValueError, match=r"bad\.g2o:2: vertex id .* outside"):
+        g2o.read(p)
+
+
+def test_class3_huge_finite_information_round_trips(tmp_path: Path) -> None:
+    import warnings
+
+    info = INFO21.split()
+    info[0] = "9e307"  # t-t block
+    info[15] = "1.7e308"  # qx-qx entry: /4 on reading, ×4 on writing
+    info[1] = "-1.0"  # tx-ty
+    p = tmp_path / "huge.g2o"
+    p.write_text(
+        "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nVERTEX_SE3:QUAT 1 1 0 0 0 0 0 1\n"
+        f"EDGE_SE3:QUAT 0 1 1 0 0 0 0 0 1 {' '.join(info)}\n"
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for reading in ("g2o", "gtsam"):
+            g = g2o.read(p, reading)  # type: ignore[arg-type]
+            assert np.isfinite(g.information).all()
+            g2o.write(tmp_path / "out.g2o", g)
+            assert "inf" not in (tmp_path / "out.g2o").read_text()
+            g2 = g2o.read(tmp_path / "out.g2o", reading)  # type: ignore[arg-type]
+            assert np.array_equal(g2.information, g.information)
+
+
+def test_class3_information_that_overflows_on_writing_is_refused(tmp_path: Path) -> None:
+    info = np.eye(6)[None].copy()
+    info[0, 0, 0] = 1e308  # ω block: ×4 in the file
+    g = g2o.G2OGraph.from_matrices([0, 1], np.stack([np.eye(4), T1]), [[0, 1]], T1[None], info)
+    with pytest.raises(ValueError, match=r"information\[0\]: .*overflow"):
+        g2o.write(tmp_path / "out.g2o", g)
+    assert not (tmp_path / "out.g2o").exists()
+
+
+def _bits(a: np.ndarray) -> bytes:
+    return np.ascontiguousarray(a, dtype=np.float64).tobytes()
+
+
+def test_class4_g2o_round_trip_keeps_negative_zero(tmp_path: Path) -> None:
+    info = INFO21.split()
+    info[1] = "-0.0"
+    info[16] = "-0.0"
+    p = tmp_path / "z.g2o"
+    p.write_text(
+        "VERTEX_SE3:QUAT 0 -0.0 0 0 -0.0 0 0 1\nVERTEX_SE3:QUAT 1 1 0 0 0 0 0 1\n"
+        f"EDGE_SE3:QUAT 0 1 1 -0.0 0 0 0 -0.0 1 {' '.join(info)}\n"
+    )
+    for reading in ("g2o", "gtsam"):
+        g = g2o.read(p, reading)  # type: ignore[arg-type]
+        assert math.copysign(1.0, g.information[0, 3, 4]) == -1.0 or reading == "gtsam"
+        g2o.write(tmp_path / "o.g2o", g)
+        g2 = g2o.read(tmp_path / "o.g2o", reading)  # type: ignore[arg-type]
+        for name in ("vertex_xyz_qxyzw", "measured_xyz_qxyzw", "information"):
+            assert _bits(getattr(g2, name)) == _bits(getattr(g, name)), name
+        assert "-0.0" in (tmp_path / "o.g2o").read_text()
+
+
+def test_class4_g2o_quaternion_off_unit_by_1e9_round_trips(tmp_path: Path) -> None:
+    s = 1.0 + 1e-9
+    q = np.array([0.0, 0.0, math.sin(0.3), math.cos(0.3)]) * s
+    x = np.array([[0.0, 0.0, 0.0, *q], [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0]])
+    g = g2o.G2OGraph(
+        vertex_ids=np.array([0, 1]),
+        vertex_xyz_qxyzw=x,
+        edges=np.array([[0, 1]]),
+        measured_xyz_qxyzw=x[1:],
+        information=np.eye(6)[None],
+    )
+    g2o.write(tmp_path / "q.g2o", g)
+    g2 = g2o.read(tmp_path / "q.g2o")
+    assert _bits(g2.vertex_xyz_qxyzw) == _bits(g.vertex_xyz_qxyzw)
+    assert abs(np.linalg.norm(g.vertex_xyz_qxyzw[0, 3:]) - 1.0) < 1e-15
+
+
+# --------------------------------------------------------------------------- class 13: descriptors
+@pytest.mark.parametrize("reader", ["tum", "g2o", "kitti"])
+def test_class13_readers_leave_the_callers_file_descriptor_open(tmp_path: Path, reader: str) -> None:
+    import os
+
+    p = tmp_path / "t.txt"
+    if reader == "tum":
+        p.write_text("0.0 1 2 3 0 0 0 1\n")
+    elif reader == "kitti":
+        p.write_text("1 0 0 0 0 1 0 0 0 0 1 0\n")
+    else:
+        p.write_text("VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\n")
+    fd = os.open(p, os.O_RDONLY)
+    try:
+        {"tum": tio.read_tum, "kitti": tio.read_kitti, "g2o": g2o.read}[reader](fd)
+        os.fstat(fd)  # raises OSError if the reader closed it
+    finally:
+        os.close(fd)

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Iterator
-from typing import Any
+from typing import IO, Any
 
 import numpy as np
 
@@ -48,19 +48,32 @@ def text_lines(path: PathLike) -> Iterator[tuple[int, str]]:
     """
     lineno = 0
     try:
-        with open(path, encoding="utf-8") as fh:
+        with open_text(path, "r") as fh:
             for lineno, line in enumerate(fh, start=1):
                 yield lineno, line
     except UnicodeDecodeError as exc:
         bad = lineno + 1
-        with open(path, "rb") as fb:
-            for k, raw in enumerate(fb, start=1):
-                try:
-                    raw.decode("utf-8")
-                except UnicodeDecodeError:
-                    bad = k
-                    break
+        if not isinstance(path, int):  # a descriptor cannot be re-read from the start
+            with open(path, "rb") as fb:
+                for k, raw in enumerate(fb, start=1):
+                    try:
+                        raw.decode("utf-8")
+                    except UnicodeDecodeError:
+                        bad = k
+                        break
         raise ValueError(f"{path}:{bad}: not UTF-8 text ({exc.reason})") from None
+
+
+def open_text(path: PathLike | int, mode: str) -> IO[str]:
+    """Open ``path`` as UTF-8 text; a file descriptor (int) is used and left open for the caller.
+
+    ``open(fd)`` closes ``fd`` on exit by default (issue 21, class 13); ``closefd=False`` keeps it.
+    """
+    if isinstance(path, bool):
+        raise TypeError(f"path: expected a path or a file descriptor, got {path!r}")
+    if isinstance(path, int):
+        return open(path, mode, encoding="utf-8", closefd=False)
+    return open(path, mode, encoding="utf-8")
 
 
 def _data_lines(path: PathLike) -> list[tuple[int, list[str]]]:
@@ -161,7 +174,7 @@ def write_tum(path: PathLike, timestamps: Any, poses: Any) -> None:
     x = _layouts.from_matrix(T, layout="xyz_qxyzw")
     lines = ["# timestamp tx ty tz qx qy qz qw\n"]
     lines += [" ".join(map(_fmt, (ti, *xi))) + "\n" for ti, xi in zip(t, x, strict=True)]
-    with open(path, "w", encoding="utf-8") as fh:
+    with open_text(path, "w") as fh:
         fh.writelines(lines)
 
 
@@ -217,5 +230,5 @@ def write_kitti(path: PathLike, poses: Any) -> None:
     if T.ndim != 3:
         raise ValueError(f"poses: expected shape (N, 4, 4), got {T.shape}")
     x = _layouts.from_matrix(T, layout="kitti")
-    with open(path, "w", encoding="utf-8") as fh:
+    with open_text(path, "w") as fh:
         fh.writelines(" ".join(map(_fmt, xi)) + "\n" for xi in x)
