@@ -19,6 +19,7 @@ import pytest
 
 from liebridge.gtsam import between, optimize, prior
 
+
 @contextmanager
 def within(seconds: float) -> Iterator[None]:
     """Fail (instead of hanging the suite) if the block runs longer than ``seconds``."""
@@ -247,8 +248,10 @@ INFO21 = " ".join(
 def test_class1_extreme_exponent_zero_in_a_rotation_field_reads(tmp_path: Path, fmt: str) -> None:
     p = tmp_path / f"x.{fmt}"
     if fmt == "g2o":
-        p.write_text(f"VERTEX_SE3:QUAT 0 0 0 0 0e400 0 0 1\nVERTEX_SE3:QUAT 1 1 0 0 0 0 0 1\n"
-                     f"EDGE_SE3:QUAT 0 1 1 0 0 0e-400 0e400 0 1 {INFO21}\n")
+        p.write_text(
+            f"VERTEX_SE3:QUAT 0 0 0 0 0e400 0 0 1\nVERTEX_SE3:QUAT 1 1 0 0 0 0 0 1\n"
+            f"EDGE_SE3:QUAT 0 1 1 0 0 0e-400 0e400 0 1 {INFO21}\n"
+        )
         g = g2o.read(p)
         assert np.array_equal(g.vertex_xyz_qxyzw[0, 3:], [0.0, 0.0, 0.0, 1.0])
     elif fmt == "tum":
@@ -365,7 +368,9 @@ def test_class4_g2o_quaternion_off_unit_by_1e9_round_trips(tmp_path: Path) -> No
 
 # --------------------------------------------------------------------------- class 13: descriptors
 @pytest.mark.parametrize("reader", ["tum", "g2o", "kitti"])
-def test_class13_readers_leave_the_callers_file_descriptor_open(tmp_path: Path, reader: str) -> None:
+def test_class13_readers_leave_the_callers_file_descriptor_open(
+    tmp_path: Path, reader: str
+) -> None:
     import os
 
     p = tmp_path / "t.txt"
@@ -381,3 +386,173 @@ def test_class13_readers_leave_the_callers_file_descriptor_open(tmp_path: Path, 
         os.fstat(fd)  # raises OSError if the reader closed it
     finally:
         os.close(fd)
+
+
+# --------------------------------------------------------------------------- command line: 8, 9, 10, 13
+from liebridge.cli import main  # noqa: E402
+
+SMALL_G2O = (
+    "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nVERTEX_SE3:QUAT 1 1 0 0 0 0 0 1\n"
+    f"EDGE_SE3:QUAT 0 1 1 0 0 0 0 0 1 {INFO21}\n"
+)
+
+
+def cli(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, str, str]:
+    try:
+        code = main(list(args))
+    except SystemExit as exc:
+        code = exc.code if isinstance(exc.code, int) else 0
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def assert_one_clean_line(err: str) -> None:
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert "Traceback" not in err and "Warning" not in err, err
+
+
+def test_class8_long_number_argument_is_numbers_not_a_file_name(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    diag = " ".join(repr(0.1 + k * 1e-17 + 1 / 3) for k in range(6))
+    from scipy.spatial.transform import Rotation
+
+    T = np.eye(4)
+    T[:3, :3] = Rotation.from_rotvec([0.1, -0.2, 0.3]).as_matrix()
+    T[:3, 3] = [1 / 3, 2 / 3, -1 / 7]
+    pose = ", ".join(repr(float(x)) for x in T.reshape(-1))
+    assert len(pose) > 255
+    cov = ", ".join([diag] * 3)  # 18 numbers: not 6 or 36, but long
+    code, out, err = cli(
+        capsys, "convert-cov", "--from", "gtsam", "--to", "sophus", "--pose", pose, "--cov", diag
+    )
+    assert code == 0, err
+    code, out, err = cli(
+        capsys, "convert-cov", "--from", "gtsam", "--to", "sophus", "--pose", pose, "--cov", cov
+    )
+    assert code == 2
+    assert_one_clean_line(err)
+    assert "File name too long" not in err and "expected 36 numbers" in err
+
+
+def test_class9_complex_npy_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    f = tmp_path / "c.npy"
+    np.save(f, np.eye(6) * (1 + 1j))
+    code, _, err = cli(
+        capsys,
+        "convert-cov",
+        "--from",
+        "gtsam",
+        "--to",
+        "sophus",
+        "--pose",
+        " ".join(["1", "0", "0", "0"] * 4)[:0] + "1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1",
+        "--cov",
+        str(f),
+    )
+    assert code == 2
+    assert_one_clean_line(err)
+    assert "complex" in err
+
+
+def test_class9_npy_header_promising_an_enormous_shape_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    f = tmp_path / "huge.npy"
+    header = "{'descr': '<f8', 'fortran_order': False, 'shape': (100000000000, 6, 6), }"
+    header = header + " " * (118 - len(header)) + "\n"
+    f.write_bytes(
+        b"\x93NUMPY\x01\x00"
+        + len(header).to_bytes(2, "little")
+        + header.encode()
+        + np.zeros(36).tobytes()
+    )
+    code, _, err = cli(
+        capsys,
+        "convert-cov",
+        "--from",
+        "gtsam",
+        "--to",
+        "sophus",
+        "--pose",
+        "1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1",
+        "--cov",
+        str(f),
+    )
+    assert code == 2
+    assert_one_clean_line(err)
+    assert "huge.npy" in err and "shape" in err
+
+
+def test_class10_g2o_convert_never_rewrites_its_input_through_a_hard_link(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import os
+
+    inp = tmp_path / "in.g2o"
+    inp.write_text(SMALL_G2O)
+    link = tmp_path / "link.g2o"
+    os.link(inp, link)
+    code, _, err = cli(capsys, "g2o", "convert", str(inp), str(link), "--information", "g2o:gtsam")
+    assert code == 2
+    assert_one_clean_line(err)
+    assert "the input file" in err
+    assert inp.read_text() == SMALL_G2O
+
+
+def test_class10_writers_replace_the_file_and_never_write_through_a_link(tmp_path: Path) -> None:
+    import os
+
+    inp = tmp_path / "in.g2o"
+    inp.write_text(SMALL_G2O)
+    link = tmp_path / "link.g2o"
+    os.link(inp, link)
+    g = g2o.read(inp)
+    g2o.write(link, g)  # the library's writer: OUT is replaced, IN's data never touched
+    assert inp.read_text() == SMALL_G2O
+    assert g2o.read(link).edges.shape == (1, 2)
+
+
+def test_class13_g2o_convert_to_dev_null(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import os
+
+    if not os.path.exists(os.devnull):
+        pytest.skip("no /dev/null")
+    inp = tmp_path / "in.g2o"
+    inp.write_text(SMALL_G2O)
+    code, out, err = cli(
+        capsys, "g2o", "convert", str(inp), os.devnull, "--information", "g2o:gtsam"
+    )
+    assert code == 0, err
+    assert os.path.exists(os.devnull) and not os.path.isfile(os.devnull)
+
+
+@pytest.mark.parametrize("option", ["--plot", "--marginals"])
+def test_class13_unwritable_output_fails_before_optimizing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], option: str
+) -> None:
+    inp = tmp_path / "in.g2o"
+    inp.write_text(SMALL_G2O)
+    target = "/proc/liebridge-no-such.png" if option == "--plot" else "/proc/liebridge-no.npy"
+    if option == "--plot":
+        pytest.importorskip("matplotlib")
+    code, out, err = cli(capsys, "optimize", str(inp), option, target)
+    assert code == 2
+    assert_one_clean_line(err)
+    assert option in err and "cannot write" in err
+    assert "optimizing" not in out + err
+
+
+@pytest.mark.parametrize("n", [str(2**31), str(10**30)])
+def test_class13_out_of_range_max_iterations_is_one_clear_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], n: str
+) -> None:
+    inp = tmp_path / "in.g2o"
+    inp.write_text(SMALL_G2O)
+    code, _, err = cli(capsys, "optimize", str(inp), "--max-iterations", n)
+    assert code == 2
+    assert_one_clean_line(err)
+    assert "--max-iterations" in err and "incompatible function arguments" not in err

@@ -215,7 +215,9 @@ def imu(
             f"preintegrated: expected a PreintegratedImu, got {type(preintegrated).__name__}"
         )
     names = ("pose_i", "vel_i", "pose_j", "vel_j", "bias_key")
-    keys = [v.key(k, n) for k, n in zip((pose_i, vel_i, pose_j, vel_j, bias_key), names, strict=True)]
+    keys = [
+        v.key(k, n) for k, n in zip((pose_i, vel_i, pose_j, vel_j, bias_key), names, strict=True)
+    ]
     for a in range(5):
         for b in range(a):
             if keys[a] == keys[b]:

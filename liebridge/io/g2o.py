@@ -90,7 +90,7 @@ from .._validate import FloatArray
 from ..conventions.convert import tangent_map
 from ..lie import quaternion as quat
 from . import poses as _layouts
-from .trajectory import _is_float, text_lines
+from .trajectory import _is_float, open_text, text_lines
 
 __all__ = ["G2OGraph", "read", "write"]
 
@@ -688,5 +688,5 @@ def write(path: PathLike, graph: G2OGraph) -> None:
         lines.append(f"EDGE_SE3:QUAT {int(i)} {int(j)} " + " ".join(r(c) for c in nums) + "\n")
     if graph.fixed:
         lines.append("FIX " + " ".join(str(k) for k in graph.fixed) + "\n")
-    with open(path, "w", encoding="utf-8") as fh:
+    with open_text(path, "w") as fh:  # via a temporary file: a link to the input is replaced
         fh.writelines(lines)

@@ -26,7 +26,10 @@ written with ``w ≥ 0``.
 from __future__ import annotations
 
 import os
+import secrets
+import shutil
 from collections.abc import Iterator
+from contextlib import contextmanager, suppress
 from typing import IO, Any
 
 import numpy as np
@@ -64,16 +67,43 @@ def text_lines(path: PathLike) -> Iterator[tuple[int, str]]:
         raise ValueError(f"{path}:{bad}: not UTF-8 text ({exc.reason})") from None
 
 
-def open_text(path: PathLike | int, mode: str) -> IO[str]:
-    """Open ``path`` as UTF-8 text; a file descriptor (int) is used and left open for the caller.
+@contextmanager
+def open_text(path: PathLike | int, mode: str) -> Iterator[IO[str]]:
+    """Open ``path`` as UTF-8 text for reading (``"r"``) or writing (``"w"``).
 
-    ``open(fd)`` closes ``fd`` on exit by default (issue 21, class 13); ``closefd=False`` keeps it.
+    * A file descriptor (int) is used and left open for the caller (``open(fd)`` would close
+      it on exit; issue 21, class 13).
+    * Writing a path that is a regular file or does not exist goes to a temporary file in the
+      same directory, renamed over ``path`` when complete: a failed write leaves ``path`` as it
+      was, and a hard link to another file (an input) is replaced, never written through
+      (class 10). Other paths (``/dev/null``, a pipe) are written directly.
     """
     if isinstance(path, bool):
         raise TypeError(f"path: expected a path or a file descriptor, got {path!r}")
     if isinstance(path, int):
-        return open(path, mode, encoding="utf-8", closefd=False)
-    return open(path, mode, encoding="utf-8")
+        with open(path, mode, encoding="utf-8", closefd=False) as fh:
+            yield fh
+        return
+    if mode != "w" or (os.path.exists(path) and not os.path.isfile(path)):
+        with open(path, mode, encoding="utf-8") as fh:
+            yield fh
+        return
+    target = os.fspath(path)
+    tmp = os.path.join(
+        os.path.dirname(os.path.abspath(target)), f".liebridge-{secrets.token_hex(8)}.tmp"
+    )
+    # a new file: created with mode 0o666 minus the umask, as open(path, "w") would do
+    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+    try:
+        with open(fd, "w", encoding="utf-8") as fh:
+            yield fh
+        if os.path.exists(target):
+            shutil.copymode(target, tmp)
+        os.replace(tmp, target)
+    except BaseException:
+        with suppress(OSError):
+            os.unlink(tmp)
+        raise
 
 
 def _data_lines(path: PathLike) -> list[tuple[int, list[str]]]:
