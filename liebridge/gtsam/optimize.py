@@ -196,7 +196,7 @@ def _lm_settings(params: Any) -> _LMSettings:
 
 
 def _check_keys(graph: Any, values: Any) -> list[int]:
-    """The graph's keys, sorted; every one must be in ``values`` (else a ``ValueError``)."""
+    """Return the graph's keys, sorted; raise ``ValueError`` if one is not in ``values``."""
     key_set = graph.keys()  # held: iterating the temporary KeySet reads freed memory
     keys = sorted(int(k) for k in key_set)
     for k in keys:

@@ -178,7 +178,7 @@ def _swap_blocks(A: FloatArray) -> FloatArray:
 
 
 def _symmetrised(A: FloatArray) -> FloatArray:
-    """``(A + Aᵀ)/2`` without overflow (halves first) and exact where ``A`` is symmetric.
+    """Return ``(A + Aᵀ)/2`` without overflow (halves first), exact where ``A`` is symmetric.
 
     ``0.5·(A + Aᵀ)`` turns entries ≥ 9e307 into ``inf`` (issue 21, class 3), and halving a
     subnormal loses its last bit, so entries that already equal their mirror are kept as they are.
@@ -196,7 +196,7 @@ _G2O_TO_GTSAM_SCALE = np.block(
 
 
 def _ids(x: Any, name: str) -> KeyArray:
-    """Validate vertex ids (integers in ``[0, 2**64 − 2]``, GTSAM keys) and return them as uint64."""
+    """Validate vertex ids (integers in ``[0, 2**64 − 2]``: GTSAM keys); return them as uint64."""
     a = np.asarray(x)
     if a.dtype == object or (a.size == 0 and a.dtype.kind == "f"):
         try:
