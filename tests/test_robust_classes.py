@@ -524,9 +524,7 @@ def test_class13_g2o_convert_to_dev_null(
         pytest.skip("no /dev/null")
     inp = tmp_path / "in.g2o"
     inp.write_text(SMALL_G2O)
-    code, _, err = cli(
-        capsys, "g2o", "convert", str(inp), os.devnull, "--information", "g2o:gtsam"
-    )
+    code, _, err = cli(capsys, "g2o", "convert", str(inp), os.devnull, "--information", "g2o:gtsam")
     assert code == 0, err
     assert os.path.exists(os.devnull) and not os.path.isfile(os.devnull)
 

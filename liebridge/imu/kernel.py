@@ -599,6 +599,16 @@ def compiled_applies(P: Params) -> bool:
     return _imu_ext is not None and P.fast and P.acc_var is not None and P.int_var is not None
 
 
+def _c_buffer(x: FloatArray) -> FloatArray:
+    """``x`` as a C-contiguous, **aligned** float64 array (a copy only when it is not one).
+
+    ``np.ascontiguousarray`` keeps a misaligned view (e.g. ``np.frombuffer(b, offset=1)``) as it
+    is; the C kernel reads doubles through the pointer, undefined behaviour when misaligned
+    (issue 21, class 12; the kernel itself refuses such a buffer).
+    """
+    return np.require(x, dtype=np.float64, requirements=["C_CONTIGUOUS", "ALIGNED"])
+
+
 def _integrate_compiled(
     acc: FloatArray, gyro: FloatArray, dt: FloatArray, bias: FloatArray, P: Params, ws: Workspace
 ) -> Delta:
@@ -609,12 +619,12 @@ def _integrate_compiled(
     out = np.empty(_C_N_OUT)
     bRs = P.body_R_sensor
     _imu_ext.block_sums(
-        np.ascontiguousarray(acc),
-        np.ascontiguousarray(gyro),
-        np.ascontiguousarray(dt),
-        np.ascontiguousarray(bias),
+        _c_buffer(acc),
+        _c_buffer(gyro),
+        _c_buffer(dt),
+        _c_buffer(bias),
         bRs is not None,
-        _I3 if bRs is None else np.ascontiguousarray(bRs),
+        _I3 if bRs is None else _c_buffer(bRs),
         _COEF,
         _COEF.shape[1],
         series.SMALL_ANGLE**2,
