@@ -555,3 +555,15 @@ def test_class13_out_of_range_max_iterations_is_one_clear_line(
     assert code == 2
     assert_one_clean_line(err)
     assert "--max-iterations" in err and "incompatible function arguments" not in err
+
+
+@pytest.mark.parametrize(
+    ("key", "match"), [(5, r"keys\[0\]: key 5 is not in values"), (7, r"used by no factor")]
+)
+def test_class13_marginal_of_a_key_not_in_the_graph_is_a_clear_error(key: int, match: str) -> None:
+    from liebridge.gtsam import marginals
+
+    g, v = _small_graph()
+    v.insert(7, gtsam.Pose3())
+    with pytest.raises(ValueError, match=match):
+        marginals(g, v, [key], "sophus")
