@@ -67,8 +67,15 @@ def graphs(draw: st.DrawFn) -> tuple[gtsam.NonlinearFactorGraph, gtsam.Values, l
             v.insert(k, gtsam.Pose3(T @ _pose(rng, 0.15, 0.3)))
         if part == 0 or rng.random() < 0.5:  # some parts float (gauge freedom)
             conv = str(rng.choice(CONVENTIONS))
-            g.add(prior(keys[0], truth[0] @ _pose(rng, 0.01, 0.02), _cov(rng), conv,
-                        native=bool(rng.random() < 0.5)))
+            g.add(
+                prior(
+                    keys[0],
+                    truth[0] @ _pose(rng, 0.01, 0.02),
+                    _cov(rng),
+                    conv,
+                    native=bool(rng.random() < 0.5),
+                )
+            )
         pairs = [(a, a + 1) for a in range(size - 1)]
         pairs += [(int(a), int(b)) for a, b in rng.integers(0, size, size=(size // 2, 2)) if a != b]
         for a, b in pairs:

@@ -90,7 +90,7 @@ from .._validate import FloatArray
 from ..conventions.convert import tangent_map
 from ..lie import quaternion as quat
 from . import poses as _layouts
-from .trajectory import _is_float, open_text, text_lines
+from .trajectory import field_numbers, open_text, text_lines
 
 __all__ = ["G2OGraph", "read", "write"]
 
@@ -103,6 +103,7 @@ _2D_TAGS = frozenset(
     {"VERTEX_SE2", "EDGE_SE2", "VERTEX2", "EDGE2", "VERTEX", "EDGE", "VERTEX_XY", "EDGE_SE2_XY"}
 )
 _TRIU = np.triu_indices(6)
+_TRIU_NAMES = [f"[{r}, {c}]" for r, c in zip(*_TRIU, strict=True)]
 #: A quaternion whose norm is this close to 1 is taken as already normalised (dividing again
 #: could flip its last bits, and ``read(write(g))`` must reproduce ``g`` exactly).
 _UNIT_NORM_SLACK = 8 * np.finfo(np.float64).eps
@@ -392,10 +393,14 @@ class _Parser:
         try:
             out = list(map(float, fields))
         except ValueError:
-            bad = next(f for f in fields if not _is_float(f))
-            raise self.fail(lineno, f"not a number: {bad!r} ({tag})") from None
+            out = [math.nan]
         if not all(map(math.isfinite, out)):
-            raise self.fail(lineno, f"NaN or Inf ({tag})")
+            words = what.split(" + ")[0].split()
+            names = words + [f"information{_TRIU_NAMES[k]}" for k in range(n - len(words))]
+            # fields numbered on the line: after the tag and one (vertex) or two (edge) ids
+            skip = 2 if tag.startswith("VERTEX") else 3
+            _, bad = field_numbers(["0"] * skip + fields, ["tag/id"] * skip + names, tag)
+            raise self.fail(lineno, str(bad))
         return out
 
     def vertex_id(self, lineno: int, f: str) -> int:

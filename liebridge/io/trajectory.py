@@ -25,6 +25,7 @@ written with ``w ≥ 0``.
 
 from __future__ import annotations
 
+import math
 import os
 import secrets
 import shutil
@@ -117,25 +118,37 @@ def _data_lines(path: PathLike) -> list[tuple[int, list[str]]]:
     return out
 
 
+def field_numbers(
+    fields: list[str], names: list[str], tag: str = ""
+) -> tuple[list[float], str | None]:
+    """Parse ``fields`` as finite floats; return them, or a message naming the first bad field.
+
+    ``names`` names each field (``"qx"``, ``"information[0, 1]"``); the message is
+    ``"not a number: 'abc' in field 5 (qx)"`` or ``"NaN or Inf in field 5 (qx): 'nan'"``, with
+    `` (TAG)`` after the kind of fault when ``tag`` is given. Fields count from 1 within
+    ``fields``.
+    """
+    vals: list[float] = []
+    t = f" ({tag})" if tag else ""
+    for k, (f, name) in enumerate(zip(fields, names, strict=True)):
+        try:
+            x = float(f)
+        except ValueError:
+            return vals, f"not a number: {f!r}{t} in field {k + 1} ({name})"
+        if not math.isfinite(x):
+            return vals, f"NaN or Inf{t} in field {k + 1} ({name}): {f!r}"
+        vals.append(x)
+    return vals, None
+
+
 def _numbers(path: PathLike, lineno: int, fields: list[str], n: int, what: str) -> list[float]:
     if len(fields) != n:
         raise ValueError(f"{path}:{lineno}: expected {n} numbers ({what}), got {len(fields)}")
-    try:
-        vals = [float(f) for f in fields]
-    except ValueError:
-        bad = next(f for f in fields if not _is_float(f))
-        raise ValueError(f"{path}:{lineno}: not a number: {bad!r} ({what})") from None
-    if not all(np.isfinite(vals)):
-        raise ValueError(f"{path}:{lineno}: NaN or Inf ({what})")
+    names = what.split() if len(what.split()) == n else [f"{what} [{k}]" for k in range(n)]
+    vals, bad = field_numbers(fields, names)
+    if bad is not None:
+        raise ValueError(f"{path}:{lineno}: {bad}")
     return vals
-
-
-def _is_float(s: str) -> bool:
-    try:
-        float(s)
-    except ValueError:
-        return False
-    return True
 
 
 def _fmt(x: float) -> str:
@@ -227,7 +240,7 @@ def read_kitti(path: PathLike) -> FloatArray:
         On a malformed line (wrong count, not a number, rotation not orthonormal within the
         printed precision), naming the file and line number.
     """
-    what = "3x4 [R | t] row-major"
+    what = "r11 r12 r13 tx r21 r22 r23 ty r31 r32 r33 tz"  # the 3x4 [R | t], row-major
     rows = []
     for lineno, fields in _data_lines(path):
         vals = _numbers(path, lineno, fields, 12, what)
