@@ -231,7 +231,10 @@ def optimize(
         Initial estimate (not modified).
     params : gtsam.LevenbergMarquardtParams, optional
         ``lambdaInitial``, ``lambdaFactor``, ``lambdaUpperBound``, ``lambdaLowerBound``,
-        ``maxIterations``, ``relativeErrorTol``, ``absoluteErrorTol``, ``errorTol`` are honoured.
+        ``maxIterations``, ``relativeErrorTol``, ``absoluteErrorTol``, ``errorTol`` are honoured,
+        and validated before any work (λ finite and > 0, factor finite and > 1, bounds
+        ``0 ≤ lower < upper``, tolerances ≥ 0, not NaN). Keys of ``values`` that no factor uses
+        are returned unchanged, as GTSAM's ``LevenbergMarquardtOptimizer`` does.
     progress : bool or callable, optional
         ``True``: one line per iteration on stderr; a callable receives the lines; ``None``
         (default): lines start once the run has taken :data:`AUTO_PROGRESS_AFTER` seconds.
@@ -242,6 +245,14 @@ def optimize(
     Returns
     -------
     OptimizeResult
+
+    Raises
+    ------
+    TypeError
+        ``params`` is not a ``gtsam.LevenbergMarquardtParams`` (e.g. ``GaussNewtonParams``).
+    ValueError
+        A parameter that would make the run spin or never stop (named, with its value); a factor
+        key missing from ``values`` (naming the key and the factor); a non-finite initial error.
     """
     P = _lm_settings(params)
     lam, factor, upper, lower, max_it = P.lam, P.factor, P.upper, P.lower, P.max_it
