@@ -12,7 +12,10 @@ Tolerances (module constants, each check takes its own ``tol`` too):
 * unit quaternion: ``| ‖q‖ − 1 | ≤`` :data:`QUATERNION_TOL`;
 * tangent: the norm of its rotation part at most :data:`MAX_ANGLE` (1e12 rad);
 * covariance / information: relative asymmetry ``max|A − Aᵀ| / max|A| ≤`` :data:`COVARIANCE_TOL`
-  and smallest eigenvalue ``≥ −COVARIANCE_TOL · max|A|`` (positive semi-definite up to rounding).
+  and smallest eigenvalue ``≥ −COVARIANCE_TOL · max|A|`` (positive semi-definite up to rounding);
+* a factor's covariance (:func:`positive_definite`): as above, and ``λ_min > SINGULAR_RTOL · dim ·
+  λ_max`` — a singular one is a hard constraint, which a Gaussian noise model cannot hold;
+* a GTSAM key (:func:`key`): an integer in ``[0, MAX_KEY]`` (uint64; ``2**64 − 1`` is reserved).
 
 Speed: the checks run first as a cheap *certificate* that can only accept valid input (one pose or
 rotation: float arithmetic on its entries; a covariance: exact symmetry and a Cholesky
