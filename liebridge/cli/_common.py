@@ -178,8 +178,12 @@ def check_output_path(text: str, what: str, suffixes: tuple[str, ...] | None = N
             f"{what}: unsupported file type {path.suffix or '(none)'!r} "
             f"(expected one of {', '.join(suffixes)})"
         )
-    # really try (permissions, read-only file systems, /proc): append mode changes nothing
     existed = path.exists()
+    if existed and not path.is_file():  # a device or a FIFO: opening could block; ask instead
+        if not os.access(path, os.W_OK):
+            raise CLIError(f"{what}: cannot write {text!r}: permission denied")
+        return path
+    # really try (permissions, read-only file systems, /proc): append mode changes nothing
     try:
         with open(path, "ab"):
             pass
