@@ -12,7 +12,10 @@ Tolerances (module constants, each check takes its own ``tol`` too):
 * unit quaternion: ``| ‖q‖ − 1 | ≤`` :data:`QUATERNION_TOL`;
 * tangent: the norm of its rotation part at most :data:`MAX_ANGLE` (1e12 rad);
 * covariance / information: relative asymmetry ``max|A − Aᵀ| / max|A| ≤`` :data:`COVARIANCE_TOL`
-  and smallest eigenvalue ``≥ −COVARIANCE_TOL · max|A|`` (positive semi-definite up to rounding).
+  and smallest eigenvalue ``≥ −COVARIANCE_TOL · max|A|`` (positive semi-definite up to rounding);
+* a factor's covariance (:func:`positive_definite`): as above, and ``λ_min > SINGULAR_RTOL · dim ·
+  λ_max`` — a singular one is a hard constraint, which a Gaussian noise model cannot hold;
+* a GTSAM key (:func:`key`): an integer in ``[0, MAX_KEY]`` (uint64; ``2**64 − 1`` is reserved).
 
 Speed: the checks run first as a cheap *certificate* that can only accept valid input (one pose or
 rotation: float arithmetic on its entries; a covariance: exact symmetry and a Cholesky
@@ -37,6 +40,11 @@ ROTATION_TOL = 1e-6
 QUATERNION_TOL = 1e-6
 #: Relative tolerance on the asymmetry and the negative eigenvalues of a covariance.
 COVARIANCE_TOL = 1e-9
+#: A covariance with ``λ_min ≤ SINGULAR_RTOL · dim · λ_max`` is singular for a factor's noise model.
+SINGULAR_RTOL = float(np.finfo(np.float64).eps)
+#: GTSAM keys are unsigned 64-bit integers; this is the largest one liebridge accepts (the
+#: largest, ``2**64 − 1``, is reserved by :mod:`liebridge.gtsam.custom`).
+MAX_KEY = 2**64 - 2
 #: Largest norm of the rotation part of a tangent (rotation vector, increment), in radians.
 MAX_ANGLE = 1e12
 _MAX_COMPONENT = MAX_ANGLE / math.sqrt(3.0)  # every component below it: the norm is too
@@ -360,14 +368,14 @@ def covariance(x: Any, name: str, dim: int, tol: float = COVARIANCE_TOL) -> Floa
         return arr
     check_finite(arr, name, core_ndim=2)
     scale = np.maximum(np.abs(arr).max(axis=(-1, -2)), 1e-300)
-    asym = np.abs(arr - np.swapaxes(arr, -1, -2)).max(axis=(-1, -2)) / scale
+    half, half_t = 0.5 * arr, 0.5 * np.swapaxes(arr, -1, -2)  # halves first: no overflow
+    asym = 2.0 * (np.abs(half - half_t).max(axis=(-1, -2)) / scale)
     if (asym > tol).any():
         i = _batch_index(np.asarray(asym > tol))
         raise ValueError(
             f"{name}: not symmetric at batch index {i}: relative asymmetry {float(asym[i]):.3g}"
         )
-    sym = 0.5 * (arr + np.swapaxes(arr, -1, -2))
-    lam = np.linalg.eigvalsh(sym)[..., 0]
+    lam = np.linalg.eigvalsh(half + half_t)[..., 0]
     if (lam < -tol * scale).any():
         i = _batch_index(np.asarray(lam < -tol * scale))
         raise ValueError(
@@ -481,3 +489,37 @@ def extended_pose(x: Any, name: str, tol: float = ROTATION_TOL) -> FloatArray:
     _check_bottom(arr, name, _SE23_BOTTOM, "SE₂(3)", " (GTSAM NavState.matrix() layout)")
     check_rotation(arr[..., :3, :3], name, tol)
     return arr
+
+
+def positive_definite(x: Any, name: str, dim: int, tol: float = COVARIANCE_TOL) -> FloatArray:
+    """Validate a batch of covariances that a noise model can invert, shape ``(..., dim, dim)``.
+
+    As :func:`covariance`, and the smallest eigenvalue must exceed
+    ``SINGULAR_RTOL · dim · λ_max``: a zero or singular covariance is a hard constraint, which
+    needs a constrained noise model, not a Gaussian one (GTSAM's ``Gaussian.Covariance`` would
+    give NaN errors or an information matrix with no correct digit).
+    """
+    arr = covariance(x, name, dim, tol)
+    if arr.size == 0:
+        return arr
+    lam = np.linalg.eigvalsh(0.5 * arr + 0.5 * np.swapaxes(arr, -1, -2))
+    lo, hi = lam[..., 0], lam[..., -1]
+    bad = ~(lo > SINGULAR_RTOL * dim * hi)
+    if bad.any():
+        i = _batch_index(np.asarray(bad))
+        raise ValueError(
+            f"{name}: singular covariance at batch index {i}: smallest eigenvalue "
+            f"{float(lo[i]):.3g} (largest {float(hi[i]):.3g}); a hard constraint needs "
+            "gtsam.noiseModel.Constrained, not a covariance"
+        )
+    return arr
+
+
+def key(x: Any, name: str) -> int:
+    """Validate a GTSAM key: an integer in ``[0, MAX_KEY]`` (keys are unsigned 64-bit)."""
+    if isinstance(x, bool) or not isinstance(x, (int, np.integer)):
+        raise TypeError(f"{name}: expected an integer key, got {type(x).__name__} ({x!r})")
+    k = int(x)
+    if not 0 <= k <= MAX_KEY:
+        raise ValueError(f"{name}: key {k} is outside [0, 2**64 - 2] (GTSAM keys are uint64)")
+    return k

@@ -53,14 +53,21 @@ def say(*parts: Any) -> None:
     print(*parts, file=sys.stderr, flush=True)
 
 
+#: Largest integer :func:`positive_int` accepts (what every binding's ``int`` holds).
+MAX_INT = 2**31 - 1
+
+
 def positive_int(text: str) -> int:
-    """``argparse`` type: an integer ≥ 1."""
+    """``argparse`` type: an integer in ``[1, MAX_INT]``."""
     try:
         n = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
     if n < 1:
         raise argparse.ArgumentTypeError(f"expected a positive integer, got {n}")
+    if n > MAX_INT:
+        shown = text if len(text) <= 40 else text[:37] + "..."
+        raise argparse.ArgumentTypeError(f"expected a positive integer ≤ {MAX_INT}, got {shown}")
     return n
 
 
@@ -87,6 +94,47 @@ def _parse_numbers(text: str, what: str) -> FloatArray:
 _ARRAY_SUFFIXES = (".npy", ".txt", ".csv", ".dat")
 
 
+def _is(path: Path, test: str) -> bool:
+    """``path.is_file()`` / ``is_dir()`` that answers False for names the OS cannot hold.
+
+    A command's own full-precision output pasted back is longer than 255 characters: the OS
+    refuses it as a file name (``ENAMETOOLONG``), so it is numbers (issue 21, class 8).
+    """
+    try:
+        return bool(getattr(path, test)())
+    except (OSError, ValueError):  # name too long, or an embedded NUL
+        return False
+
+
+def _load_npy(path: Path, text: str, what: str) -> Any:
+    """``np.load`` after checking the header: real numbers, and no more data than the file holds.
+
+    A header may promise any shape; ``np.load`` would try to allocate it (issue 21, class 9).
+    """
+    with open(path, "rb") as fh:
+        try:
+            version = np.lib.format.read_magic(fh)
+            if version == (1, 0):
+                shape, _, dtype = np.lib.format.read_array_header_1_0(fh)
+            else:
+                shape, _, dtype = np.lib.format.read_array_header_2_0(fh)
+        except (ValueError, SyntaxError, TypeError) as exc:
+            raise CLIError(f"{what}: cannot read {text}: {one_line(str(exc))}") from None
+        start = fh.tell()
+    if dtype.kind == "c":
+        raise CLIError(f"{what}: {text} holds complex numbers ({dtype}); expected real numbers")
+    if dtype.kind not in "biuf":
+        raise CLIError(f"{what}: {text} does not hold numbers (dtype {dtype})")
+    need = int(np.prod(shape, dtype=object)) * dtype.itemsize
+    have = path.stat().st_size - start
+    if need > have:
+        raise CLIError(
+            f"{what}: {text}: its header promises shape {shape} ({need} bytes) but the file holds "
+            f"{have} bytes of data"
+        )
+    return np.load(path, allow_pickle=False)
+
+
 def array_argument(text: str, what: str) -> tuple[FloatArray, bool]:
     """Numbers from an argument: a ``.npy`` or text file, or the numbers themselves.
 
@@ -95,22 +143,24 @@ def array_argument(text: str, what: str) -> tuple[FloatArray, bool]:
     """
     path = Path(text)
     looks_like_file = text.lower().endswith(_ARRAY_SUFFIXES) or os.sep in text
-    if path.is_file():
+    if _is(path, "is_file"):
         try:
             if text.lower().endswith(".npy"):
-                arr = np.load(path, allow_pickle=False)
+                arr = _load_npy(path, text, what)
             else:
                 delim = "," if text.lower().endswith(".csv") else None
                 arr = np.loadtxt(path, delimiter=delim, comments="#", ndmin=1)
-        except (OSError, ValueError) as exc:
+        except (OSError, ValueError, MemoryError) as exc:
             raise CLIError(f"{what}: cannot read {text}: {one_line(str(exc))}") from None
+        if np.asarray(arr).dtype.kind == "c":
+            raise CLIError(f"{what}: {text} holds complex numbers; expected real numbers")
         if not np.issubdtype(np.asarray(arr).dtype, np.number):
             raise CLIError(f"{what}: {text} does not hold numbers (dtype {arr.dtype})")
         arr = np.asarray(arr, dtype=np.float64)
         if not np.isfinite(arr).all():
             raise CLIError(f"{what}: {text} contains NaN or Inf")
         return arr, True
-    if looks_like_file or path.is_dir():
+    if looks_like_file or _is(path, "is_dir"):
         raise CLIError(f"{what}: no such file: {text}")
     return _parse_numbers(text, what), False
 
@@ -128,6 +178,19 @@ def check_output_path(text: str, what: str, suffixes: tuple[str, ...] | None = N
             f"{what}: unsupported file type {path.suffix or '(none)'!r} "
             f"(expected one of {', '.join(suffixes)})"
         )
+    existed = path.exists()
+    if existed and not path.is_file():  # a device or a FIFO: opening could block; ask instead
+        if not os.access(path, os.W_OK):
+            raise CLIError(f"{what}: cannot write {text!r}: permission denied")
+        return path
+    # really try (permissions, read-only file systems, /proc): append mode changes nothing
+    try:
+        with open(path, "ab"):
+            pass
+    except OSError as exc:
+        raise CLIError(f"{what}: cannot write {text!r}: {exc.strerror or exc}") from None
+    if not existed:
+        path.unlink(missing_ok=True)
     return path
 
 

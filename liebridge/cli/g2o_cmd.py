@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import os
 from pathlib import Path
 from typing import Any
 
@@ -40,15 +41,17 @@ def _convert(args: argparse.Namespace) -> int:
     inp, out = Path(args.input), check_output_path(args.output, "OUT")
     if not inp.is_file():
         raise CLIError(f"IN: no such file: {args.input}")
-    if out.exists() and out.resolve() == inp.resolve():
-        raise CLIError("OUT is the input file; write to another path")
+    if out.exists() and (out.resolve() == inp.resolve() or os.path.samefile(out, inp)):
+        raise CLIError(
+            "OUT is the input file (the same file, or a link to it); write to another path"
+        )
     g = g2o_io.read(inp, information=src, edge3=args.edge3)
     g_out = dataclasses.replace(g, information_reading=dst)
     g2o_io.write(out, g_out)
     n, m = g.vertex_ids.shape[0], g.edges.shape[0]
     print(f"read {inp}: {n} vertices, {m} edges, information read as {src!r}")
     print(f"wrote {out}: information for {dst!r} readers, full precision")
-    if m:
+    if m and out.is_file():  # not /dev/null or a pipe: read back what was written
         back = g2o_io.read(out, information=dst, edge3=args.edge3)
         gap = float(np.abs(back.information - g.information).max())
         scale = float(np.abs(g.information).max())

@@ -32,12 +32,13 @@ class PoseFactorSpec:
     sqrt_info: FloatArray  # upper-triangular R with RᵀR = Σ⁻¹ (GTSAM's noiseModel.R())
 
 
+KeyArray = npt.NDArray[np.uint64]  # GTSAM keys are uint64 (≥ 2**63 included)
 IntArray = npt.NDArray[np.int64]
 
 
-def poses_of(values: Any) -> tuple[IntArray, FloatArray]:
+def poses_of(values: Any) -> tuple[KeyArray, FloatArray]:
     """All ``Pose3`` entries of ``values`` as sorted keys ``(N,)`` and matrices ``(N, 4, 4)``."""
-    keys = np.asarray(list(gtsam.utilities.allPose3s(values).keys()), dtype=np.int64)
+    keys = np.asarray(list(gtsam.utilities.allPose3s(values).keys()), dtype=np.uint64)
     m = np.asarray(gtsam.utilities.extractPose3(values), dtype=np.float64)
     T = np.zeros((len(keys), 4, 4))
     T[:, :3, :3] = m[:, :9].reshape(-1, 3, 3)
@@ -46,7 +47,7 @@ def poses_of(values: Any) -> tuple[IntArray, FloatArray]:
     return keys, T
 
 
-def _rows(keys: IntArray, wanted: IntArray) -> IntArray:
+def _rows(keys: KeyArray, wanted: KeyArray) -> IntArray:
     idx = np.searchsorted(keys, wanted)
     idx = np.clip(idx, 0, len(keys) - 1)
     missing = keys[idx] != wanted
@@ -62,23 +63,23 @@ class PoseFactorGroup:
         self.specs = specs
         self.conv = specs[0].conv
         self.between = specs[0].j is not None
-        self.i = np.array([s.i for s in specs], dtype=np.int64)
-        self.j = np.array([s.j if s.j is not None else -1 for s in specs], dtype=np.int64)
+        self.i = np.array([s.i for s in specs], dtype=np.uint64)
+        self.j = np.array([s.j if s.j is not None else 0 for s in specs], dtype=np.uint64)
         self.Z = np.stack([s.Z for s in specs])
         self.R = np.stack([s.sqrt_info for s in specs])
 
-    def _residuals(self, keys: IntArray, T: FloatArray) -> tuple[FloatArray, FloatArray]:
+    def _residuals(self, keys: KeyArray, T: FloatArray) -> tuple[FloatArray, FloatArray]:
         Tj = T[_rows(keys, self.j)] if self.between else None
         H = factor_math.relative(T[_rows(keys, self.i)], Tj)
         return H, factor_math.residual(self.conv, self.Z, H)
 
-    def error(self, keys: IntArray, T: FloatArray) -> float:
+    def error(self, keys: KeyArray, T: FloatArray) -> float:
         """``½ Σ ‖R e‖²`` over the group."""
         _, e = self._residuals(keys, T)
         w = np.einsum("kij,kj->ki", self.R, e)
         return 0.5 * float(np.sum(w * w))
 
-    def linearize(self, keys: IntArray, T: FloatArray) -> list[Any]:
+    def linearize(self, keys: KeyArray, T: FloatArray) -> list[Any]:
         """Whitened ``JacobianFactor``s (unit noise), one per factor, in GTSAM's tangents."""
         H, e = self._residuals(keys, T)
         J_e_i, J_e_j = factor_math.jacobians(self.conv, self.Z, H, self.between)

@@ -20,6 +20,7 @@ from typing import Any
 import gtsam
 import numpy as np
 
+from .. import _validate as v
 from .._validate import FloatArray
 
 Evaluate = Callable[[Any, bool], tuple[FloatArray, "list[FloatArray] | None"]]
@@ -119,7 +120,10 @@ def make_custom_factor(
     -------
     gtsam.CustomFactor
     """
-    keys = [int(k) for k in keys]
+    keys = [v.key(k, f"{name}: key {n}") for n, k in enumerate(keys)]
+    if len(set(keys)) != len(keys):
+        dup = next(k for k in keys if keys.count(k) > 1)
+        raise ValueError(f"{name}: key {dup} appears twice in keys {keys}")
     dims = [int(d) for d in dims]
     if len(keys) != len(dims):
         raise ValueError(f"{name}: {len(keys)} keys but {len(dims)} dims")

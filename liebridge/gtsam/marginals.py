@@ -15,6 +15,7 @@ from typing import Any, Literal
 import gtsam
 import numpy as np
 
+from .. import _validate as v
 from .._validate import FloatArray
 from ..conventions import ConventionLike, get
 from ..conventions.convert import convert_covariance
@@ -53,7 +54,16 @@ def marginals(
     -------
     ndarray, shape (N, 6, 6)
     """
-    keys = [int(k) for k in keys]
+    keys = [v.key(k, f"keys[{n}]") for n, k in enumerate(keys)]
+    graph_keys = graph.keys()  # held: iterating a temporary KeySet reads freed memory
+    used = {int(k) for k in graph_keys}
+    for n, k in enumerate(keys):
+        if not values.exists(k):
+            raise ValueError(f"keys[{n}]: key {k} is not in values")
+        if k not in used:
+            raise ValueError(
+                f"keys[{n}]: key {k} is used by no factor of graph: it has no marginal"
+            )
     m = marginals_object if marginals_object is not None else gtsam.Marginals(graph, values)
     cov_g = np.stack([np.asarray(m.marginalCovariance(k), dtype=np.float64) for k in keys])
     cov_g = 0.5 * (cov_g + np.swapaxes(cov_g, -1, -2))

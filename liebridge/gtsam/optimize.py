@@ -25,6 +25,7 @@ are linearized by GTSAM. All parameters come from a ``gtsam.LevenbergMarquardtPa
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 from collections.abc import Callable
@@ -40,6 +41,8 @@ from .custom import identify, query_values
 __all__ = ["OptimizeResult", "optimize"]
 
 _MIN_MODEL_FIDELITY = 1e-3
+#: Most damped solves tried within one iteration (bounds the run time whatever λ's factor).
+_MAX_TRIES = 1000
 #: Progress lines are printed automatically once a run has taken this long (seconds).
 AUTO_PROGRESS_AFTER = 2.0
 
@@ -58,11 +61,17 @@ class OptimizeResult:
 
 
 class _Damping:
-    """``√λ·I`` prior factors on every variable (GTSAM's ``buildDampedSystem``), cached per λ."""
+    """``√λ·I`` prior factors on every variable the graph uses (GTSAM's ``buildDampedSystem``).
 
-    def __init__(self, values: Any) -> None:
+    Only the graph's keys are damped: a key of ``values`` that no factor uses is not in the
+    elimination ordering, and GTSAM's LM returns it unchanged (a damping prior on it made every
+    solve fail, and the run "converge" at the initial values — issue 21, class 5).
+    Cached per λ.
+    """
+
+    def __init__(self, values: Any, keys: list[int]) -> None:
         zero = values.zeroVectors()
-        self.dims = [(int(k), int(zero.at(k).shape[0])) for k in values.keys()]
+        self.dims = [(k, int(zero.at(k).shape[0])) for k in keys]
         self.cache: dict[float, list[Any]] = {}
 
     def factors(self, lam: float) -> list[Any]:
@@ -117,6 +126,92 @@ class _SplitGraph:
         return linear
 
 
+def _positive(x: float, name: str, *, strict: bool = True, finite: bool = True) -> float:
+    bad = math.isnan(x) or (x <= 0.0 if strict else x < 0.0) or (finite and math.isinf(x))
+    if bad:
+        what = "a finite number " if finite else "a number "
+        raise ValueError(f"params.{name}: expected {what}{'>' if strict else '≥'} 0, got {x!r}")
+    return x
+
+
+@dataclass(frozen=True)
+class _LMSettings:
+    """The validated Levenberg–Marquardt parameters :func:`optimize` honours."""
+
+    lam: float
+    factor: float
+    upper: float
+    lower: float
+    max_it: int
+    rel: float
+    absol: float
+    errtol: float
+
+
+def _lm_settings(params: Any) -> _LMSettings:
+    """Read and validate ``params`` before any work (issue 21, classes 11 and 13).
+
+    Every value that could make the damping loop spin forever (λ NaN, ≤ 0 or infinite, a factor
+    ≤ 1, bounds that cannot hold) or never stop (NaN tolerances) is a ``ValueError``; a parameter
+    object of another kind is a ``TypeError``.
+    """
+    if params is None:
+        params = gtsam.LevenbergMarquardtParams()
+    if not isinstance(params, gtsam.LevenbergMarquardtParams):
+        raise TypeError(
+            "params: expected gtsam.LevenbergMarquardtParams (or None), got "
+            f"{type(params).__name__}; liebridge.optimize runs Levenberg–Marquardt only "
+            "(use gtsam.GaussNewtonOptimizer for Gauss–Newton)"
+        )
+    lam = _positive(float(params.getlambdaInitial()), "lambdaInitial")
+    factor = float(params.getlambdaFactor())
+    if not (math.isfinite(factor) and factor > 1.0):
+        raise ValueError(f"params.lambdaFactor: expected a finite number > 1, got {factor!r}")
+    upper = _positive(float(params.getlambdaUpperBound()), "lambdaUpperBound", finite=False)
+    lower = _positive(float(params.getlambdaLowerBound()), "lambdaLowerBound", strict=False)
+    if not lower < upper:
+        raise ValueError(
+            f"params.lambdaLowerBound ({lower!r}) must be below lambdaUpperBound ({upper!r})"
+        )
+    max_it = int(params.getMaxIterations())
+    if max_it < 0:
+        raise ValueError(f"params.maxIterations: expected ≥ 0, got {max_it}")
+    tols = {
+        "relativeErrorTol": float(params.getRelativeErrorTol()),
+        "absoluteErrorTol": float(params.getAbsoluteErrorTol()),
+        "errorTol": float(params.getErrorTol()),
+    }
+    for name, tol in tols.items():
+        _positive(tol, name, strict=False, finite=False)
+    return _LMSettings(
+        lam=lam,
+        factor=factor,
+        upper=upper,
+        lower=lower,
+        max_it=max_it,
+        rel=tols["relativeErrorTol"],
+        absol=tols["absoluteErrorTol"],
+        errtol=tols["errorTol"],
+    )
+
+
+def _check_keys(graph: Any, values: Any) -> list[int]:
+    """Return the graph's keys, sorted; raise ``ValueError`` if one is not in ``values``."""
+    key_set = graph.keys()  # held: iterating the temporary KeySet reads freed memory
+    keys = sorted(int(k) for k in key_set)
+    for k in keys:
+        if not values.exists(k):
+            for n in range(graph.size()):
+                f = graph.at(n)
+                f_keys = f.keys() if f is not None else []
+                if k in [int(x) for x in f_keys]:
+                    raise ValueError(
+                        f"values: no value for key {k} ({gtsam.DefaultKeyFormatter(k)}), "
+                        f"used by factor {n} of the graph"
+                    )
+    return keys
+
+
 def optimize(
     graph: Any,
     values: Any,
@@ -136,7 +231,10 @@ def optimize(
         Initial estimate (not modified).
     params : gtsam.LevenbergMarquardtParams, optional
         ``lambdaInitial``, ``lambdaFactor``, ``lambdaUpperBound``, ``lambdaLowerBound``,
-        ``maxIterations``, ``relativeErrorTol``, ``absoluteErrorTol``, ``errorTol`` are honoured.
+        ``maxIterations``, ``relativeErrorTol``, ``absoluteErrorTol``, ``errorTol`` are honoured,
+        and validated before any work (λ finite and > 0, factor finite and > 1, bounds
+        ``0 ≤ lower < upper``, tolerances ≥ 0, not NaN). Keys of ``values`` that no factor uses
+        are returned unchanged, as GTSAM's ``LevenbergMarquardtOptimizer`` does.
     progress : bool or callable, optional
         ``True``: one line per iteration on stderr; a callable receives the lines; ``None``
         (default): lines start once the run has taken :data:`AUTO_PROGRESS_AFTER` seconds.
@@ -147,17 +245,19 @@ def optimize(
     Returns
     -------
     OptimizeResult
+
+    Raises
+    ------
+    TypeError
+        ``params`` is not a ``gtsam.LevenbergMarquardtParams`` (e.g. ``GaussNewtonParams``).
+    ValueError
+        A parameter that would make the run spin or never stop (named, with its value); a factor
+        key missing from ``values`` (naming the key and the factor); a non-finite initial error.
     """
-    p = params if params is not None else gtsam.LevenbergMarquardtParams()
-    lam = float(p.getlambdaInitial())
-    factor = float(p.getlambdaFactor())
-    upper, lower = float(p.getlambdaUpperBound()), float(p.getlambdaLowerBound())
-    max_it = int(p.getMaxIterations())
-    rel, absol, errtol = (
-        float(p.getRelativeErrorTol()),
-        float(p.getAbsoluteErrorTol()),
-        float(p.getErrorTol()),
-    )
+    P = _lm_settings(params)
+    lam, factor, upper, lower, max_it = P.lam, P.factor, P.upper, P.lower, P.max_it
+    rel, absol, errtol = P.rel, P.absol, P.errtol
+    keys = _check_keys(graph, values)
     t0 = time.perf_counter()
 
     def say(msg: str) -> None:
@@ -169,7 +269,7 @@ def optimize(
     ordering = gtsam.Ordering.ColamdNonlinearFactorGraph(graph)
     current = gtsam.Values(values)
     split = _SplitGraph(graph, current, batch)
-    damping = _Damping(current)
+    damping = _Damping(current, keys)
     err = split.error(current)
     initial = err
     if not np.isfinite(err):
@@ -180,7 +280,7 @@ def optimize(
         linear = split.linearize(current)
         new_err = err
         stop = False
-        while True:
+        for _try in range(_MAX_TRIES):
             damped = linear.clone()
             for f in damping.factors(lam):
                 damped.push_back(f)
@@ -211,6 +311,8 @@ def optimize(
             if lam >= upper:
                 stop = True
                 break
+        else:  # λ·factor^_MAX_TRIES still below the upper bound (a factor barely above 1)
+            stop = True
         it += 1
         say(
             f"liebridge.optimize: iteration {it}: error {new_err:.10g} (from {err:.10g}), "

@@ -96,7 +96,10 @@ def between(
     Z = v.pose(measured, "measured")
     if Z.shape != (4, 4):
         raise ValueError(f"measured: expected one pose (4, 4), got {Z.shape}")
-    cov = v.covariance(cov, "cov", 6)
+    cov = v.positive_definite(cov, "cov", 6)
+    i, j = v.key(i, "i"), v.key(j, "j")
+    if i == j:
+        raise ValueError(f"j: the same key as i ({i}); a between factor relates two variables")
     if native:
         return gtsam.BetweenFactorPose3(i, j, gtsam.Pose3(Z), _native_noise(conv, Z, cov))
 
@@ -139,7 +142,8 @@ def prior(
     Z = v.pose(pose, "pose")
     if Z.shape != (4, 4):
         raise ValueError(f"pose: expected one pose (4, 4), got {Z.shape}")
-    cov = v.covariance(cov, "cov", 6)
+    cov = v.positive_definite(cov, "cov", 6)
+    i = v.key(i, "i")
     if native:
         return gtsam.PriorFactorPose3(i, gtsam.Pose3(Z), _native_noise(conv, Z, cov))
     Zc = Z.copy()

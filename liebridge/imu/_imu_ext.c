@@ -23,6 +23,7 @@
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include <math.h>
+#include <stdint.h>
 
 /* layout of `out` (doubles); mirrored as the _C_* slices in _imu_kernel.py */
 #define O_R 0      /* 9: ΔR_N, row-major */
@@ -83,7 +84,14 @@ static PyObject *block_sums(PyObject *self, PyObject *args) {
         return NULL;
     Py_ssize_t n = dt_b.len / (Py_ssize_t)sizeof(double);
     const char *bad = NULL;
-    if (n < 1) bad = "dt: no samples";
+    /* every buffer is read and written as double: a misaligned pointer is undefined behaviour
+       (it happens to work on x86), so refuse it; the Python caller passes aligned copies */
+    const Py_buffer *all[8] = {&acc_b, &gyro_b, &dt_b, &bias_b, &bRs_b, &coef_b, &scratch_b, &out_b};
+    int misaligned = 0;
+    for (int b = 0; b < 8; b++) misaligned |= (uintptr_t)all[b]->buf % _Alignof(double) != 0;
+    if (misaligned) bad = "a buffer is not aligned to a double boundary (pass aligned float64)";
+    else if (n < 1) bad = "dt: no samples";
+    else if (dt_b.len % (Py_ssize_t)sizeof(double) != 0) bad = "dt: not a whole number of doubles";
     else if (acc_b.len != 3 * dt_b.len || gyro_b.len != 3 * dt_b.len) bad = "acc/gyro: not (n, 3)";
     else if (bias_b.len != 6 * (Py_ssize_t)sizeof(double)) bad = "bias: not 6 doubles";
     else if (bRs_b.len != 9 * (Py_ssize_t)sizeof(double)) bad = "bRs: not 9 doubles";

@@ -214,8 +214,16 @@ def imu(
         raise TypeError(
             f"preintegrated: expected a PreintegratedImu, got {type(preintegrated).__name__}"
         )
-    keys = [int(k) for k in (pose_i, vel_i, pose_j, vel_j, bias_key)]
-    noise = gtsam.noiseModel.Gaussian.Covariance(np.array(preintegrated.covariance))
+    names = ("pose_i", "vel_i", "pose_j", "vel_j", "bias_key")
+    keys = [
+        v.key(k, n) for k, n in zip((pose_i, vel_i, pose_j, vel_j, bias_key), names, strict=True)
+    ]
+    for a in range(5):
+        for b in range(a):
+            if keys[a] == keys[b]:
+                raise ValueError(f"{names[a]}: the same key as {names[b]} ({keys[a]})")
+    cov = v.positive_definite(preintegrated.covariance, "preintegrated.covariance", 9)
+    noise = gtsam.noiseModel.Gaussian.Covariance(np.array(cov))
     k_pi, k_vi, k_pj, k_vj, k_b = keys
 
     def evaluate(values: Any, want: bool) -> tuple[FloatArray, list[FloatArray] | None]:

@@ -599,6 +599,16 @@ def compiled_applies(P: Params) -> bool:
     return _imu_ext is not None and P.fast and P.acc_var is not None and P.int_var is not None
 
 
+def _c_buffer(x: FloatArray) -> FloatArray:
+    """``x`` as a C-contiguous, **aligned** float64 array (a copy only when it is not one).
+
+    ``np.ascontiguousarray`` keeps a misaligned view (e.g. ``np.frombuffer(b, offset=1)``) as it
+    is; the C kernel reads doubles through the pointer, undefined behaviour when misaligned
+    (issue 21, class 12; the kernel itself refuses such a buffer).
+    """
+    return np.require(x, dtype=np.float64, requirements=["C_CONTIGUOUS", "ALIGNED"])
+
+
 def _integrate_compiled(
     acc: FloatArray, gyro: FloatArray, dt: FloatArray, bias: FloatArray, P: Params, ws: Workspace
 ) -> Delta:
@@ -609,12 +619,12 @@ def _integrate_compiled(
     out = np.empty(_C_N_OUT)
     bRs = P.body_R_sensor
     _imu_ext.block_sums(
-        np.ascontiguousarray(acc),
-        np.ascontiguousarray(gyro),
-        np.ascontiguousarray(dt),
-        np.ascontiguousarray(bias),
+        _c_buffer(acc),
+        _c_buffer(gyro),
+        _c_buffer(dt),
+        _c_buffer(bias),
         bRs is not None,
-        _I3 if bRs is None else np.ascontiguousarray(bRs),
+        _I3 if bRs is None else _c_buffer(bRs),
         _COEF,
         _COEF.shape[1],
         series.SMALL_ANGLE**2,
@@ -740,17 +750,51 @@ def compose(d1: Delta, d2: Delta) -> Delta:
 def integrate_blocks(
     acc: FloatArray, gyro: FloatArray, dt: FloatArray, bias: FloatArray, P: Params, **kw: Any
 ) -> Delta:
-    """:func:`integrate` on blocks of :data:`BLOCK` samples, concatenated with :func:`compose`."""
+    """:func:`integrate` on blocks of :data:`BLOCK` samples, concatenated with :func:`compose`.
+
+    Raises
+    ------
+    ValueError
+        The inputs are finite but so large that the result is not (issue 21, class 6): the
+        message gives the largest ``|acc|``, ``|gyro|``, ``dt`` and ``|bias|``.
+    """
     n = dt.shape[0]
     out: Delta | None = None
     ws = thread_workspace()
-    for s in range(0, n, BLOCK):
-        e = min(n, s + BLOCK)
-        if n - e < BLOCK // 4:  # fold a short tail into the last block
-            e = n
-        d = integrate(acc[s:e], gyro[s:e], dt[s:e], bias, P, ws=ws, **kw)
-        out = d if out is None else compose(out, d)
-        if e == n:
-            break
+    with np.errstate(all="ignore"):  # an overflow is reported below, as one ValueError
+        for s in range(0, n, BLOCK):
+            e = min(n, s + BLOCK)
+            if n - e < BLOCK // 4:  # fold a short tail into the last block
+                e = n
+            d = integrate(acc[s:e], gyro[s:e], dt[s:e], bias, P, ws=ws, **kw)
+            out = d if out is None else compose(out, d)
+            if e == n:
+                break
     assert out is not None
+    check_delta_finite(out, acc, gyro, dt, bias)
     return out
+
+
+def check_delta_finite(
+    d: Delta,
+    acc: FloatArray | None = None,
+    gyro: FloatArray | None = None,
+    dt: FloatArray | None = None,
+    bias: FloatArray | None = None,
+) -> None:
+    """Raise ``ValueError`` if any preintegrated number is NaN or Inf (inputs overflowed)."""
+    parts = {"delta_R": d.R, "delta_p": d.p, "delta_v": d.v, "covariance": d.cov, "J": d.J}
+    bad = [k for k, x in parts.items() if not np.isfinite(x).all()]
+    if not bad and math.isfinite(d.delta_t):
+        return
+    sizes = ""
+    if acc is not None and gyro is not None and dt is not None and bias is not None:
+        sizes = (
+            f": max |acc| {float(np.abs(acc).max()):.3g}, max |gyro| "
+            f"{float(np.abs(gyro).max()):.3g}, max dt {float(dt.max()):.3g}, "
+            f"max |bias| {float(np.abs(bias).max()):.3g}"
+        )
+    raise ValueError(
+        f"acc, gyro, dt, bias: finite inputs whose preintegration overflows float64 "
+        f"({', '.join(bad) or 'delta_t'} not finite after {d.n} samples){sizes}"
+    )

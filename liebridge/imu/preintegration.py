@@ -73,7 +73,7 @@ from .. import _validate as v
 from .._validate import FloatArray
 from ..lie import so3
 from .inputs import read_bias, read_params, read_samples
-from .kernel import Delta, compiled_applies, compose, integrate_blocks
+from .kernel import Delta, check_delta_finite, compiled_applies, compose, integrate_blocks
 
 __all__ = ["ImuDelta", "ImuPreintegrator", "PreintegratedImu", "imu_kernel", "preintegrate"]
 
@@ -413,7 +413,11 @@ class ImuPreintegrator:
         g = np.concatenate([b[1] for b in self._blocks])
         d = np.concatenate([b[2] for b in self._blocks])
         block = integrate_blocks(a, g, d, self._bias, self._P)
-        self._done = block if self._done is None else compose(self._done, block)
+        if self._done is not None:
+            with np.errstate(all="ignore"):
+                block = compose(self._done, block)
+            check_delta_finite(block)
+        self._done = block
         self._blocks, self._buffered = [], 0
 
     @property

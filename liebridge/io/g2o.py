@@ -90,12 +90,12 @@ from .._validate import FloatArray
 from ..conventions.convert import tangent_map
 from ..lie import quaternion as quat
 from . import poses as _layouts
-from .trajectory import _is_float, text_lines
+from .trajectory import field_numbers, open_text, text_lines
 
 __all__ = ["G2OGraph", "read", "write"]
 
 PathLike = str | os.PathLike[str]
-IntArray = npt.NDArray[np.int64]
+KeyArray = npt.NDArray[np.uint64]  # vertex ids are GTSAM keys: uint64, 2**63 and above included
 InformationReading = Literal["g2o", "gtsam"]
 Edge3Numbers = Literal["sqrt_information", "information"]
 
@@ -103,6 +103,7 @@ _2D_TAGS = frozenset(
     {"VERTEX_SE2", "EDGE_SE2", "VERTEX2", "EDGE2", "VERTEX", "EDGE", "VERTEX_XY", "EDGE_SE2_XY"}
 )
 _TRIU = np.triu_indices(6)
+_TRIU_NAMES = [f"[{r}, {c}]" for r, c in zip(*_TRIU, strict=True)]
 #: A quaternion whose norm is this close to 1 is taken as already normalised (dividing again
 #: could flip its last bits, and ``read(write(g))`` must reproduce ``g`` exactly).
 _UNIT_NORM_SLACK = 8 * np.finfo(np.float64).eps
@@ -177,6 +178,41 @@ def _swap_blocks(A: FloatArray) -> FloatArray:
     return out
 
 
+def _symmetrised(A: FloatArray) -> FloatArray:
+    """Return ``(A + Aᵀ)/2`` without overflow (halves first), exact where ``A`` is symmetric.
+
+    ``0.5·(A + Aᵀ)`` turns entries ≥ 9e307 into ``inf`` (issue 21, class 3), and halving a
+    subnormal loses its last bit, so entries that already equal their mirror are kept as they are.
+    """
+    At = np.swapaxes(A, -1, -2)
+    return np.where(A == At, A, 0.5 * A + 0.5 * At)
+
+
+#: Entrywise factors of ``Λ_gtsam = Mᵀ Λ_g2o M`` after the block swap, in (ω, v) order: the
+#: rotation block /4, the cross blocks /2. Powers of two, applied entrywise: exact (no matmul
+#: that would turn ``-0.0`` into ``0.0`` or round), issue 21, class 4.
+_G2O_TO_GTSAM_SCALE = np.block(
+    [[np.full((3, 3), 0.25), np.full((3, 3), 0.5)], [np.full((3, 3), 0.5), np.ones((3, 3))]]
+)
+
+
+def _ids(x: Any, name: str) -> KeyArray:
+    """Validate vertex ids (integers in ``[0, 2**64 − 2]``: GTSAM keys); return them as uint64."""
+    a = np.asarray(x)
+    if a.dtype == object or (a.size == 0 and a.dtype.kind == "f"):
+        try:
+            a = np.array([int(k) for k in a.reshape(-1)], dtype=object).reshape(a.shape)
+        except (TypeError, ValueError):
+            raise ValueError(f"{name}: expected integer ids") from None
+    elif not np.issubdtype(a.dtype, np.integer):
+        raise ValueError(f"{name}: expected integer ids, got dtype {a.dtype}")
+    flat = [int(k) for k in a.reshape(-1).tolist()]
+    bad = [k for k in flat if not 0 <= k <= v.MAX_KEY]
+    if bad:
+        raise ValueError(f"{name}: id {bad[0]} is outside [0, 2**64 - 2] (GTSAM keys are uint64)")
+    return np.array(flat, dtype=np.uint64).reshape(a.shape)
+
+
 def _triu_to_sym(vals: FloatArray) -> FloatArray:
     m = np.zeros((*vals.shape[:-1], 6, 6))
     m[..., _TRIU[0], _TRIU[1]] = vals
@@ -202,12 +238,12 @@ class G2OGraph:
 
     Attributes
     ----------
-    vertex_ids : ndarray of int64, shape (N,)
+    vertex_ids : ndarray of uint64, shape (N,)
         Vertex ids, used as GTSAM keys by :meth:`to_gtsam`.
     vertex_xyz_qxyzw : ndarray, shape (N, 7)
         Vertex poses ``T_world_vertex`` as stored in the file, layout ``"xyz_qxyzw"`` (unit
         quaternion, sign as written). :attr:`poses` gives the matrices.
-    edges : ndarray of int64, shape (M, 2)
+    edges : ndarray of uint64, shape (M, 2)
         ``(i, j)`` vertex ids of each edge.
     measured_xyz_qxyzw : ndarray, shape (M, 7)
         Measurements ``Z = T_i_j``, layout ``"xyz_qxyzw"``. :attr:`measured` gives the matrices.
@@ -222,9 +258,9 @@ class G2OGraph:
         True if the file had no vertices and :attr:`poses` were chained from odometry edges.
     """
 
-    vertex_ids: IntArray
+    vertex_ids: KeyArray
     vertex_xyz_qxyzw: FloatArray
-    edges: IntArray
+    edges: KeyArray
     measured_xyz_qxyzw: FloatArray
     information: FloatArray
     information_reading: InformationReading = "g2o"
@@ -232,22 +268,24 @@ class G2OGraph:
     vertices_from_odometry: bool = False
 
     def __post_init__(self) -> None:
-        ids = np.asarray(self.vertex_ids)
-        if ids.ndim != 1 or not np.issubdtype(ids.dtype, np.integer):
+        ids = _ids(self.vertex_ids, "vertex_ids")
+        if ids.ndim != 1:
             raise ValueError(f"vertex_ids: expected a 1-D integer array, got {ids.shape}")
         n = ids.shape[0]
         vx = v.vector(self.vertex_xyz_qxyzw, "vertex_xyz_qxyzw", 7)
         if vx.shape != (n, 7):
             raise ValueError(f"vertex_xyz_qxyzw: expected shape ({n}, 7), got {vx.shape}")
         v.quaternion(vx[:, 3:], "vertex_xyz_qxyzw quaternion")
-        e = np.asarray(self.edges)
-        if e.ndim != 2 or e.shape[1] != 2 or not np.issubdtype(e.dtype, np.integer):
+        vx = _unit_rows(vx)
+        e = _ids(self.edges, "edges")
+        if e.ndim != 2 or e.shape[1] != 2:
             raise ValueError(f"edges: expected an (M, 2) integer array, got {e.shape}")
         m = e.shape[0]
         mx = v.vector(self.measured_xyz_qxyzw, "measured_xyz_qxyzw", 7)
         if mx.shape != (m, 7):
             raise ValueError(f"measured_xyz_qxyzw: expected shape ({m}, 7), got {mx.shape}")
         v.quaternion(mx[:, 3:], "measured_xyz_qxyzw quaternion")
+        mx = _unit_rows(mx)
         info = v.covariance(self.information, "information", 6)
         if info.shape != (m, 6, 6):
             raise ValueError(f"information: expected shape ({m}, 6, 6), got {info.shape}")
@@ -263,13 +301,14 @@ class G2OGraph:
             raise ValueError(
                 f"edges[{k}]: {tuple(int(x) for x in e[k])} refers to a missing vertex"
             )
-        object.__setattr__(self, "vertex_ids", _readonly(ids.astype(np.int64)))
+        object.__setattr__(self, "vertex_ids", _readonly(ids))
         object.__setattr__(self, "vertex_xyz_qxyzw", _readonly(vx))
-        object.__setattr__(self, "edges", _readonly(e.astype(np.int64)))
+        object.__setattr__(self, "edges", _readonly(e))
         object.__setattr__(self, "measured_xyz_qxyzw", _readonly(mx))
         # exactly symmetric, so that writing the upper triangle loses nothing
-        object.__setattr__(self, "information", _readonly(0.5 * (info + info.transpose(0, 2, 1))))
-        object.__setattr__(self, "fixed", tuple(int(i) for i in self.fixed))
+        object.__setattr__(self, "information", _readonly(_symmetrised(info)))
+        fixed = _ids(np.asarray(list(self.fixed), dtype=object), "fixed")
+        object.__setattr__(self, "fixed", tuple(int(i) for i in fixed))
 
     @cached_property
     def poses(self) -> FloatArray:
@@ -301,9 +340,9 @@ class G2OGraph:
         reading :func:`write` will invert.
         """
         return cls(
-            vertex_ids=np.asarray(vertex_ids, dtype=np.int64).reshape(-1),
+            vertex_ids=_ids(vertex_ids, "vertex_ids").reshape(-1),
             vertex_xyz_qxyzw=_layouts.from_matrix(poses, layout="xyz_qxyzw").reshape(-1, 7),
-            edges=np.asarray(edges, dtype=np.int64).reshape(-1, 2),
+            edges=_ids(edges, "edges").reshape(-1, 2),
             measured_xyz_qxyzw=_layouts.from_matrix(measured, layout="xyz_qxyzw").reshape(-1, 7),
             information=np.asarray(information, dtype=np.float64).reshape(-1, 6, 6),
             information_reading=information_reading,
@@ -354,10 +393,14 @@ class _Parser:
         try:
             out = list(map(float, fields))
         except ValueError:
-            bad = next(f for f in fields if not _is_float(f))
-            raise self.fail(lineno, f"not a number: {bad!r} ({tag})") from None
+            out = [math.nan]
         if not all(map(math.isfinite, out)):
-            raise self.fail(lineno, f"NaN or Inf ({tag})")
+            words = what.split(" + ")[0].split()
+            names = words + [f"information{_TRIU_NAMES[k]}" for k in range(n - len(words))]
+            # fields numbered on the line: after the tag and one (vertex) or two (edge) ids
+            skip = 2 if tag.startswith("VERTEX") else 3
+            _, bad = field_numbers(["0"] * skip + fields, ["tag/id"] * skip + names, tag)
+            raise self.fail(lineno, str(bad))
         return out
 
     def vertex_id(self, lineno: int, f: str) -> int:
@@ -365,8 +408,10 @@ class _Parser:
             k = int(f)
         except ValueError:
             raise self.fail(lineno, f"vertex id {f!r} is not an integer") from None
-        if k < 0:
-            raise self.fail(lineno, f"vertex id {k} is negative")
+        if not 0 <= k <= v.MAX_KEY:
+            raise self.fail(
+                lineno, f"vertex id {k} is outside [0, 2**64 - 2] (GTSAM keys are uint64)"
+            )
         return k
 
     def unit_quaternion(self, lineno: int, fields: list[str], q: list[float]) -> list[float]:
@@ -379,9 +424,23 @@ class _Parser:
                 f"quaternion norm off by {abs(norm - 1.0):.3g} (tolerance {tol:g} for numbers "
                 "printed with this precision)",
             )
-        if abs(norm - 1.0) <= _UNIT_NORM_SLACK:  # a normalised quaternion, re-read: keep it
-            return q
-        return [c / norm for c in q]
+        return _unit_rows(np.array([[0.0, 0.0, 0.0, *q]]))[0, 3:].tolist()
+
+
+def _unit_rows(x: FloatArray) -> FloatArray:
+    """Rows ``x y z qx qy qz qw`` with the quaternion normalised, except when it already is.
+
+    A quaternion within :data:`_UNIT_NORM_SLACK` of unit norm is kept bit for bit (dividing
+    again could flip its last bits); the others are divided by their norm. The reader and
+    :class:`G2OGraph` both apply it, so ``read(write(g))`` reproduces ``g`` (issue 21, class 4).
+    """
+    norm = np.linalg.norm(x[:, 3:], axis=-1)
+    off = np.abs(norm - 1.0) > _UNIT_NORM_SLACK
+    if not off.any():
+        return x
+    out = np.array(x, copy=True)
+    out[off, 3:] = x[off, 3:] / norm[off, None]
+    return out
 
 
 def read(
@@ -497,19 +556,25 @@ def read(
     info = np.empty((eraw.shape[0], 6, 6))
     q = ~euler
     if information == "g2o":
-        M = _g2o_error_map()
-        info[q] = M.T @ _triu_to_sym(nums[q]) @ M
-        if edge3 == "sqrt_information":
-            S = _triu_to_upper(nums[euler])
-            lam_e = np.swapaxes(S, -1, -2) @ S
-        else:
-            lam_e = _triu_to_sym(nums[euler])
-        E = _euler_error_map(eraw[euler, 3:6])
-        lam = np.swapaxes(E, -1, -2) @ lam_e @ E
-        info[euler] = 0.5 * (lam + np.swapaxes(lam, -1, -2))
+        info[q] = _swap_blocks(_triu_to_sym(nums[q])) * _G2O_TO_GTSAM_SCALE  # = Mᵀ Λ M, exactly
+        with np.errstate(over="ignore", invalid="ignore"):  # reported per line below
+            if edge3 == "sqrt_information":
+                S = _triu_to_upper(nums[euler])
+                lam_e = np.swapaxes(S, -1, -2) @ S
+            else:
+                lam_e = _triu_to_sym(nums[euler])
+            E = _euler_error_map(eraw[euler, 3:6])
+            lam = np.swapaxes(E, -1, -2) @ lam_e @ E
+            info[euler] = _symmetrised(lam)
     else:
         info[q] = _swap_blocks(_triu_to_sym(nums[q]))
         info[euler] = _triu_to_sym(nums[euler])
+    for k in np.flatnonzero(~np.isfinite(info).all(axis=(-1, -2))).tolist()[:1]:
+        raise P.fail(
+            e_lines[k],
+            "information: finite numbers whose conversion to GTSAM's (ω, v) overflows float64 "
+            f"(largest |entry| {float(np.abs(nums[k]).max()):.3g})",
+        )
     try:
         v.covariance(info, "information", 6)
     except ValueError:
@@ -519,12 +584,12 @@ def read(
             except ValueError as exc:
                 raise P.fail(e_lines[k], f"{exc} (after conversion to GTSAM's (ω, v))") from None
         raise
-    edges = np.array(e_ids, dtype=np.int64).reshape(-1, 2)
+    edges = np.array(e_ids, dtype=np.uint64).reshape(-1, 2)
     from_odometry = not v_ids
     if from_odometry:
         ids, vpar = _chain_odometry(P, edges, measured)
     else:
-        ids = np.array(v_ids, dtype=np.int64)
+        ids = np.array(v_ids, dtype=np.uint64)
         for k, (i, j) in enumerate(e_ids):
             for end in (i, j):
                 if end not in v_line:
@@ -556,11 +621,11 @@ def _params_from_raw(raw: FloatArray, euler: npt.NDArray[np.bool_]) -> FloatArra
 
 
 def _chain_odometry(
-    P: _Parser, edges: IntArray, measured: FloatArray
-) -> tuple[IntArray, FloatArray]:
+    P: _Parser, edges: KeyArray, measured: FloatArray
+) -> tuple[KeyArray, FloatArray]:
     """Chain initial poses by composing odometry edges ``(k−1, k)`` (or ``(k, k−1)``, inverted)."""
     if edges.shape[0] == 0:
-        return np.zeros(0, dtype=np.int64), np.zeros((0, 7))
+        return np.zeros(0, dtype=np.uint64), np.zeros((0, 7))
     ids = np.unique(edges)
     Z = _layouts.to_matrix(measured, layout="xyz_qxyzw")
     step: dict[int, FloatArray] = {}
@@ -584,7 +649,7 @@ def _chain_odometry(
                 "initial values (add VERTEX lines or use gtsam.InitializePose3)"
             )
         T[n] = T[n - 1] @ step[k]
-    return ids.astype(np.int64), _layouts.from_matrix(T, layout="xyz_qxyzw")
+    return ids.astype(np.uint64), _layouts.from_matrix(T, layout="xyz_qxyzw")
 
 
 def write(path: PathLike, graph: G2OGraph) -> None:
@@ -604,14 +669,20 @@ def write(path: PathLike, graph: G2OGraph) -> None:
     """
     if not isinstance(graph, G2OGraph):
         raise TypeError(f"graph: expected G2OGraph, got {type(graph).__name__}")
-    Minv = np.zeros((6, 6))  # inverse of _g2o_error_map(): [[0, 2I], [I, 0]]
-    Minv[:3, 3:] = 2.0 * np.eye(3)
-    Minv[3:, :3] = np.eye(3)
     lam = graph.information
-    if graph.information_reading == "g2o":
-        file_info = Minv.T @ lam @ Minv
-    else:
-        file_info = _swap_blocks(lam)
+    with np.errstate(over="ignore"):
+        if graph.information_reading == "g2o":  # M⁻ᵀ Λ M⁻¹: ×4, ×2 entrywise, then the swap
+            file_info = _swap_blocks(lam * (1.0 / _G2O_TO_GTSAM_SCALE))
+        else:
+            file_info = _swap_blocks(lam)
+    bad = ~np.isfinite(file_info).all(axis=(-1, -2))
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise ValueError(
+            f"information[{k}]: the file's (t, qvec) information overflows float64 (the g2o "
+            f"reading multiplies the rotation block by 4; largest |entry| "
+            f"{float(np.abs(lam[k]).max()):.3g}); it cannot be written"
+        )
     r = repr
     lines = [
         f"VERTEX_SE3:QUAT {int(k)} " + " ".join(r(float(c)) for c in x) + "\n"
@@ -622,5 +693,5 @@ def write(path: PathLike, graph: G2OGraph) -> None:
         lines.append(f"EDGE_SE3:QUAT {int(i)} {int(j)} " + " ".join(r(c) for c in nums) + "\n")
     if graph.fixed:
         lines.append("FIX " + " ".join(str(k) for k in graph.fixed) + "\n")
-    with open(path, "w", encoding="utf-8") as fh:
+    with open_text(path, "w") as fh:  # via a temporary file: a link to the input is replaced
         fh.writelines(lines)

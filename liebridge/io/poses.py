@@ -246,9 +246,11 @@ def _text_place(fields: list[str] | tuple[str, ...]) -> float:
         whole, _, frac = mant.lstrip("+-").partition(".")
         sig = len((whole + frac).lstrip("0"))
         try:
-            p = 10.0 ** ((int(exp) if exp else 0) - len(frac))
+            e = (int(exp) if exp else 0) - len(frac)
         except ValueError:
-            p = 1.0
+            e = 0
+        # a finite number may carry any exponent (``0e400`` is 0.0): clip to float64's range
+        p = 10.0 ** min(max(e, -320), 300)
         if sig > best_sig:
             best_sig, place = sig, p
         elif sig == best_sig:

@@ -25,9 +25,13 @@ written with ``w ≥ 0``.
 
 from __future__ import annotations
 
+import math
 import os
+import secrets
+import shutil
 from collections.abc import Iterator
-from typing import Any
+from contextlib import contextmanager, suppress
+from typing import IO, Any
 
 import numpy as np
 
@@ -48,19 +52,59 @@ def text_lines(path: PathLike) -> Iterator[tuple[int, str]]:
     """
     lineno = 0
     try:
-        with open(path, encoding="utf-8") as fh:
+        with open_text(path, "r") as fh:
             for lineno, line in enumerate(fh, start=1):
                 yield lineno, line
     except UnicodeDecodeError as exc:
         bad = lineno + 1
-        with open(path, "rb") as fb:
-            for k, raw in enumerate(fb, start=1):
-                try:
-                    raw.decode("utf-8")
-                except UnicodeDecodeError:
-                    bad = k
-                    break
+        if not isinstance(path, int):  # a descriptor cannot be re-read from the start
+            with open(path, "rb") as fb:
+                for k, raw in enumerate(fb, start=1):
+                    try:
+                        raw.decode("utf-8")
+                    except UnicodeDecodeError:
+                        bad = k
+                        break
         raise ValueError(f"{path}:{bad}: not UTF-8 text ({exc.reason})") from None
+
+
+@contextmanager
+def open_text(path: PathLike | int, mode: str) -> Iterator[IO[str]]:
+    """Open ``path`` as UTF-8 text for reading (``"r"``) or writing (``"w"``).
+
+    * A file descriptor (int) is used and left open for the caller (``open(fd)`` would close
+      it on exit; issue 21, class 13).
+    * Writing a path that is a regular file or does not exist goes to a temporary file in the
+      same directory, renamed over ``path`` when complete: a failed write leaves ``path`` as it
+      was, and a hard link to another file (an input) is replaced, never written through
+      (class 10). Other paths (``/dev/null``, a pipe) are written directly.
+    """
+    if isinstance(path, bool):
+        raise TypeError(f"path: expected a path or a file descriptor, got {path!r}")
+    if isinstance(path, int):
+        with open(path, mode, encoding="utf-8", closefd=False) as fh:
+            yield fh
+        return
+    if mode != "w" or (os.path.exists(path) and not os.path.isfile(path)):
+        with open(path, mode, encoding="utf-8") as fh:
+            yield fh
+        return
+    target = os.fspath(path)
+    tmp = os.path.join(
+        os.path.dirname(os.path.abspath(target)), f".liebridge-{secrets.token_hex(8)}.tmp"
+    )
+    # a new file: created with mode 0o666 minus the umask, as open(path, "w") would do
+    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+    try:
+        with open(fd, "w", encoding="utf-8") as fh:
+            yield fh
+        if os.path.exists(target):
+            shutil.copymode(target, tmp)
+        os.replace(tmp, target)
+    except BaseException:
+        with suppress(OSError):
+            os.unlink(tmp)
+        raise
 
 
 def _data_lines(path: PathLike) -> list[tuple[int, list[str]]]:
@@ -74,25 +118,37 @@ def _data_lines(path: PathLike) -> list[tuple[int, list[str]]]:
     return out
 
 
+def field_numbers(
+    fields: list[str], names: list[str], tag: str = ""
+) -> tuple[list[float], str | None]:
+    """Parse ``fields`` as finite floats; return them, or a message naming the first bad field.
+
+    ``names`` names each field (``"qx"``, ``"information[0, 1]"``); the message is
+    ``"not a number: 'abc' in field 5 (qx)"`` or ``"NaN or Inf in field 5 (qx): 'nan'"``, with
+    `` (TAG)`` after the kind of fault when ``tag`` is given. Fields count from 1 within
+    ``fields``.
+    """
+    vals: list[float] = []
+    t = f" ({tag})" if tag else ""
+    for k, (f, name) in enumerate(zip(fields, names, strict=True)):
+        try:
+            x = float(f)
+        except ValueError:
+            return vals, f"not a number: {f!r}{t} in field {k + 1} ({name})"
+        if not math.isfinite(x):
+            return vals, f"NaN or Inf{t} in field {k + 1} ({name}): {f!r}"
+        vals.append(x)
+    return vals, None
+
+
 def _numbers(path: PathLike, lineno: int, fields: list[str], n: int, what: str) -> list[float]:
     if len(fields) != n:
         raise ValueError(f"{path}:{lineno}: expected {n} numbers ({what}), got {len(fields)}")
-    try:
-        vals = [float(f) for f in fields]
-    except ValueError:
-        bad = next(f for f in fields if not _is_float(f))
-        raise ValueError(f"{path}:{lineno}: not a number: {bad!r} ({what})") from None
-    if not all(np.isfinite(vals)):
-        raise ValueError(f"{path}:{lineno}: NaN or Inf ({what})")
+    names = what.split() if len(what.split()) == n else [f"{what} [{k}]" for k in range(n)]
+    vals, bad = field_numbers(fields, names)
+    if bad is not None:
+        raise ValueError(f"{path}:{lineno}: {bad}")
     return vals
-
-
-def _is_float(s: str) -> bool:
-    try:
-        float(s)
-    except ValueError:
-        return False
-    return True
 
 
 def _fmt(x: float) -> str:
@@ -161,7 +217,7 @@ def write_tum(path: PathLike, timestamps: Any, poses: Any) -> None:
     x = _layouts.from_matrix(T, layout="xyz_qxyzw")
     lines = ["# timestamp tx ty tz qx qy qz qw\n"]
     lines += [" ".join(map(_fmt, (ti, *xi))) + "\n" for ti, xi in zip(t, x, strict=True)]
-    with open(path, "w", encoding="utf-8") as fh:
+    with open_text(path, "w") as fh:
         fh.writelines(lines)
 
 
@@ -184,7 +240,7 @@ def read_kitti(path: PathLike) -> FloatArray:
         On a malformed line (wrong count, not a number, rotation not orthonormal within the
         printed precision), naming the file and line number.
     """
-    what = "3x4 [R | t] row-major"
+    what = "r11 r12 r13 tx r21 r22 r23 ty r31 r32 r33 tz"  # the 3x4 [R | t], row-major
     rows = []
     for lineno, fields in _data_lines(path):
         vals = _numbers(path, lineno, fields, 12, what)
@@ -217,5 +273,5 @@ def write_kitti(path: PathLike, poses: Any) -> None:
     if T.ndim != 3:
         raise ValueError(f"poses: expected shape (N, 4, 4), got {T.shape}")
     x = _layouts.from_matrix(T, layout="kitti")
-    with open(path, "w", encoding="utf-8") as fh:
+    with open_text(path, "w") as fh:
         fh.writelines(" ".join(map(_fmt, xi)) + "\n" for xi in x)
