@@ -132,7 +132,7 @@ BAD = [
         r"g\.g2o:3: EDGE2 information is not positive definite in g2o's order",
     ),
     ("ROBOTLASER1 0 0\n", r"g\.g2o:1: unsupported tag 'ROBOTLASER1'"),
-    ("VERTEX_SE2 -3 0 0 0\n", r"g\.g2o:1: vertex id -3 is negative"),
+    ("VERTEX_SE2 -3 0 0 0\n", r"g\.g2o:1: vertex id -3 is outside \[0, 2\*\*64 - 2\]"),
 ]
 
 

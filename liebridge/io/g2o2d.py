@@ -59,7 +59,7 @@ from .trajectory import text_lines
 __all__ = ["G2OGraph2D", "is_2d", "read", "write"]
 
 PathLike = str | os.PathLike[str]
-IntArray = npt.NDArray[np.int64]
+KeyArray = npt.NDArray[np.uint64]  # vertex ids are GTSAM keys: uint64
 Edge2Order = Literal["auto", "g2o", "toro"]
 
 _2D_VERTEX = ("VERTEX_SE2", "VERTEX2")
@@ -116,11 +116,11 @@ class G2OGraph2D:
 
     Attributes
     ----------
-    vertex_ids : ndarray of int64, shape (N,)
+    vertex_ids : ndarray of uint64, shape (N,)
         Vertex ids (GTSAM keys in :meth:`to_gtsam`).
     vertex_xytheta : ndarray, shape (N, 3)
         Poses ``T_world_vertex`` as ``(x, y, θ)``, exactly as read.
-    edges : ndarray of int64, shape (M, 2)
+    edges : ndarray of uint64, shape (M, 2)
         ``(i, j)`` per edge.
     measured_xytheta : ndarray, shape (M, 3)
         ``Z = T_i_j`` as ``(x, y, θ)``, exactly as read.
@@ -137,9 +137,9 @@ class G2OGraph2D:
         True when the file had no vertex lines and the poses were chained from odometry.
     """
 
-    vertex_ids: IntArray
+    vertex_ids: KeyArray
     vertex_xytheta: FloatArray
-    edges: IntArray
+    edges: KeyArray
     measured_xytheta: FloatArray
     information: FloatArray
     fixed: tuple[int, ...] = ()
@@ -319,13 +319,13 @@ def read(path: PathLike, *, edge2: Edge2Order = "auto") -> G2OGraph2D:
             except ValueError as exc:
                 raise P.fail(e_lines[k], f"{exc} (over (x, y, theta))") from None
         raise
-    edges = np.array(e_ids, dtype=np.int64).reshape(-1, 2)
+    edges = np.array(e_ids, dtype=np.uint64).reshape(-1, 2)
     measured = eraw[:, :3].copy()
     from_odometry = not v_ids
     if from_odometry:
         ids, vpar = _chain_odometry(P, edges, measured)
     else:
-        ids = np.array(v_ids, dtype=np.int64)
+        ids = np.array(v_ids, dtype=np.uint64)
         vpar = np.array(v_raw, dtype=np.float64).reshape(-1, 3)
         for k, (i, j) in enumerate(e_ids):
             for end in (i, j):
@@ -351,11 +351,11 @@ def read(path: PathLike, *, edge2: Edge2Order = "auto") -> G2OGraph2D:
 
 
 def _chain_odometry(
-    P: _Parser, edges: IntArray, measured: FloatArray
-) -> tuple[IntArray, FloatArray]:
+    P: _Parser, edges: KeyArray, measured: FloatArray
+) -> tuple[KeyArray, FloatArray]:
     """Chain initial poses by composing odometry edges ``(k−1, k)`` (or ``(k, k−1)``, inverted)."""
     if edges.shape[0] == 0:
-        return np.zeros(0, dtype=np.int64), np.zeros((0, 3))
+        return np.zeros(0, dtype=np.uint64), np.zeros((0, 3))
     ids = np.unique(edges)
     Z = pose2_matrix(measured)
     step: dict[int, FloatArray] = {}
@@ -375,7 +375,7 @@ def _chain_odometry(
                 "initial values (add VERTEX_SE2 lines)"
             )
         T[n] = T[n - 1] @ step[k]
-    return ids.astype(np.int64), pose2_params(T)
+    return ids.astype(np.uint64), pose2_params(T)
 
 
 def write(path: PathLike, graph: G2OGraph2D) -> None:
