@@ -190,14 +190,13 @@ def to_library(T: Any, like: Any, name: str = "T") -> Any:
     """
     key = library_key(like)
     build = _BUILD.get(key) if key is not None else None
+    cls: Any = like if isinstance(like, type) else type(like)
     if key is None or build is None:
-        cls = like if isinstance(like, type) else type(like)
         names = ", ".join(f"{root}.{c}" for root, c in _BUILD)
         raise TypeError(
             f"like: expected an object or class among {names}; got {cls.__module__}.{cls.__name__}"
         )
     group, how, vectorized = build
-    cls: Any = like if isinstance(like, type) else type(like)
     if group == "SE3":
         M = v.pose(T, name)
     elif group == "SO3":
