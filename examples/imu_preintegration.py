@@ -24,7 +24,7 @@ What to look at
     between tangent and on-manifold preintegration (the "max |Δp|" line), not the factor. The
     liebridge graph is optimized with :func:`liebridge.gtsam.optimize`; ``--gtsam-lm-too`` also
     runs GTSAM's own optimizer on it, which is much slower because every ``CustomFactor``
-    callback copies the whole ``Values`` there (``shared/reference/conventions.md``; whole
+    callback copies the whole ``Values`` there (``docs/library-facts.md``; whole
     sequence, 469 keyframes: 2.9 s with liebridge's optimizer, 24.5 s with GTSAM's, 0.3 s for
     the native graph). Run with ``--samples N`` to use only the first N IMU samples (the test
     suite uses 1,500); the whole sequence takes about ten seconds.

@@ -2,7 +2,7 @@
 
 Inside GTSAM's own optimizers every ``CustomFactor`` callback receives a copy of the whole
 ``Values`` (measured: ≈16 µs at 200 poses, ≈4 ms at 20,000 — 94 s instead of 2.8 s on
-sphere2500, ``shared/reference/conventions.md``). ``graph.linearize(values)`` and
+sphere2500, ``docs/library-facts.md``). ``graph.linearize(values)`` and
 ``graph.error(values)`` called from Python pass the caller's ``Values`` without that copy. This
 module runs GTSAM's Levenberg–Marquardt algorithm around those two calls:
 

@@ -20,7 +20,7 @@ Layouts (element order; who uses it):
 * ``"matrix"`` — ``(4, 4)`` homogeneous ``[[R, t], [0, 1]]``: liebridge's canonical form, GTSAM
   ``Pose3.matrix()``.
 
-Evidence for the library rows: ``shared/reference/conventions.md`` (quaternion storage column)
+Evidence for the library rows: ``docs/library-facts.md`` (quaternion storage column)
 and, for pytransform3d and Pinocchio, the tests in ``tests/test_poses.py`` which run them.
 
 Reading (:func:`to_matrix`) never repairs input silently: a quaternion whose norm is off by more

@@ -123,7 +123,7 @@ def slerp(q0: Any, q1: Any, tau: Any, *, order: QuatOrder) -> FloatArray:
     """Spherical linear interpolation along the **short** arc.
 
     When ``q0·q1 < 0`` one input is negated first (otherwise the path would take the 360°-long
-    way, the design note's pitfall 11.4). ``tau`` broadcasts against the batch shape.
+    way, pitfall P4 of docs/common-formula-errors.md). ``tau`` broadcasts against the batch shape.
     """
     _check_order(order)
     a = v.quaternion(q0, "q0")
