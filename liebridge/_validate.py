@@ -175,6 +175,22 @@ def as_float_array(x: Any, name: str) -> FloatArray:
         ) from None
 
 
+def option(value: Any, name: str, choices: tuple[str, ...]) -> str:
+    """Return the string option ``value`` stripped and in lower case if it is one of ``choices``.
+
+    Every string option of liebridge (``method=``, ``information=``, ``order=``, ``layout=``,
+    preset names) is read this way: ``"GTSAM"``, ``" gtsam "`` and ``"gtsam"`` are the same value.
+    """
+    if isinstance(value, str):
+        key = value.strip().lower()
+        if key in choices:
+            return key
+    allowed = " or ".join(repr(c) for c in choices)
+    if len(choices) > 2:
+        allowed = "one of " + ", ".join(repr(c) for c in choices)
+    raise ValueError(f"{name}: expected {allowed}, got {value!r}")
+
+
 def check_finite(arr: FloatArray, name: str, core_ndim: int | None = None) -> None:
     """Raise if ``arr`` holds NaN or Inf, naming the first offending index.
 

@@ -53,6 +53,11 @@ def say(*parts: Any) -> None:
     print(*parts, file=sys.stderr, flush=True)
 
 
+def option_value(text: str) -> str:
+    """Read a command-line option value as the API reads string options: stripped, lower case."""
+    return text.strip().lower()
+
+
 def positive_int(text: str) -> int:
     """``argparse`` type: an integer ≥ 1."""
     try:

@@ -23,6 +23,7 @@ from ._common import (
     check_output_path,
     convention_arg,
     format_matrix,
+    option_value,
     tangent_label,
 )
 
@@ -205,6 +206,7 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument(
         "--method",
+        type=option_value,
         choices=("linear", "unscented"),
         default="linear",
         help="linear (M Σ Mᵀ, default) or unscented (sigma points through the exact map; for "

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from ._common import CLIError, check_output_path
+from ._common import CLIError, check_output_path, option_value
 
 __all__ = ["add_parser"]
 
@@ -25,7 +25,7 @@ _READINGS = ("g2o", "gtsam")
 
 
 def _pair(text: str) -> tuple[str, str]:
-    src, sep, dst = text.partition(":")
+    src, sep, dst = option_value(text).partition(":")
     if not sep or src not in _READINGS or dst not in _READINGS:
         raise argparse.ArgumentTypeError(
             f"expected FROM:TO with FROM and TO each g2o or gtsam (e.g. g2o:gtsam), got {text!r}"
@@ -94,6 +94,7 @@ def add_parser(sub: Any) -> None:
     )
     c.add_argument(
         "--edge3",
+        type=option_value,
         choices=("sqrt_information", "information"),
         default="sqrt_information",
         help="for EDGE3 input read as g2o: the 21 numbers are iSAM's square-root information "

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from .._validate import FloatArray
-from ._common import CLIError, check_output_path, convention_arg, need_matplotlib, say
+from ._common import CLIError, check_output_path, convention_arg, need_matplotlib, option_value, say
 
 __all__ = ["DEFAULT_DATASET", "add_parser", "plot_trajectories", "resolve_dataset"]
 
@@ -277,6 +277,7 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument(
         "--information",
+        type=option_value,
         choices=("g2o", "gtsam"),
         default="g2o",
         help="what the file's information numbers mean: g2o = the format's own definition "
@@ -285,6 +286,7 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument(
         "--edge3",
+        type=option_value,
         choices=("sqrt_information", "information"),
         default="sqrt_information",
         help="with --information g2o: EDGE3's 21 numbers are iSAM's square-root information "

@@ -12,6 +12,7 @@ import re
 from typing import Any
 
 from ..conventions import PRESETS, Convention
+from ._common import option_value
 
 __all__ = ["add_parser", "evidence_summary", "render", "rows"]
 
@@ -181,6 +182,7 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument(
         "--format",
+        type=option_value,
         choices=("table", "markdown", "json"),
         default="table",
         help="output format (default: table; markdown is the README's table; json has the "

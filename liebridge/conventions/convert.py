@@ -130,6 +130,8 @@ def convert_covariance(
     -------
     ndarray, shape (..., n, n)
     """
+    if method != "linear" and method != "unscented":  # "Linear", " unscented": as all options
+        method = v.option(method, "method", ("linear", "unscented"))
     a, b = get(src), get(dst)
     Xa = group_input(X)
     rotation = Xa.shape[-1] == 3
@@ -142,8 +144,6 @@ def convert_covariance(
         # a batch: numpy multiplies stacks of small matrices fast only when they are contiguous
         Mt = M.T if M.ndim == 2 else np.ascontiguousarray(M.swapaxes(-1, -2))
         return v.finite_output(M @ cov @ Mt, "convert_covariance")
-    if method != "unscented":
-        raise ValueError(f"method: expected 'linear' or 'unscented', got {method!r}")
     pts, w = _sigma5(n)
     S = _sqrt_psd(cov)  # (..., n, n), S Sᵀ = Σ
     deltas = np.einsum("...ij,kj->...ki", S, pts)  # (..., K, n)

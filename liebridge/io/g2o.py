@@ -418,10 +418,8 @@ def read(
         On a malformed or unsupported line (naming the file and line number), an edge to a
         missing vertex, or a file without vertices whose odometry chain has a gap.
     """
-    if information not in ("g2o", "gtsam"):
-        raise ValueError(f"information: expected 'g2o' or 'gtsam', got {information!r}")
-    if edge3 not in ("sqrt_information", "information"):
-        raise ValueError(f"edge3: expected 'sqrt_information' or 'information', got {edge3!r}")
+    information = v.option(information, "information", ("g2o", "gtsam"))  # type: ignore[assignment]
+    edge3 = v.option(edge3, "edge3", ("sqrt_information", "information"))  # type: ignore[assignment]
     P = _Parser(path)
     v_ids: list[int] = []
     v_line: dict[int, int] = {}

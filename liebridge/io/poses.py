@@ -122,7 +122,7 @@ def _spec(layout: Any) -> _Spec:
     if not isinstance(layout, str):
         raise TypeError(f"layout: expected a layout name (str), got {type(layout).__name__}")
     try:
-        return _LAYOUTS[layout]
+        return _LAYOUTS[layout.strip().lower()]  # case and spaces as for every string option
     except KeyError:
         pass
     hints = difflib.get_close_matches(layout, list(_LAYOUTS), n=3, cutoff=0.5)
