@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -37,9 +36,10 @@ def _convert(args: argparse.Namespace) -> int:
     from ..io import g2o as g2o_io
 
     src, dst = args.information
-    inp, out = Path(args.input), check_output_path(args.output, "OUT")
-    if not inp.is_file():
-        raise CLIError(f"IN: no such file: {args.input}")
+    from .optimize import resolve_dataset
+
+    out = check_output_path(args.output, "OUT")
+    inp = resolve_dataset(args.input, "IN")  # a file, or a name in GTSAM's example data
     if out.exists() and out.resolve() == inp.resolve():
         raise CLIError("OUT is the input file; write to another path")
     g = g2o_io.read(inp, information=src, edge3=args.edge3)
@@ -83,7 +83,12 @@ def add_parser(sub: Any) -> None:
         "gtsam.readG2o reads them (block swap only: a 4× rotation weight). "
         "E.g. g2o:gtsam makes a g2o file read correctly by gtsam.readG2o.",
     )
-    c.add_argument("input", metavar="IN", help="the g2o (or EDGE3) file to read")
+    c.add_argument(
+        "input",
+        metavar="IN",
+        help="the g2o (or EDGE3) file to read; a bare name not found here is looked up in the "
+        "installed GTSAM's example data (e.g. sphere2500.txt), as liebridge optimize does",
+    )
     c.add_argument("output", metavar="OUT", help="the file to write")
     c.add_argument(
         "--information",

@@ -56,6 +56,15 @@ class OptimizeResult:
     converged: bool
     final_lambda: float
 
+    def __repr__(self) -> str:
+        """One line: the figures, and the size of ``values`` rather than every pose in it."""
+        return (
+            f"OptimizeResult(error {self.initial_error:.6g} -> {self.final_error:.6g}, "
+            f"{self.iterations} iterations, converged={self.converged}, "
+            f"{self.seconds:.3g} s, final_lambda={self.final_lambda:.3g}, "
+            f"values=<gtsam.Values, {self.values.size()} variables>)"
+        )
+
 
 class _Damping:
     """``√λ·I`` prior factors on every variable (GTSAM's ``buildDampedSystem``), cached per λ."""

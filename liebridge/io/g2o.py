@@ -271,6 +271,15 @@ class G2OGraph:
         object.__setattr__(self, "information", _readonly(0.5 * (info + info.transpose(0, 2, 1))))
         object.__setattr__(self, "fixed", tuple(int(i) for i in self.fixed))
 
+    def __repr__(self) -> str:
+        """One line: sizes and the information reading, not every array."""
+        fixed = f", fixed={list(self.fixed)}" if self.fixed else ""
+        origin = ", vertices chained from odometry" if self.vertices_from_odometry else ""
+        return (
+            f"G2OGraph({self.vertex_ids.shape[0]} vertices, {self.edges.shape[0]} edges, "
+            f"information_reading={self.information_reading!r}{fixed}{origin})"
+        )
+
     @cached_property
     def poses(self) -> FloatArray:
         """Vertex poses ``T_world_vertex``, ``(N, 4, 4)`` (read-only)."""
