@@ -119,7 +119,7 @@ def describe(layout: str) -> str:
 
 
 def _name(layout: str) -> str:
-    """The layout name as every string option is read: stripped, lower case."""
+    """Return the layout name read like every string option: stripped, lower case."""
     return layout.strip().lower()
 
 
