@@ -10,7 +10,7 @@ The numpy core (``lie``, ``conventions``, the conversion functions, ``poses``, `
 
 from typing import Any
 
-from . import check, conventions, io, lie
+from . import check, conventions, interop, io, lie
 from .conventions import (
     Convention,
     convert_covariance,
@@ -43,6 +43,7 @@ __all__ = [
     "gtsam_convention",
     "gtsam_glue",
     "imu",
+    "interop",
     "io",
     "is_exactly_linear",
     "lie",

@@ -22,6 +22,12 @@ rotation: float arithmetic on its entries; a covariance: exact symmetry and a Ch
 factorisation); when it does not accept, the exact check decides and, if it fails, explains. So a
 single pose costs about a microsecond to validate, a batch a few vectorized passes, and the error
 messages and tolerances are those of the exact check.
+
+Other libraries' objects: wherever an array is read, a pose or rotation object of GTSAM, Sophus
+(``sophuspy``, ``projectaria_tools.core.sophus``), Pinocchio, spatialmath or scipy (a list or tuple
+of them too) is read as its homogeneous matrix (:data:`LIBRARY_OBJECTS`), recognised by the module
+of its class, so none of these libraries is imported unless the object is already one of theirs.
+``liebridge.interop.to_library`` converts results back.
 """
 
 from __future__ import annotations
@@ -61,16 +67,98 @@ def _batch_index(mask: npt.NDArray[np.bool_]) -> tuple[int, ...]:
     return tuple(int(i) for i in idx[0]) if idx.size else ()
 
 
+# ----------------------------------------------------------------------------- library objects
+#: Pose and rotation classes of other libraries that every array argument accepts, as
+#: ``(top-level module of the class, class name) → (accessor, "matrix" | "method" | "attribute")``.
+#: The accessor returns the homogeneous matrix (``(4, 4)`` SE(3), ``(3, 3)`` SO(3) or SE(2),
+#: ``(2, 2)`` SO(2)), or a batch of them for the vectorized classes (scipy, spatialmath,
+#: projectaria). Sources: GTSAM 4.3 ``Pose3.matrix()``/``Rot3.matrix()``; sophuspy 1.2
+#: ``SE3.matrix()``; projectaria_tools 2.x ``SE3.to_matrix()``; Pinocchio 4 ``SE3.homogeneous``;
+#: spatialmath-python 1.1 ``SE3.A`` (a list for several values); scipy ≥ 1.16
+#: ``Rotation.as_matrix()``, ``RigidTransform.as_matrix()``.
+LIBRARY_OBJECTS: dict[tuple[str, str], tuple[str, str]] = {
+    ("gtsam", "Pose3"): ("matrix", "method"),
+    ("gtsam", "Rot3"): ("matrix", "method"),
+    ("gtsam", "Pose2"): ("matrix", "method"),
+    ("gtsam", "Rot2"): ("matrix", "method"),
+    ("sophuspy", "SE3"): ("matrix", "method"),
+    ("sophuspy", "SO3"): ("matrix", "method"),
+    # projectaria_tools.core.sophus: its classes live in the compiled module _core_pybinds.sophus
+    ("_core_pybinds", "SE3"): ("to_matrix", "method"),
+    ("_core_pybinds", "SO3"): ("to_matrix", "method"),
+    ("pinocchio", "SE3"): ("homogeneous", "attribute"),
+    ("spatialmath", "SE3"): ("A", "attribute"),
+    ("spatialmath", "SO3"): ("A", "attribute"),
+    ("spatialmath", "SE2"): ("A", "attribute"),
+    ("spatialmath", "SO2"): ("A", "attribute"),
+    ("scipy", "Rotation"): ("as_matrix", "method"),
+    ("scipy", "RigidTransform"): ("as_matrix", "method"),
+}
+_LIBRARY_ROOTS = frozenset(root for root, _ in LIBRARY_OBJECTS)
+_ACCEPTED = (
+    "a numeric array, or a pose/rotation of GTSAM (Pose3, Rot3, Pose2, Rot2), Sophus "
+    "(sophuspy, projectaria_tools: SE3, SO3), Pinocchio (SE3), spatialmath (SE3, SO3, SE2, SO2) "
+    "or scipy (Rotation, RigidTransform)"
+)
+
+
+def library_key(x: Any) -> tuple[str, str] | None:
+    """``(top-level module, class name)`` of ``x`` if its class belongs to a known library.
+
+    Only the class's ``__module__`` string is read: nothing is imported. ``None`` for anything
+    else (numbers, lists, arrays, objects of other libraries).
+    """
+    cls = type(x)
+    root = cls.__module__.partition(".")[0]
+    return (root, cls.__name__) if root in _LIBRARY_ROOTS else None
+
+
+def _library_matrix(x: Any, key: tuple[str, str], name: str) -> Any:
+    """Return the homogeneous matrix (or batch) of a known library's pose or rotation object."""
+    how = LIBRARY_OBJECTS.get(key)
+    if how is None:
+        raise TypeError(
+            f"{name}: {key[0]}.{key[1]} is not a pose or rotation liebridge reads; expected "
+            f"{_ACCEPTED}"
+        )
+    attr, kind = how
+    value = getattr(x, attr)
+    return value() if kind == "method" else value
+
+
+def _library_array(x: Any, name: str) -> Any:
+    """``x`` as an array if it is (a list/tuple of) known library objects, else ``x`` itself."""
+    key = library_key(x)
+    if key is not None:
+        return _library_matrix(x, key, name)
+    if type(x) in (list, tuple) and x:
+        key = library_key(x[0])
+        if key is not None:
+            mats = []
+            for k, item in enumerate(x):
+                if library_key(item) != key:
+                    raise TypeError(
+                        f"{name}: item {k} is a {type(item).__name__}, item 0 a "
+                        f"{key[0]}.{key[1]}: a sequence of poses holds one type"
+                    )
+                mats.append(_library_matrix(item, key, f"{name}[{k}]"))
+            return np.stack(mats)
+    return x
+
+
 def as_float_array(x: Any, name: str) -> FloatArray:
     """Convert ``x`` to a float64 array without mutating it, rejecting non-numeric input.
 
     A float64 ndarray is returned as it is (no copy). Complex input is a ``TypeError`` too:
     numpy's cast would silently drop the imaginary part; so are strings, bytes and datetimes.
+    A pose or rotation object of a known library (:data:`LIBRARY_OBJECTS`), or a list of them,
+    becomes its homogeneous matrix (a batch for a list or a vectorized object).
     """
     if type(x) is np.ndarray and x.dtype is _F64:
         return x
     if x is None:  # numpy would make it NaN
         raise TypeError(f"{name}: expected a numeric array, got None")
+    x = _library_array(x, name)
     try:
         arr = np.asarray(x)
     except (TypeError, ValueError) as exc:
@@ -82,6 +170,9 @@ def as_float_array(x: Any, name: str) -> FloatArray:
         raise TypeError(f"{name}: expected a real numeric array, got complex values")
     if kind in _NON_NUMERIC:
         raise TypeError(f"{name}: expected a numeric array, got dtype {arr.dtype}")
+    if kind == "O" and arr.ndim == 0:  # one object numpy cannot read: say what would be read
+        cls = type(x)
+        raise TypeError(f"{name}: expected {_ACCEPTED}; got {cls.__module__}.{cls.__qualname__}")
     try:
         return np.asarray(arr, dtype=np.float64)
     except OverflowError as exc:
@@ -90,6 +181,22 @@ def as_float_array(x: Any, name: str) -> FloatArray:
         raise TypeError(
             f"{name}: expected a numeric array, got {type(x).__name__} ({exc})"
         ) from None
+
+
+def option(value: Any, name: str, choices: tuple[str, ...]) -> str:
+    """Return the string option ``value`` stripped and in lower case if it is one of ``choices``.
+
+    Every string option of liebridge (``method=``, ``information=``, ``order=``, ``layout=``,
+    preset names) is read this way: ``"GTSAM"``, ``" gtsam "`` and ``"gtsam"`` are the same value.
+    """
+    if isinstance(value, str):
+        key = value.strip().lower()
+        if key in choices:
+            return key
+    allowed = " or ".join(repr(c) for c in choices)
+    if len(choices) > 2:
+        allowed = "one of " + ", ".join(repr(c) for c in choices)
+    raise ValueError(f"{name}: expected {allowed}, got {value!r}")
 
 
 def check_finite(arr: FloatArray, name: str, core_ndim: int | None = None) -> None:

@@ -343,8 +343,8 @@ CASES = [
     ),
     Case(
         "quaternion-order",
-        lambda: Q.to_matrix([1.0, 0.0, 0.0, 0.0], order="WXYZ"),  # type: ignore[arg-type]
-        r"order: expected 'wxyz' or 'xyzw', got 'WXYZ'",
+        lambda: Q.to_matrix([1.0, 0.0, 0.0, 0.0], order="qwxyz"),  # type: ignore[arg-type]
+        r"order: expected 'wxyz' or 'xyzw', got 'qwxyz'",
     ),
     Case(
         "covariance-method",

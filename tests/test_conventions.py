@@ -101,7 +101,7 @@ def test_edge_case_poses(conv, name):
 
 
 def test_first_order_maps_of_the_reference_table():
-    """shared/reference/conventions.md, "First-order maps from a GTSAM tangent" — all rows."""
+    """docs/library-facts.md, "First-order maps from a GTSAM tangent" — all rows."""
     rng = np.random.default_rng(6)
     X = random_poses(rng, ())
     R, t = X[:3, :3], X[:3, 3]

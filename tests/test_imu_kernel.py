@@ -44,21 +44,31 @@ def test_rotation_scan_equals_sequential_product(n: int, scale: float) -> None:
     assert np.abs(got[-1] @ got[-1].T - np.eye(3)).max() < 1e-15 * 8
 
 
-def test_rotation_scan_is_forward_substitution_bit_for_bit() -> None:
-    """ztbtrs performs the complex products of a sequential loop in the same order."""
+def test_rotation_scan_is_forward_substitution_to_rounding() -> None:
+    """ztbtrs performs the complex products of a sequential loop, to the rounding of each product.
+
+    Not bit for bit: OpenBLAS picks its kernel by CPU (``OPENBLAS_CORETYPE``), and the kernels
+    round each complex multiply-add differently (FMA contraction or not, the order of the four
+    real products). Each of the n = 200 steps may then differ by about 2 ulps with a random sign,
+    so the difference grows like √n: the bound is 4·√n ulps of 1 (|entries| ≤ 1). Measured
+    (OpenBLAS 0.3.30): 0 ulp on Haswell, Zen and Sandybridge, 3.5 on SkylakeX, 9.5 on Prescott;
+    a different algorithm (a parallel prefix product, a dropped normalisation) misses by far more.
+    """
+    n = 200
     rng = np.random.default_rng(3)
-    theta = rng.normal(size=(3, 200)) * 0.05
+    theta = rng.normal(size=(3, n)) * 0.05
     ch, qv = _increments(theta)
     R9, _ = K._rotation_scan(ch, qv, K.Workspace())
     alpha, beta = 1.0 + 0j, 0j
     quats = [(alpha, beta)]
-    for k in range(200):
+    for k in range(n):
         a2, b2 = complex(ch[k], qv[0, k]), complex(qv[1, k], qv[2, k])
         alpha, beta = alpha * a2 - beta * b2.conjugate(), alpha * b2 + beta * a2.conjugate()
         quats.append((alpha, beta))
     q4 = np.array([[a.real, a.imag, b.real, b.imag] for a, b in quats]).T
     ref, _ = K._quat_to_R9(q4, K.Workspace())
-    assert np.array_equal(R9, ref)
+    ulps = np.abs(R9 - ref).max() / np.finfo(np.float64).eps
+    assert ulps <= 4.0 * np.sqrt(n), f"{ulps:.1f} ulps from the sequential product"
 
 
 # ------------------------------------------------------------------------------------------------

@@ -213,7 +213,7 @@ def test_gtsam_bias_jacobians_ignore_a_rotated_sensor() -> None:
 
 
 def test_bias_corrected_is_first_order_and_beats_identity_jacobian() -> None:
-    """Pitfall 11.3 of the design note: dropping J_r from dR_dbg (or the whole J) costs accuracy.
+    """Pitfall P3 (docs/common-formula-errors.md): dropping J_r from dR_dbg costs accuracy.
 
     A fast-spinning synthetic IMU (3 rad/s, 50 Hz) makes the per-sample J_r(ω dt) far from I.
     """

@@ -254,7 +254,16 @@ def test_every_public_function_validates_order() -> None:
     assert set(_QUAT_CALLS) == set(Q.__all__)
 
 
-@pytest.mark.parametrize("bad", ["WXYZ", "xyz", "qxyzw", ""])
+@pytest.mark.parametrize("name", sorted(_QUAT_CALLS))
+def test_order_is_read_like_every_string_option(name: str) -> None:
+    """Case and surrounding spaces do not matter (as for preset names, layouts, methods)."""
+    for good in ORDERS:
+        np.testing.assert_array_equal(
+            _QUAT_CALLS[name](f" {good.upper()} "), _QUAT_CALLS[name](good)
+        )
+
+
+@pytest.mark.parametrize("bad", ["xyz", "qxyzw", "", "w x y z"])
 @pytest.mark.parametrize("name", sorted(_QUAT_CALLS))
 def test_order_validation_error(name: str, bad: str) -> None:
     for good in ORDERS:

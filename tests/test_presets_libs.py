@@ -13,7 +13,7 @@ A preset is a claim about a library; this file measures it. Every library is imp
   ``concat_*_uncertain_transforms`` (Monte Carlo), ``pq`` storage.
 * spatialmath-python 1.1 (``Twist3`` = (v, ω), ``UnitQuaternion.vec`` = wxyz) and scipy 1.17
   (``Rotation``, ``RigidTransform.from_exp_coords`` = (ω, v), ``as_quat`` orders): no preset, but
-  facts of ``reference/conventions.md`` that liebridge's kernel and layouts rely on.
+  facts of ``docs/library-facts.md`` that liebridge's kernel and layouts rely on.
 * :func:`liebridge.detect_convention` on each library's own retraction.
 
 Inputs are built with scipy's ``Rotation.from_rotvec`` (or mpmath), not with liebridge, so a bug in

@@ -1,8 +1,8 @@
 """Public numerical checks: users test their own Jacobians and conversions with these.
 
 ``numerical_jacobian`` differentiates through a *given* retraction and local map — a Jacobian is
-only meaningful with respect to the chart it claims, so the check must use that chart (the design
-note's lesson: finite differences through raw matrix addition test nothing).
+only meaningful with respect to the chart it claims, so the check must use that chart (finite
+differences through raw matrix addition test nothing; see docs/common-formula-errors.md).
 """
 
 from .jacobian import assert_jacobian, numerical_jacobian

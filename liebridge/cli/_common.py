@@ -57,6 +57,11 @@ def say(*parts: Any) -> None:
 MAX_INT = 2**31 - 1
 
 
+def option_value(text: str) -> str:
+    """Read a command-line option value as the API reads string options: stripped, lower case."""
+    return text.strip().lower()
+
+
 def positive_int(text: str) -> int:
     """``argparse`` type: an integer in ``[1, MAX_INT]``."""
     try:

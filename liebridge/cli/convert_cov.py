@@ -23,6 +23,7 @@ from ._common import (
     check_output_path,
     convention_arg,
     format_matrix,
+    option_value,
     tangent_label,
 )
 
@@ -88,23 +89,40 @@ def read_square(text: str, dim: int, what: str) -> FloatArray:
 
 def _header(a: Convention, b: Convention, args: argparse.Namespace, exact: bool) -> list[str]:
     what = "information" if args.information else "covariance"
-    how = (
-        "exact (the tangents differ by side, order, scale or translation frame: linear)"
-        if exact
-        else (
-            "first order (chart or rotation coordinates change: not linear); "
-            + (
-                "unscented sigma points"
-                if args.method == "unscented"
-                else "try --method unscented for a large covariance"
-            )
+    if exact:
+        how = "exact (the tangents differ by side, order, scale or translation frame: linear)"
+    elif args.method == "unscented":
+        how = (
+            "unscented (fifth-degree sigma points through the exact change of tangent: the "
+            "chart or rotation coordinates change, which is not linear)"
         )
-    )
+    else:
+        how = (
+            "first order (chart or rotation coordinates change: not linear); try --method "
+            "unscented for a large covariance"
+        )
     return [
         f"# {what} from {a.name} [{tangent_label(a)}]",
         f"# to {b.name} [{tangent_label(b)}]",
         f"# conversion: {how}",
     ]
+
+
+#: Entries whose correlation ``|A_ij| / √(A_ii A_jj)`` is below this are rounding residue of an
+#: exact zero (a permutation, rotations and isotropic blocks give 1e-19 where 0 belongs): printed
+#: as 0. About 16 ulps of 1: a product ``R·Σ·Rᵀ`` rounds each entry to a few ulps of its scale.
+ZERO_CORRELATION = 16 * float(np.finfo(np.float64).eps)
+
+
+def snap_rounding_zeros(A: FloatArray) -> tuple[FloatArray, int]:
+    """Return ``A`` with its rounding-level entries set to 0, and how many were set.
+
+    Rounding level: see :data:`ZERO_CORRELATION`. ``A`` itself is not modified.
+    """
+    d = np.sqrt(np.abs(np.diagonal(A, axis1=-2, axis2=-1)))
+    scale = d[..., :, None] * d[..., None, :]
+    small = (np.abs(A) <= ZERO_CORRELATION * scale) & (A != 0)
+    return np.where(small, 0.0, A), int(small.sum())
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -140,10 +158,16 @@ def _run(args: argparse.Namespace) -> int:
         raise CLIError(msg) from None
     exact = is_exactly_linear(a, b)
     header = _header(a, b, args, exact)
+    shown, n_snapped = snap_rounding_zeros(out)
+    if n_snapped:
+        header.append(
+            f"# {n_snapped} entries at rounding level (|correlation| ≤ {ZERO_CORRELATION:.1e}) "
+            "printed as 0 (exact zeros; --out FILE.npy keeps the raw doubles)"
+        )
     if out.ndim == 2:
-        body = format_matrix(out)
+        body = format_matrix(shown)
     else:
-        flat = out.reshape(-1, n, n)
+        flat = shown.reshape(-1, n, n)
         body = "\n\n".join(f"# [{k}]\n{format_matrix(m)}" for k, m in enumerate(flat))
     text = "\n".join([*header, body]) + "\n"
     if out_path is None:
@@ -205,6 +229,7 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument(
         "--method",
+        type=option_value,
         choices=("linear", "unscented"),
         default="linear",
         help="linear (M Σ Mᵀ, default) or unscented (sigma points through the exact map; for "

@@ -13,12 +13,11 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import os
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ._common import CLIError, check_output_path
+from ._common import CLIError, check_output_path, option_value
 
 __all__ = ["add_parser"]
 
@@ -26,7 +25,7 @@ _READINGS = ("g2o", "gtsam")
 
 
 def _pair(text: str) -> tuple[str, str]:
-    src, sep, dst = text.partition(":")
+    src, sep, dst = option_value(text).partition(":")
     if not sep or src not in _READINGS or dst not in _READINGS:
         raise argparse.ArgumentTypeError(
             f"expected FROM:TO with FROM and TO each g2o or gtsam (e.g. g2o:gtsam), got {text!r}"
@@ -38,9 +37,10 @@ def _convert(args: argparse.Namespace) -> int:
     from ..io import g2o as g2o_io
 
     src, dst = args.information
-    inp, out = Path(args.input), check_output_path(args.output, "OUT")
-    if not inp.is_file():
-        raise CLIError(f"IN: no such file: {args.input}")
+    from .optimize import resolve_dataset
+
+    out = check_output_path(args.output, "OUT")
+    inp = resolve_dataset(args.input, "IN")  # a file, or a name in GTSAM's example data
     if out.exists() and (out.resolve() == inp.resolve() or os.path.samefile(out, inp)):
         raise CLIError(
             "OUT is the input file (the same file, or a link to it); write to another path"
@@ -86,7 +86,12 @@ def add_parser(sub: Any) -> None:
         "gtsam.readG2o reads them (block swap only: a 4× rotation weight). "
         "E.g. g2o:gtsam makes a g2o file read correctly by gtsam.readG2o.",
     )
-    c.add_argument("input", metavar="IN", help="the g2o (or EDGE3) file to read")
+    c.add_argument(
+        "input",
+        metavar="IN",
+        help="the g2o (or EDGE3) file to read; a bare name not found here is looked up in the "
+        "installed GTSAM's example data (e.g. sphere2500.txt), as liebridge optimize does",
+    )
     c.add_argument("output", metavar="OUT", help="the file to write")
     c.add_argument(
         "--information",
@@ -97,6 +102,7 @@ def add_parser(sub: Any) -> None:
     )
     c.add_argument(
         "--edge3",
+        type=option_value,
         choices=("sqrt_information", "information"),
         default="sqrt_information",
         help="for EDGE3 input read as g2o: the 21 numbers are iSAM's square-root information "

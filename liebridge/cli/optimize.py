@@ -23,9 +23,15 @@ from typing import Any
 import numpy as np
 
 from .._validate import FloatArray
-from ._common import CLIError, check_output_path, convention_arg, need_matplotlib, say
+from ._common import CLIError, check_output_path, convention_arg, need_matplotlib, option_value, say
 
-__all__ = ["DEFAULT_DATASET", "add_parser", "plot_trajectories", "resolve_dataset"]
+__all__ = [
+    "DEFAULT_DATASET",
+    "add_parser",
+    "plot_trajectories",
+    "position_sigma",
+    "resolve_dataset",
+]
 
 #: The file ``liebridge optimize`` reads without arguments (from the installed GTSAM's data).
 DEFAULT_DATASET = "sphere2500.txt"
@@ -34,15 +40,19 @@ PRIOR_SIGMA = 1e-4
 _PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg")
 
 
-def resolve_dataset(name: str | None) -> Path:
-    """Return ``name`` if it is a file, else the file of that name in GTSAM's example data."""
+def resolve_dataset(name: str | None, what: str = "FILE") -> Path:
+    """Return ``name`` if it is a file, else the file of that name in GTSAM's example data.
+
+    Used by every subcommand that reads a pose-graph file (``optimize``, ``g2o convert``);
+    ``what`` names the argument in the error.
+    """
     if name is None:
         name = DEFAULT_DATASET
     path = Path(name)
     if path.is_file():
         return path
     if path.is_dir():
-        raise CLIError(f"FILE: {name!r} is a directory")
+        raise CLIError(f"{what}: {name!r} is a directory")
     if path.name == name:  # a bare name: look in GTSAM's example data
         import gtsam
 
@@ -50,7 +60,7 @@ def resolve_dataset(name: str | None) -> Path:
             return Path(gtsam.findExampleDataFile(name))
         except (OSError, RuntimeError, ValueError, IndexError):
             pass
-    raise CLIError(f"FILE: no such file: {name} (nor in GTSAM's example data)")
+    raise CLIError(f"{what}: no such file: {name} (nor in GTSAM's example data)")
 
 
 def _params(max_iterations: int) -> Any:
@@ -70,6 +80,20 @@ def _factor_kind(conv: Any) -> str:
     return (
         f"liebridge custom factors ({conv.name}'s own residual, exact Jacobians, evaluated in "
         "one batched pass): the conversion to GTSAM's tangent is not linear"
+    )
+
+
+def _semantics_line(information: str) -> str:
+    """One line: which information semantics the errors above are in, and how to get the other."""
+    if information == "g2o":
+        return (
+            "semantics: the file format's own information (g2o's definition), not gtsam.readG2o's "
+            "(which weighs EDGE_SE3:QUAT rotations 4×, EDGE3 as-is): --information gtsam gives "
+            "GTSAM's numbers"
+        )
+    return (
+        "semantics: the information as gtsam.readG2o reads it (GTSAM's numbers); "
+        "--information g2o follows the file format's own definition"
     )
 
 
@@ -139,10 +163,34 @@ def _build(g: Any, conv: Any) -> Any:
     return cg
 
 
+def position_sigma(cov: FloatArray, poses: FloatArray, conv: Any) -> FloatArray:
+    """``√trace`` of each pose's world-frame position covariance, from marginals in ``conv``.
+
+    The position block of the marginal mapped to ROS's tangent (position in the parent frame,
+    :func:`liebridge.convert_covariance` to ``"ros"``, first order): the same for every
+    convention the marginals were computed in.
+    """
+    from ..conventions.convert import convert_covariance
+
+    pos = convert_covariance(cov, poses, conv, "ros")[..., :3, :3]
+    return np.asarray(np.sqrt(np.trace(pos, axis1=-2, axis2=-1)), dtype=np.float64)
+
+
 def plot_trajectories(
-    initial: FloatArray, optimized: FloatArray, path: Path, title: str, *, plt: Any = None
+    initial: FloatArray,
+    optimized: FloatArray,
+    path: Path,
+    title: str,
+    *,
+    plt: Any = None,
+    sigma: FloatArray | None = None,
 ) -> None:
-    """Two 3D panels: initial and optimized vertex positions, joined in vertex order."""
+    """Two 3D panels: initial and optimized vertex positions, joined in vertex order.
+
+    Axes in the file's length unit (metres for GTSAM's example data). With ``sigma`` (one value
+    per pose, see :func:`position_sigma`) the optimized poses are coloured by their position
+    standard deviation from the marginals, with a colour bar.
+    """
     plt = plt if plt is not None else need_matplotlib()
     fig = plt.figure(figsize=(13, 6.2))
     for n, (P, label, color) in enumerate(
@@ -154,9 +202,12 @@ def plot_trajectories(
         ax.plot(x, y, z, color=color, linewidth=0.6, marker=marker, markersize=3)
         ax.scatter(x[:1], y[:1], z[:1], color="k", s=20, label="first vertex")
         ax.set_title(f"{label} ({P.shape[0]} poses)")
-        ax.set_xlabel("x")
-        ax.set_ylabel("y")
-        ax.set_zlabel("z")
+        ax.set_xlabel("x [m]")
+        ax.set_ylabel("y [m]")
+        ax.set_zlabel("z [m]")
+        if sigma is not None and label == "optimized":
+            sc = ax.scatter(x, y, z, c=sigma, cmap="viridis", s=6, depthshade=False)
+            fig.colorbar(sc, ax=ax, shrink=0.6, pad=0.1, label="position σ [m] (marginals)")
         span = np.ptp(P[:, :3, 3], axis=0).max() / 2 or 1.0
         mid = (P[:, :3, 3].max(axis=0) + P[:, :3, 3].min(axis=0)) / 2
         ax.set_xlim(mid[0] - span, mid[0] + span)
@@ -226,10 +277,12 @@ def _run(args: argparse.Namespace) -> int:
         raise _gtsam_error(exc, "the optimization") from None
     print(f"initial error: {result.initial_error:.6f}")
     print(f"final error: {result.final_error:.6f}")
+    print(_semantics_line(args.information))
     print(f"iterations: {result.iterations} (converged: {'yes' if result.converged else 'no'})")
     timings = [f"read {t_read:.2f} s", f"build {t_build:.2f} s", f"optimize {result.seconds:.2f} s"]
 
     keys = g.vertex_ids.tolist()
+    sigma = None
     if args.marginals is not None:
         t0 = time.perf_counter()
         say(f"marginal covariances of {n} poses (gtsam.Marginals), in {conv.name}'s tangent ...")
@@ -238,6 +291,7 @@ def _run(args: argparse.Namespace) -> int:
         except RuntimeError as exc:  # an ill-conditioned system at the optimum
             raise _gtsam_error(exc, "the marginal covariances") from None
         np.save(args.marginals, cov)
+        sigma = position_sigma(cov, cg.poses(keys), conv)
         timings.append(f"marginals {time.perf_counter() - t0:.2f} s")
         print(
             f"marginals: {args.marginals} (shape {cov.shape}, {conv.name}'s tangent, vertex order)"
@@ -248,7 +302,7 @@ def _run(args: argparse.Namespace) -> int:
             f"{path.name} in {conv.name}'s convention: error {result.initial_error:.6g} → "
             f"{result.final_error:.6g} in {result.iterations} iterations"
         )
-        plot_trajectories(g.poses, cg.poses(keys), Path(args.plot), title, plt=plt)
+        plot_trajectories(g.poses, cg.poses(keys), Path(args.plot), title, plt=plt, sigma=sigma)
         timings.append(f"plot {time.perf_counter() - t0:.2f} s")
         print(f"plot: {args.plot}")
     timings.append(f"total {time.perf_counter() - t_start:.2f} s")
@@ -277,6 +331,7 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument(
         "--information",
+        type=option_value,
         choices=("g2o", "gtsam"),
         default="g2o",
         help="what the file's information numbers mean: g2o = the format's own definition "
@@ -285,6 +340,7 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument(
         "--edge3",
+        type=option_value,
         choices=("sqrt_information", "information"),
         default="sqrt_information",
         help="with --information g2o: EDGE3's 21 numbers are iSAM's square-root information "
@@ -299,8 +355,9 @@ def add_parser(sub: Any) -> None:
     p.add_argument(
         "--plot",
         metavar="OUT.png",
-        help="write a 3D plot of the initial and "
-        'optimized trajectories (needs matplotlib: pip install "liebridge[plot]")',
+        help="write a 3D plot of the initial and optimized trajectories, axes in the file's "
+        "length unit (m); with --marginals the optimized poses are coloured by their position σ "
+        '(needs matplotlib: pip install "liebridge[plot]")',
     )
     p.add_argument(
         "--marginals",

@@ -12,6 +12,7 @@ import re
 from typing import Any
 
 from ..conventions import PRESETS, Convention
+from ._common import option_value
 
 __all__ = ["add_parser", "evidence_summary", "render", "rows"]
 
@@ -122,6 +123,26 @@ def render(fmt: str = "table") -> str:
     raise ValueError(f"format: expected 'table', 'markdown' or 'json', got {fmt!r}")
 
 
+def _markdown_one(c: Convention) -> str:
+    """One preset as markdown: its table row (the README's columns) and its full text."""
+    row = next(r for r in rows() if r["name"] == c.name)
+    cells = [f"`{row[k]}`" if k != "evidence" else row[k].replace("|", "\\|") for k in COLUMNS]
+    text = _describe_one(c).split("\n")
+    matrix = [line for line in text[5:]]
+    lines = [
+        f"### `{c.name}`",
+        "",
+        "| " + " | ".join(COLUMNS) + " |",
+        "|" + "|".join("---" for _ in COLUMNS) + "|",
+        "| " + " | ".join(cells) + " |",
+        "",
+        *(f"- **{line.partition(': ')[0]}**: {line.partition(': ')[2]}" for line in text[1:5]),
+    ]
+    if matrix:
+        lines += ["", "```text", *matrix, "```"]
+    return "\n".join(lines)
+
+
 def _describe_one(c: Convention) -> str:
     import numpy as np
 
@@ -156,6 +177,8 @@ def _run(args: argparse.Namespace) -> int:
         conv = convention_arg(args.name, "NAME")
         if args.format == "json":
             print(json.dumps(_as_dict(conv), indent=2, ensure_ascii=False))
+        elif args.format == "markdown":
+            print(_markdown_one(conv))
         else:
             print(_describe_one(conv))
         return 0
@@ -177,10 +200,11 @@ def add_parser(sub: Any) -> None:
         "name",
         nargs="?",
         metavar="NAME",
-        help="show one preset in full (with --format json: as JSON)",
+        help="show one preset in full (--format markdown: a table row and a list; json: as JSON)",
     )
     p.add_argument(
         "--format",
+        type=option_value,
         choices=("table", "markdown", "json"),
         default="table",
         help="output format (default: table; markdown is the README's table; json has the "

@@ -126,6 +126,8 @@ def convert_covariance(
     -------
     ndarray, shape (..., n, n)
     """
+    if method != "linear" and method != "unscented":  # "Linear", " unscented": as all options
+        method = v.option(method, "method", ("linear", "unscented"))
     a, b = get(src), get(dst)
     Xa = group_input(X)
     so3 = Xa.shape[-1] == 3

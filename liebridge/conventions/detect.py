@@ -96,9 +96,8 @@ def detect_convention(
     if not callable(retract):
         raise TypeError(f"retract: expected a callable retract(X, d), got {type(retract).__name__}")
     rng = rng or np.random.default_rng(20261122)
+    group = v.option(group, "group", ("se3", "so3"))  # type: ignore[assignment]
     n = 6 if group == "se3" else 3
-    if group not in ("se3", "so3"):
-        raise ValueError(f"group: expected 'se3' or 'so3', got {group!r}")
     X = U.se3_exp(np.array([0.4, -0.7, 0.5, 1.5, -2.0, 0.8]))
     if group == "so3":
         X = X[:3, :3].copy()

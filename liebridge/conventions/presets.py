@@ -1,7 +1,7 @@
 """Named presets for real libraries, each with its evidence.
 
 Notation: right = ``X·Exp(d)``, left = ``Exp(d)·X``; ``(ω, v)`` = rotation first. Evidence codes as
-in ``shared/reference/conventions.md``: **V** checked by running the library (and re-checked in
+in ``docs/library-facts.md``: **V** checked by running the library (and re-checked in
 ``tests/test_presets_*.py`` where it installs from PyPI), **S** read in its source, **D** docs.
 Every preset lists the defining identity of its ``retract`` and, where one tempts, a false one.
 A library without quaternions still gets a ``quat_order`` (it never enters a retraction); that is
@@ -22,7 +22,8 @@ GTSAM = Convention(
     source="V GTSAM 4.3.0 PyPI wheel (Pose3.retract, localCoordinates); S gtsam/base/Lie.h",
     notes=(
         "Pose3.retract(ξ) = X·Exp(ξ), ξ = (ω, v), true SE(3) exp (wheel built with "
-        "GTSAM_POSE3_EXPMAP=ON). False: retract(ξ) = Exp(ξ)·X (the design note's §6.4/§8.3 claim). "
+        "GTSAM_POSE3_EXPMAP=ON). False: retract(ξ) = Exp(ξ)·X (a common error, "
+        "docs/common-formula-errors.md E1). "
         "Quaternions: the constructor Rot3.Quaternion(w, x, y, z) takes wxyz; "
         "toQuaternion().coeffs() is Eigen's xyzw."
     ),

@@ -2,7 +2,7 @@
 
 GTSAM's ``CustomFactor`` callback is ``f(this, values, H)``: ``H`` is ``None`` for error-only
 calls, otherwise a list whose every entry must be *assigned* (an unset block crashes the process,
-a wrongly shaped one is accepted silently — see ``shared/reference/conventions.md``). This module
+a wrongly shaped one is accepted silently — see ``docs/library-facts.md``). This module
 is the only place that talks to that protocol: residuals are written as
 ``evaluate(values, want_jacobians) -> (error, [J_error_key, ...] | None)`` with every Jacobian
 taken with respect to **GTSAM's own tangent of that variable** (``Pose3``: right, (ω, v);

@@ -14,7 +14,7 @@ Jacobians in GTSAM's tangent columns (GTSAM retracts its variables its own way):
 
 ``J_j = D·M(H)``, ``J_i = −D·M(H)·Ad(H⁻¹)`` with ``H = T_i⁻¹T_j``, ``D = conv.local_jacobian(Z, H)``
 and ``M(H) = tangent_map(H, "gtsam", conv)``. For ``gtsam`` this is GTSAM's own
-``H2 = Jr⁻¹(e)``, ``H1 = −Jr⁻¹(e)·Ad(H⁻¹)`` (the design note's erratum 6). False, and tempting:
+``H2 = Jr⁻¹(e)``, ``H1 = −Jr⁻¹(e)·Ad(H⁻¹)`` (docs/common-formula-errors.md E6). False, and tempting:
 ``(−Ad(H⁻¹), I)`` — exact only at zero residual; on sphere2500 it converges elsewhere.
 """
 

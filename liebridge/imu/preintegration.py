@@ -25,8 +25,9 @@ Conventions
   ``preintMeasCov()`` and ``residualCovariance()`` (the ``ImuFactor`` noise model).
 * Bias vectors are ``(acc, gyro)`` (``ConstantBias.vector()`` order). Bias Jacobians:
   ``ΔR(b̂ + δb) ≈ ΔR·Exp(dR_dbg δb_g)`` (right perturbation, with the right Jacobian ``J_r``:
-  ``dR_dbg = −Σ_k ΔR_{k+1,N}ᵀ J_r(ω_k dt_k) dt_k``, design note §9.3), while ``Δp`` and ``Δv``
-  are corrected additively in frame ``i``: ``Δp + dp_dba δb_a + dp_dbg δb_g``.
+  ``dR_dbg = −Σ_k ΔR_{k+1,N}ᵀ J_r(ω_k dt_k) dt_k``, Forster et al. 2017; pitfall P3 of
+  docs/common-formula-errors.md), while ``Δp`` and ``Δv`` are corrected additively in frame
+  ``i``: ``Δp + dp_dba δb_a + dp_dbg δb_g``.
 
 Vectorization
 -------------

@@ -310,6 +310,15 @@ class G2OGraph:
         fixed = _ids(np.asarray(list(self.fixed), dtype=object), "fixed")
         object.__setattr__(self, "fixed", tuple(int(i) for i in fixed))
 
+    def __repr__(self) -> str:
+        """One line: sizes and the information reading, not every array."""
+        fixed = f", fixed={list(self.fixed)}" if self.fixed else ""
+        origin = ", vertices chained from odometry" if self.vertices_from_odometry else ""
+        return (
+            f"G2OGraph({self.vertex_ids.shape[0]} vertices, {self.edges.shape[0]} edges, "
+            f"information_reading={self.information_reading!r}{fixed}{origin})"
+        )
+
     @cached_property
     def poses(self) -> FloatArray:
         """Vertex poses ``T_world_vertex``, ``(N, 4, 4)`` (read-only)."""
@@ -477,10 +486,8 @@ def read(
         On a malformed or unsupported line (naming the file and line number), an edge to a
         missing vertex, or a file without vertices whose odometry chain has a gap.
     """
-    if information not in ("g2o", "gtsam"):
-        raise ValueError(f"information: expected 'g2o' or 'gtsam', got {information!r}")
-    if edge3 not in ("sqrt_information", "information"):
-        raise ValueError(f"edge3: expected 'sqrt_information' or 'information', got {edge3!r}")
+    information = v.option(information, "information", ("g2o", "gtsam"))  # type: ignore[assignment]
+    edge3 = v.option(edge3, "edge3", ("sqrt_information", "information"))  # type: ignore[assignment]
     P = _Parser(path)
     v_ids: list[int] = []
     v_line: dict[int, int] = {}

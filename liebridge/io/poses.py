@@ -20,7 +20,7 @@ Layouts (element order; who uses it):
 * ``"matrix"`` — ``(4, 4)`` homogeneous ``[[R, t], [0, 1]]``: liebridge's canonical form, GTSAM
   ``Pose3.matrix()``.
 
-Evidence for the library rows: ``shared/reference/conventions.md`` (quaternion storage column)
+Evidence for the library rows: ``docs/library-facts.md`` (quaternion storage column)
 and, for pytransform3d and Pinocchio, the tests in ``tests/test_poses.py`` which run them.
 
 Reading (:func:`to_matrix`) never repairs input silently: a quaternion whose norm is off by more
@@ -118,11 +118,16 @@ def describe(layout: str) -> str:
     return f"{layout}: {spec.meaning}; used by {', '.join(spec.used_by)}"
 
 
+def _name(layout: str) -> str:
+    """Return the layout name read like every string option: stripped, lower case."""
+    return layout.strip().lower()
+
+
 def _spec(layout: Any) -> _Spec:
     if not isinstance(layout, str):
         raise TypeError(f"layout: expected a layout name (str), got {type(layout).__name__}")
     try:
-        return _LAYOUTS[layout]
+        return _LAYOUTS[_name(layout)]
     except KeyError:
         pass
     hints = difflib.get_close_matches(layout, list(_LAYOUTS), n=3, cutoff=0.5)
@@ -172,6 +177,7 @@ def to_matrix(x: Any, *, layout: Layout | str, tol: float | None = None) -> Floa
         ``T = [[R, t], [0, 1]]`` (a new array; ``x`` is not modified).
     """
     spec = _spec(layout)
+    layout = _name(layout)
     if layout == "matrix":
         return np.array(v.pose(x, "x", ROTATION_TOL if tol is None else tol), dtype=np.float64)
     arr = v.as_float_array(x, "x")
@@ -216,6 +222,7 @@ def from_matrix(T: Any, *, layout: Layout | str) -> FloatArray:
         rotation; the sign is chosen, never left to chance).
     """
     spec = _spec(layout)
+    layout = _name(layout)
     T = v.pose(T, "T")
     if layout == "matrix":
         return np.array(T, dtype=np.float64)

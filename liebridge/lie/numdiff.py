@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import _validate as v
 from .._validate import FloatArray
 
 Retract = Callable[[Any, FloatArray], Any]
@@ -59,7 +60,7 @@ def numerical_jacobian(
     -------
     ndarray, shape (..., m, dim)
     """
-    x_arr = np.asarray(x, dtype=np.float64)
+    x_arr = v.as_float_array(x, "x")  # a library pose/rotation object too
     if retract is None:
         # Euclidean input: always a batch of vectors, even when shaped (..., 3, 3) or (..., 4, 4)
         if x_arr.ndim < 1:

@@ -12,7 +12,7 @@ every angle including π); quaternion → matrix is the closed polynomial form.
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Any, Literal, cast
 
 import numpy as np
 
@@ -33,13 +33,13 @@ __all__ = [
 ]
 
 
-def _check_order(order: str) -> None:
-    if order not in ("wxyz", "xyzw"):
-        raise ValueError(f"order: expected 'wxyz' or 'xyzw', got {order!r}")
+def _check_order(order: str) -> QuatOrder:
+    """Return the storage order normalised like every string option (``"XYZW"`` is ``"xyzw"``)."""
+    return cast(QuatOrder, v.option(order, "order", ("wxyz", "xyzw")))
 
 
 def _to_wxyz(q: FloatArray, order: str) -> FloatArray:
-    _check_order(order)
+    order = _check_order(order)
     return q if order == "wxyz" else np.roll(q, 1, axis=-1)
 
 
@@ -53,6 +53,7 @@ def to_matrix(q: Any, *, order: QuatOrder) -> FloatArray:
     ``R = I + 2w·hat(u) + 2·hat(u)²`` for ``q = (w, u)``. The norm must be 1 within
     :data:`liebridge._validate.QUATERNION_TOL`; normalise explicitly otherwise.
     """
+    order = _check_order(order)
     q = _to_wxyz(v.quaternion(q, "q"), order)
     w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
     R = np.empty((*q.shape[:-1], 3, 3))
@@ -73,7 +74,7 @@ def from_matrix(R: Any, *, order: QuatOrder) -> FloatArray:
 
     Uses scipy's ``Rotation.from_matrix`` (Markley's method), which is exact at θ = π.
     """
-    _check_order(order)
+    order = _check_order(order)
     R = v.rotation(R, "R")
     flat = R.reshape(-1, 3, 3)
     from scipy.spatial.transform import Rotation  # lazy: importing scipy.spatial costs ~0.8 s
@@ -88,6 +89,7 @@ def multiply(q1: Any, q2: Any, *, order: QuatOrder) -> FloatArray:
 
     ``to_matrix(q1 ⊗ q2) = to_matrix(q1) @ to_matrix(q2)``.
     """
+    order = _check_order(order)
     a = _to_wxyz(v.quaternion(q1, "q1"), order)
     b = _to_wxyz(v.quaternion(q2, "q2"), order)
     v.batch_shape(("q1", a.shape[:-1]), ("q2", b.shape[:-1]))
@@ -107,13 +109,14 @@ def multiply(q1: Any, q2: Any, *, order: QuatOrder) -> FloatArray:
 
 def conjugate(q: Any, *, order: QuatOrder) -> FloatArray:
     """Conjugate ``(w, −u)``: the inverse of a unit quaternion (the norm is checked)."""
+    order = _check_order(order)
     q = _to_wxyz(v.quaternion(q, "q"), order) * np.array([1.0, -1.0, -1.0, -1.0])
     return _from_wxyz(q, order)
 
 
 def canonical(q: Any, *, order: QuatOrder) -> FloatArray:
     """Choose the sign with ``w ≥ 0`` (``q`` and ``−q`` are the same unit-quaternion rotation)."""
-    _check_order(order)
+    order = _check_order(order)
     q = v.quaternion(q, "q")
     w = q[..., 0] if order == "wxyz" else q[..., 3]
     return np.where((w < 0)[..., None], -q, q)
@@ -123,9 +126,9 @@ def slerp(q0: Any, q1: Any, tau: Any, *, order: QuatOrder) -> FloatArray:
     """Spherical linear interpolation along the **short** arc.
 
     When ``q0·q1 < 0`` one input is negated first (otherwise the path would take the 360°-long
-    way, the design note's pitfall 11.4). ``tau`` broadcasts against the batch shape.
+    way, pitfall P4 of docs/common-formula-errors.md). ``tau`` broadcasts against the batch shape.
     """
-    _check_order(order)
+    order = _check_order(order)
     a = v.quaternion(q0, "q0")
     b = v.quaternion(q1, "q1")
     t = v.as_float_array(tau, "tau")

@@ -1,12 +1,12 @@
-"""Regression tests for the errata of ``shared/reference/lie-groups-design-note.md``.
+"""Regression tests for the errors E1–E6 of ``docs/common-formula-errors.md``.
 
 One test per erratum. Each shows that the corrected formula matches central finite differences
-through the stated retraction (or the installed GTSAM) *and* that the design note's formula does
-not, so implementing the note's version makes the test fail.
+through the stated retraction (or the installed GTSAM) *and* that the wrong formula does
+not, so implementing the wrong version makes the test fail.
 
 Tolerances: ``FD_TOL = 1e-7`` for central differences (step 1e-6; rounding ≈ eps_mach·|f|/ε ≈ 1e-9
 for the O(10) quantities here, truncation ≈ ε²·|f'''| ≈ 1e-11), ``TOL = 1e-12`` for exact
-identities, and ``WRONG = 1e-2``: the note's formulas are off by O(1) at the generic points used,
+identities, and ``WRONG = 1e-2``: the wrong formulas are off by O(1) at the generic points used,
 far above either tolerance.
 """
 
@@ -40,7 +40,7 @@ def _poses(seed: int, n: int = 4, max_norm: float = 5.0) -> np.ndarray:
 
 def _assert_wrong(wrong: np.ndarray, truth: np.ndarray, what: str) -> None:
     diff = float(np.abs(np.asarray(wrong) - np.asarray(truth)).max())
-    assert diff > WRONG, f"the design note's {what} agrees with the truth (diff {diff:.3g})"
+    assert diff > WRONG, f"the wrong {what} agrees with the truth (diff {diff:.3g})"
 
 
 def _right(X: np.ndarray, d: np.ndarray) -> np.ndarray:
@@ -74,7 +74,7 @@ def test_erratum_1_gtsam_retract_is_right_side_rotation_first() -> None:
         _assert_wrong(Rr, so3.exp(w) @ R, "left Rot3 retraction")
 
     # finite differences: through the right chart the derivative of GTSAM's retract at 0 is I;
-    # through the note's left chart it would be I as well only if Ad_X = I
+    # through a left chart it would be I as well only if Ad_X = I
     X = _poses(2, 1)[0]
 
     def gtsam_retract(T: np.ndarray, d: np.ndarray) -> np.ndarray:
@@ -110,7 +110,7 @@ def test_erratum_2_rotated_point_jacobians_not_swapped() -> None:
         right, left = -R @ so3.hat(p), -so3.hat(R @ p)
         assert_jacobian(right, right_fd, atol=FD_TOL, rtol=0, name="right")
         assert_jacobian(left, left_fd, atol=FD_TOL, rtol=0, name="left")
-        # the note's swapped pair
+        # the swapped pair
         _assert_wrong(-so3.hat(R @ p), right_fd, "right Jacobian −hat(R p)")
         _assert_wrong(-R @ so3.hat(p), left_fd, "left Jacobian −R hat(p)")
 
@@ -187,7 +187,7 @@ def test_erratum_4_adjoint_block_layout_follows_the_order() -> None:
         ad_note = np.block([[so3.hat(w), Z3], [so3.hat(rho), so3.hat(w)]])
         assert_jacobian(ad_correct, fd_ad, atol=FD_TOL, rtol=0, name="ad (ρ, ω)")
         _assert_wrong(ad_note, fd_ad, "ad layout for (ρ, ω)")
-        # the note's matrices are the (ω, v) layouts: what the canonical kernel returns
+        # the wrong matrices are the (ω, v) layouts: what the canonical kernel returns
         np.testing.assert_allclose(P @ _ad_vw_note(T) @ P, _ad_vw_correct(T), rtol=0, atol=0)
         np.testing.assert_allclose(_ad_vw_note(T), se3.adjoint(T), rtol=0, atol=TOL * scale)
         np.testing.assert_allclose(ad_note, se3.ad(P @ eta), rtol=0, atol=0)
@@ -234,7 +234,7 @@ def test_erratum_5_bch_first_order_uses_the_matching_side(group: str) -> None:
         _assert_wrong(G.jr_inv(w), fd_l, "left BCH with J_R⁻¹")
 
         # first order: the error of the correct form falls like |δ|² (×1/100 per decade), the
-        # note's like |δ| (×1/10 per decade)
+        # the wrong one's like |δ| (×1/10 per decade)
         cases = ((right_log, G.jr_inv, G.jl_inv), (left_log, G.jl_inv, G.jr_inv))
         for compose_log, good, bad in cases:
             e_good = _first_order_errors(compose_log, good, w, d)
@@ -251,7 +251,7 @@ def _between_case(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     rng = np.random.default_rng(seed)
     Ti, Tj = S.random_poses(rng, (2,), max_norm=5.0)
     # a measurement that disagrees with T_i⁻¹T_j by a sizeable residual (≈ 1 rad, 1 m): at r = 0
-    # J_R(r)⁻¹ = I and the note's formula would agree by accident
+    # J_R(r)⁻¹ = I and the wrong formula would agree by accident
     Zm = se3.inverse(Ti) @ Tj @ se3.exp(np.array([0.6, -0.5, 0.4, 1.0, -0.5, 0.8]))
     return Ti, Tj, Zm
 
