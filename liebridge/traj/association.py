@@ -50,8 +50,8 @@ def check_timestamps(t: Any, name: str) -> FloatArray:
         i = int(bad[0]) + 1
         what = "repeats" if arr[i] == arr[i - 1] else "goes back in time from"
         raise ValueError(
-            f"{name}: timestamps are not strictly increasing: stamp {i} ({arr[i]!r}) {what} "
-            f"stamp {i - 1} ({arr[i - 1]!r}); {bad.size} such place(s) in all"
+            f"{name}: timestamps are not strictly increasing: stamp {i} ({float(arr[i])!r}) "
+            f"{what} stamp {i - 1} ({float(arr[i - 1])!r}); {bad.size} such place(s) in all"
         )
     return arr
 
@@ -108,9 +108,10 @@ def associate(
     else:  # walk the estimate, match into the reference (evo: offset with the opposite sign)
         i_est, i_ref = _match(b, a - offset, max_diff)
     if i_ref.size == 0:
+        a0, a1, b0, b1 = (float(x) for x in (a[0], a[-1], b[0] + offset, b[-1] + offset))
         raise ValueError(
-            f"no overlapping timestamps: reference spans [{a[0]!r}, {a[-1]!r}] s, estimate "
-            f"(offset {offset!r} s) spans [{b[0] + offset!r}, {b[-1] + offset!r}] s; no pair "
-            f"is within max_diff = {max_diff!r} s"
+            f"no overlapping timestamps: reference spans [{a0!r}, {a1!r}] s, estimate "
+            f"(offset {offset!r} s) spans [{b0!r}, {b1!r}] s; no pair is within "
+            f"max_diff = {max_diff!r} s"
         )
     return i_ref, i_est

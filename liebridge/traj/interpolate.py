@@ -56,8 +56,9 @@ def _bracket(
     if out.any():
         k = int(np.flatnonzero(out)[0])
         raise ValueError(
-            f"t_query: query {k} ({tq[k]!r} s) is outside the samples' span "
-            f"[{ts[0]!r}, {ts[-1]!r}] s ({int(out.sum())} such queries); no extrapolation"
+            f"t_query: query {k} ({float(tq[k])!r} s) is outside the samples' span "
+            f"[{float(ts[0])!r}, {float(ts[-1])!r}] s ({int(out.sum())} such queries); "
+            f"no extrapolation"
         )
     i = np.clip(np.searchsorted(ts, tq, side="right") - 1, 0, ts.size - 2)
     tau = (tq - ts[i]) / (ts[i + 1] - ts[i])
