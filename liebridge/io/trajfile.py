@@ -28,6 +28,7 @@ from __future__ import annotations
 import io as _io
 import os
 import re
+import warnings
 from pathlib import Path
 from typing import Any, Literal
 
@@ -128,7 +129,9 @@ def read_tum_file(
         text = text.lstrip()
         text = text[text.find(b"\n") + 1 :] if b"\n" in text else b""
     try:
-        data = np.loadtxt(_io.BytesIO(text), comments="#", ndmin=2, dtype=np.float64)
+        with warnings.catch_warnings():  # numpy's "input contained no data": reported below
+            warnings.simplefilter("ignore", UserWarning)
+            data = np.loadtxt(_io.BytesIO(text), comments="#", ndmin=2, dtype=np.float64)
     except ValueError:
         _locate_bad_line(path, raw, skip)
         raise  # pragma: no cover - _locate_bad_line raises
