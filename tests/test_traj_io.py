@@ -67,7 +67,7 @@ def test_writers_keep_hemisphere_continuity(tmp_path):
         vals = np.array([[float(x) for x in ln.replace(",", " ").split()] for ln in rows])
         q = vals[:, 4:8]
         assert (np.einsum("ij,ij->i", q[1:], q[:-1]) > 0).all(), fmt
-        t2, T2 = trajfile.read_trajectory(p, fmt)
+        _, T2 = trajfile.read_trajectory(p, fmt)
         np.testing.assert_allclose(T2, T, atol=1e-12)
 
 
