@@ -15,13 +15,21 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import warnings
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from .._validate import FloatArray
-from ._common import CLIError, check_output_path, convention_arg, need_matplotlib, say
+from ._common import (
+    CLIError,
+    check_output_path,
+    convention_arg,
+    need_matplotlib,
+    one_line,
+    say,
+)
 
 __all__ = ["add_parser"]
 
@@ -40,11 +48,17 @@ class _Prepared:
 
 def _read(path: str, fmt: str, quat_order: str | None, what: str) -> tuple[FloatArray, FloatArray]:
     from ..io import trajfile
+    from ..io.sanity import QuaternionOrderWarning
 
     try:
-        return trajfile.read_trajectory(path, fmt, quat_order=quat_order)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", QuaternionOrderWarning)
+            out = trajfile.read_trajectory(path, fmt, quat_order=quat_order)
     except (ValueError, OSError) as exc:
         raise CLIError(f"{what}: {exc}") from None
+    for w in caught:  # one line each on stderr, never Python's two-line warning format
+        say(f"liebridge traj: warning: {what}: {one_line(str(w.message))}")
+    return out
 
 
 def _prepare(args: argparse.Namespace) -> _Prepared:
