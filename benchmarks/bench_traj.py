@@ -146,7 +146,15 @@ def main() -> None:
     p.add_argument("--quick", action="store_true", help="20,000 poses, 2 repeats")
     args = p.parse_args()
     n, repeat = (20_000, 2) if args.quick else (args.poses, args.repeat)
+    import warnings
+
     import evo
+
+    from liebridge.io.sanity import QuaternionOrderWarning
+
+    # the estimate's per-pose noise (0.01 rad) over jittered stamps (≥ 2 ms apart) can exceed
+    # the sanity check's 30 rad/s: the check still runs (and is timed), its warning is not shown
+    warnings.simplefilter("ignore", QuaternionOrderWarning)
 
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
