@@ -128,6 +128,7 @@ def test_bad_input_one_line_each(pair, tmp_path):
     back = _bad(tmp_path, "back.txt", "0 0 0 0 0 0 0 1\n0.2 1 0 0 0 0 0 1\n0.1 2 0 0 0 0 0 1\n")
     two = _bad(tmp_path, "two.txt", "100.0 0 0 0 0 0 0 1\n100.1 1 0 0 0 0 0 1\n")
     np.save(tmp_path / "short.npy", np.tile(np.eye(6), (149, 1, 1)))
+    (tmp_path / "empty.npy").write_bytes(b"")
     cases = [
         (["ape", ref, far], "no overlapping timestamps"),
         (["ape", ref, back], "not strictly increasing: stamp 2 (0.1) goes back in time"),
@@ -157,6 +158,18 @@ def test_bad_input_one_line_each(pair, tmp_path):
             "did you mean 'gtsam'",
         ),
         (["ape", ref, str(tmp_path / "missing.txt")], "no such file"),
+        (
+            [
+                "nees",
+                ref,
+                str(pair / "est.txt"),
+                "--cov",
+                str(tmp_path / "empty.npy"),
+                "--convention",
+                "gtsam",
+            ],
+            "--cov: cannot read",
+        ),
         (["rpe", ref, str(pair / "est.txt"), "--delta", "1000"], "gives no pose pair"),
     ]
     for args, msg in cases:

@@ -237,8 +237,10 @@ def _nees(args: argparse.Namespace) -> int:
         check_output_path(args.plot, "--plot", (".png", ".pdf", ".svg"))
     try:
         cov = np.load(args.cov, allow_pickle=False)
-    except (OSError, ValueError) as exc:
-        raise CLIError(f"--cov: cannot read {args.cov}: {exc}") from None
+    except (OSError, ValueError, EOFError) as exc:
+        raise CLIError(f"--cov: cannot read {args.cov} as .npy: {one_line(str(exc))}") from None
+    if not isinstance(cov, np.ndarray) or not np.issubdtype(cov.dtype, np.number):
+        raise CLIError(f"--cov: {args.cov} does not hold one numeric array")
     p = _prepare(args)
     if cov.ndim != 3 or cov.shape[1:] != (6, 6):
         raise CLIError(f"--cov: expected an array of shape (N, 6, 6), got {cov.shape}")
@@ -324,6 +326,12 @@ def add_parser(sub: Any) -> None:
         description="Trajectory evaluation: APE, RPE (evo's definitions) and NEES.",
     )
     tsub = p.add_subparsers(dest="traj_command", metavar="SUBCOMMAND")
+
+    def _help(_: argparse.Namespace) -> int:
+        p.print_help()
+        return 0
+
+    p.set_defaults(func=_help)
     a = tsub.add_parser(
         "ape",
         help="absolute pose error",
