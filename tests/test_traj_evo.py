@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 from _traj_data import noisy_pair
 
 from liebridge import traj
@@ -168,3 +170,46 @@ def test_cli_json_matches_evo(files, capsys):
     m = em.RPE(em.PoseRelation.translation_part, 4, Unit.frames)
     m.process_data((r, e))
     _close(res, m.get_all_statistics())
+
+
+def test_lerp_slerp_matches_evo_interpolate(files):
+    from scipy.spatial.transform import Rotation
+
+    r = file_interface.read_tum_trajectory_file(str(files[0]))
+    t_ref, T_ref = trajfile.read_trajectory(files[0])
+    rng = np.random.default_rng(7)
+    tq = np.sort(rng.uniform(t_ref[0], t_ref[-1], 300))
+    ours = traj.interpolate_poses(tq, t_ref, T_ref, "lerp_slerp")
+    theirs = r.interpolate(tq)
+    np.testing.assert_allclose(ours[:, :3, 3], theirs.positions_xyz, atol=1e-9)
+    q = theirs.orientations_quat_wxyz
+    R = Rotation.from_quat(np.roll(q, -1, axis=1)).as_matrix()
+    np.testing.assert_allclose(ours[:, :3, :3], R, atol=1e-9)
+
+
+@given(
+    seed=st.integers(0, 2**31 - 1),
+    n1=st.integers(1, 60),
+    n2=st.integers(1, 60),
+    step=st.sampled_from([0.005, 0.01, 0.02]),
+    max_diff=st.sampled_from([0.0, 0.005, 0.01, 0.02]),
+    offset=st.sampled_from([0.0, 0.01, -0.013, 0.5]),
+)
+def test_association_matches_evo_random(seed, n1, n2, step, max_diff, offset):
+    """Random stamps on a coarse grid (so exact ties happen) against evo's own matcher."""
+    rng = np.random.default_rng(seed)
+    a = np.unique(np.round(rng.uniform(0, n1 * step * 2, n1) / 0.005) * 0.005)
+    b = np.unique(np.round(rng.uniform(0, n2 * step * 2, n2) / 0.005) * 0.005)
+    second_longer = len(b) > len(a)
+    short, long = (a, b) if second_longer else (b, a)
+    i_s, i_l = sync.matching_time_indices(
+        short, long, max_diff, offset if second_longer else -offset
+    )
+    exp_ref, exp_est = (i_s, i_l) if second_longer else (i_l, i_s)
+    if not i_s:
+        with pytest.raises(ValueError, match="no overlapping timestamps"):
+            traj.associate(a, b, max_diff=max_diff, offset=offset)
+        return
+    i_ref, i_est = traj.associate(a, b, max_diff=max_diff, offset=offset)
+    assert i_ref.tolist() == list(exp_ref)
+    assert i_est.tolist() == list(exp_est)
