@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from _traj_data import noisy_pair
 from hypothesis import given
 from hypothesis import strategies as st
-from _traj_data import noisy_pair
 
 from liebridge import traj
 from liebridge.io import trajfile
