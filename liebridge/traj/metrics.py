@@ -295,7 +295,8 @@ def kitti_segment_errors(
     frame ``l`` whose **reference** path length exceeds ``dist[f] + L``; segments that run past
     the end are skipped. ``E = (P_f⁻¹ P_l)⁻¹ (Q_f⁻¹ Q_l)``; the translation error is ``‖t(E)‖/L``
     and the rotation error ``acos(clip((tr R(E) − 1)/2, −1, 1))/L`` (devkit
-    ``evaluate_odometry.cpp``: ``calcSequenceErrors``, ``rotationError``, ``translationError``).
+    ``evaluate_odometry.cpp`` of ``devkit_odometry.zip``: ``calcSequenceErrors``, ``rotationError``,
+    ``translationError``; tested against a loop-for-loop transcription).
     The devkit keeps path lengths in single precision; this uses double.
 
     Raises
