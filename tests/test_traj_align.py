@@ -152,3 +152,25 @@ def test_interpolated_covariances_consistent_across_conventions(name):
     np.testing.assert_allclose(C.convert_covariance(Cg, Tq, "gtsam", name), Cc, atol=1e-10)
     np.testing.assert_allclose(Cc[[0, 3]], cov_c[[0, 5]], atol=1e-12)
     assert np.linalg.eigvalsh(Cg).min() > 0
+
+
+def test_synchronize_resamples_the_estimate_with_its_covariances():
+    T = sphere_poses()[:40]
+    t_est = np.arange(40) * 0.05
+    t_ref = t_est[::4] + 0.001  # within max_diff of est samples
+    rng = np.random.default_rng(1)
+    L = rng.normal(size=(40, 6, 6)) * 0.05
+    cov = L @ np.swapaxes(L, -1, -2) + 1e-4 * np.eye(6)
+    s = traj.synchronize(
+        t_ref, T[::4], t_est, T, interpolate="geodesic", cov_est=cov, convention="ros"
+    )
+    assert s.resampled == "est" and s.T_est.shape == (10, 4, 4) and s.cov_est.shape == (10, 6, 6)
+    Tq, Cq = traj.interpolate_covariances(t_ref, t_est, T, cov, "ros", "geodesic")
+    np.testing.assert_allclose(s.T_est, Tq)
+    np.testing.assert_allclose(s.cov_est, Cq)
+    near = traj.synchronize(t_ref, T[::4], t_est, T, cov_est=cov)
+    np.testing.assert_array_equal(near.cov_est, cov[::4])
+    with pytest.raises(ValueError, match="convention: needed"):
+        traj.synchronize(t_ref, T[::4], t_est, T, interpolate="geodesic", cov_est=cov)
+    with pytest.raises(ValueError, match="39 covariances for 40 poses"):
+        traj.synchronize(t_ref, T[::4], t_est, T, cov_est=cov[1:])

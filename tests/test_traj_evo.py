@@ -213,3 +213,45 @@ def test_association_matches_evo_random(seed, n1, n2, step, max_diff, offset):
     i_ref, i_est = traj.associate(a, b, max_diff=max_diff, offset=offset)
     assert i_ref.tolist() == list(exp_ref)
     assert i_est.tolist() == list(exp_est)
+
+
+@pytest.mark.parametrize("swap", [False, True])
+def test_interpolation_sync_matches_evo(files, capsys, swap):
+    """``--interpolate lerp_slerp`` is evo's ``SyncMethod.interpolation`` (either side longer)."""
+    import json
+
+    from evo.core.sync_method import SyncMethod
+
+    from liebridge.cli import main
+
+    ref, est = (files[1], files[0]) if swap else files
+    r = file_interface.read_tum_trajectory_file(str(ref))
+    e = file_interface.read_tum_trajectory_file(str(est))
+    r, e = sync.associate_trajectories(r, e, sync_method=SyncMethod.interpolation, offset_2=0.003)
+    e.align(r, correct_scale=True)
+    m = em.APE(em.PoseRelation.full_transformation)
+    m.process_data((r, e))
+    assert (
+        main(
+            [
+                "traj",
+                "ape",
+                str(ref),
+                str(est),
+                "--align",
+                "sim3",
+                "--interpolate",
+                "lerp_slerp",
+                "--offset",
+                "0.003",
+                "-r",
+                "full",
+                "--format",
+                "json",
+            ]
+        )
+        == 0
+    )
+    res = json.loads(capsys.readouterr().out)
+    assert res["resampled"] == ("est" if swap else "ref")  # the longer one (REF has 800 poses)
+    _close(res, m.get_all_statistics())

@@ -40,10 +40,11 @@ class _Prepared:
     T_ref: FloatArray  # associated
     T_est: FloatArray  # associated, before alignment
     T_aligned: FloatArray
-    i_est: np.ndarray[Any, Any]
+    cov_est: FloatArray | None  # associated, before alignment, in the estimator's convention
     alignment: Any
     n_ref: int
     n_est: int
+    resampled: str | None
 
 
 def _read(path: str, fmt: str, quat_order: str | None, what: str) -> tuple[FloatArray, FloatArray]:
@@ -61,23 +62,49 @@ def _read(path: str, fmt: str, quat_order: str | None, what: str) -> tuple[Float
     return out
 
 
-def _prepare(args: argparse.Namespace) -> _Prepared:
+def _prepare(
+    args: argparse.Namespace, cov: FloatArray | None = None, conv: Any = None
+) -> _Prepared:
     from .. import traj
 
     t_ref, T_ref = _read(args.ref, args.ref_format, args.quat_order, "REF")
     t_est, T_est = _read(args.est, args.est_format, args.quat_order, "EST")
+    if cov is not None and cov.shape[0] != len(t_est):
+        raise CLIError(
+            f"--cov: {cov.shape[0]} covariances for {len(t_est)} poses of EST "
+            f"(one per pose, in file order)"
+        )
     try:
         traj.check_timestamps(t_ref, "REF timestamps")
         traj.check_timestamps(t_est, "EST timestamps")
-        i_ref, i_est = traj.associate(t_ref, t_est, max_diff=args.max_diff, offset=args.offset)
+        s = traj.synchronize(
+            t_ref,
+            T_ref,
+            t_est,
+            T_est,
+            max_diff=args.max_diff,
+            offset=args.offset,
+            interpolate=args.interpolate,
+            cov_est=cov,
+            convention=conv,
+        )
     except ValueError as exc:
         raise CLIError(str(exc)) from None
-    Tr, Te = T_ref[i_ref], T_est[i_est]
     try:
-        A = traj.align(Tr, Te, args.align)
+        A = traj.align(s.T_ref, s.T_est, args.align)
     except ValueError as exc:
         raise CLIError(f"--align {args.align}: {exc}") from None
-    return _Prepared(t_ref[i_ref], Tr, Te, A.apply(Te), i_est, A, len(t_ref), len(t_est))
+    return _Prepared(
+        s.t,
+        s.T_ref,
+        s.T_est,
+        A.apply(s.T_est),
+        s.cov_est,
+        A,
+        len(t_ref),
+        len(t_est),
+        s.resampled,
+    )
 
 
 def _stats_dict(errors: FloatArray) -> dict[str, float]:
@@ -115,6 +142,7 @@ def _alignment_info(p: _Prepared) -> dict[str, Any]:
         "n_ref": p.n_ref,
         "n_est": p.n_est,
         "n_associated": int(p.T_ref.shape[0]),
+        "resampled": p.resampled,
     }
 
 
@@ -241,16 +269,12 @@ def _nees(args: argparse.Namespace) -> int:
         raise CLIError(f"--cov: cannot read {args.cov} as .npy: {one_line(str(exc))}") from None
     if not isinstance(cov, np.ndarray) or not np.issubdtype(cov.dtype, np.number):
         raise CLIError(f"--cov: {args.cov} does not hold one numeric array")
-    p = _prepare(args)
     if cov.ndim != 3 or cov.shape[1:] != (6, 6):
         raise CLIError(f"--cov: expected an array of shape (N, 6, 6), got {cov.shape}")
-    if cov.shape[0] != p.n_est:
-        raise CLIError(
-            f"--cov: {cov.shape[0]} covariances for {p.n_est} poses of EST "
-            f"(one per pose, in file order)"
-        )
+    p = _prepare(args, np.asarray(cov, dtype=np.float64), conv)
+    assert p.cov_est is not None
     try:
-        C = p.alignment.transform_covariance(p.T_est, cov[p.i_est], conv)
+        C = p.alignment.transform_covariance(p.T_est, p.cov_est, conv)
         r = traj.nees(p.T_ref, p.T_aligned, C, conv, confidence=args.confidence)
     except ValueError as exc:
         raise CLIError(f"--cov: {exc}") from None
@@ -296,6 +320,13 @@ def _common(q: argparse.ArgumentParser) -> None:
         help="largest time difference of an associated pair [s] (0.01)",
     )
     q.add_argument("--offset", type=float, default=0.0, help="added to EST's stamps [s] (0)")
+    q.add_argument(
+        "--interpolate",
+        choices=("lerp_slerp", "geodesic"),
+        default=None,
+        help="resample the longer trajectory at the other's matched stamps (evo's "
+        "interpolation sync: lerp_slerp) instead of taking the nearest poses",
+    )
     q.add_argument("--ref-format", default="auto", choices=("auto", "tum", "kitti", "euroc"))
     q.add_argument("--est-format", default="auto", choices=("auto", "tum", "kitti", "euroc"))
     q.add_argument(

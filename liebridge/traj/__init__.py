@@ -8,7 +8,8 @@ bounds). Poses are ``T_world_body`` ``(N, 4, 4)``, timestamps seconds, covarianc
 
 Modules: :mod:`~liebridge.traj.association` (timestamps), :mod:`~liebridge.traj.interpolate`,
 :mod:`~liebridge.traj.align` (Umeyama SE(3)/Sim(3)/4-DoF), :mod:`~liebridge.traj.metrics`
-(APE, RPE, KITTI segments, statistics), :mod:`~liebridge.traj.nees`.
+(APE, RPE, KITTI segments, statistics), :mod:`~liebridge.traj.nees`,
+:mod:`~liebridge.traj.sync` (association + optional resampling, with covariances).
 """
 
 from .align import ALIGNMENTS, Alignment, align, umeyama
@@ -26,6 +27,7 @@ from .metrics import (
     statistics,
 )
 from .nees import NEESResult, chi2_bounds, nees
+from .sync import Synchronized, synchronize
 
 __all__ = [
     "ALIGNMENTS",
@@ -37,6 +39,7 @@ __all__ = [
     "KittiSegments",
     "NEESResult",
     "Statistics",
+    "Synchronized",
     "align",
     "ape",
     "associate",
@@ -49,5 +52,6 @@ __all__ = [
     "rpe",
     "rpe_pairs",
     "statistics",
+    "synchronize",
     "umeyama",
 ]
