@@ -188,3 +188,16 @@ def test_reader_warns_on_wrong_order(tmp_path):
     np.savetxt(p, x, fmt="%.17g")
     with pytest.warns(sanity.QuaternionOrderWarning, match="likely 'xyzw'"):
         trajfile.read_trajectory(p, quat_order="wxyz")
+
+
+@pytest.mark.parametrize(
+    ("header", "order"),
+    [
+        ("# timestamp tx ty tz qx qy qz qw", "xyzw"),
+        ("timestamp,x,y,z,q_w,q_x,q_y,q_z", "wxyz"),
+        ("#t p_RS_R_x p_RS_R_y p_RS_R_z q_RS_w q_RS_x q_RS_y q_RS_z", "wxyz"),
+        ("# time x y z", None),
+    ],
+)
+def test_header_names_the_order(header, order):
+    assert trajfile._header_order(header.encode()) == order

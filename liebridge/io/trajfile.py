@@ -79,12 +79,13 @@ def detect_format(path: PathLike) -> str:
 
 
 def _header_order(line: bytes) -> str | None:
+    """``"wxyz"``/``"xyzw"`` from column names (``qw``, ``q_w``, ``q_RS_w`` ...), else None."""
     names = [n.lower() for n in re.split(rb"[\s,#]+", line) if n]
 
-    def pos(key: bytes) -> int:
-        return next((i for i, n in enumerate(names) if n.endswith(key)), -1)
+    def pos(axis: bytes) -> int:
+        return next((i for i, n in enumerate(names) if n.startswith(b"q") and n.endswith(axis)), -1)
 
-    iw, ix = pos(b"qw"), pos(b"qx")
+    iw, ix = pos(b"w"), pos(b"x")
     if iw < 0 or ix < 0:
         return None
     return "wxyz" if iw < ix else "xyzw"
