@@ -173,8 +173,9 @@ def _plot(
     ax = axes[1]
     ax.plot(x, y, "C0-", lw=1)
     if bounds is not None:
-        ax.axhline(bounds[0], color="C3", ls="--", lw=1, label="χ² bounds")
+        ax.axhline(bounds[0], color="C3", ls="--", lw=1, label="per-pose χ² bounds")
         ax.axhline(bounds[1], color="C3", ls="--", lw=1)
+        ax.axhline(float(np.mean(y)), color="C1", lw=1.5, label=f"ANEES {float(np.mean(y)):.4g}")
         ax.set_yscale("log")
         ax.legend(loc="best")
     ax.set_xlabel("time [s]")
