@@ -12,6 +12,7 @@ import pytest
 from _traj_data import noisy_pair
 from test_traj_nees import KNOWN, simulate
 
+from liebridge import conventions as C
 from liebridge.cli import main
 from liebridge.io import trajfile
 
@@ -114,6 +115,32 @@ def test_plots(pair, tmp_path, capsys):
             == 0
         )
         assert out.stat().st_size > 10_000
+    T_ref, T_est, cov = simulate(C.get("gtsam"), n=100)
+    t = np.arange(100) * 0.1
+    trajfile.write_trajectory(tmp_path / "r.txt", t, T_ref)
+    trajfile.write_trajectory(tmp_path / "e.txt", t, T_est)
+    np.save(tmp_path / "c.npy", cov)
+    out = tmp_path / "nees.png"
+    assert (
+        main(
+            [
+                "traj",
+                "nees",
+                str(tmp_path / "r.txt"),
+                str(tmp_path / "e.txt"),
+                "--cov",
+                str(tmp_path / "c.npy"),
+                "--convention",
+                "gtsam",
+                "--align",
+                "se3",
+                "--plot",
+                str(out),
+            ]
+        )
+        == 0
+    )
+    assert out.stat().st_size > 10_000
 
 
 def _bad(tmp_path, name, text):
