@@ -114,6 +114,7 @@ def test_kitti_by_detection(tmp_path):
         ("0 1 2 3 0 0 0 1\n1 1 2 nan 0 0 0 1\n", r":2: NaN or Inf"),
         ("# c\n0 1 2 3 0 0 0 1\n1 1 2 3 0 0 0.5 1\n", r":3: quaternion norm off by"),
         ("# only a comment\n", "no data lines"),
+        ("nan 1 2 3 0 0 0 1\n1 1 2 3 0 0 0 1\n", r":1: NaN or Inf"),
     ],
 )
 def test_tum_bad_files_one_clear_error(tmp_path, text, match):

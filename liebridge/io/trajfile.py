@@ -51,6 +51,18 @@ FORMATS: tuple[str, ...] = ("tum", "kitti", "euroc")
 _NAME = re.compile(rb"^[A-Za-z_\[\]]")
 
 
+def _is_names(line: bytes) -> bool:
+    """Tell whether a line holds column names (first field name-like and not a number)."""
+    fields = re.split(rb"[\s,]+", line.lstrip(b"# \t").strip())
+    if not fields or not fields[0] or not _NAME.match(fields[0]):
+        return False
+    try:
+        float(fields[0])  # "nan", "inf": data (rejected later as such), not a header
+    except ValueError:
+        return True
+    return False
+
+
 def _first_data_lines(path: PathLike, k: int = 3) -> list[bytes]:
     out: list[bytes] = []
     with open(path, "rb") as fh:
@@ -66,7 +78,7 @@ def _first_data_lines(path: PathLike, k: int = 3) -> list[bytes]:
 def detect_format(path: PathLike) -> str:
     """Guess ``"tum"``, ``"kitti"`` or ``"euroc"`` from the extension and the first lines."""
     lines = [ln for ln in _first_data_lines(path, 4)]
-    data = [ln for ln in lines if not ln.startswith(b"#") and not _NAME.match(ln)]
+    data = [ln for ln in lines if not ln.startswith(b"#") and not _is_names(ln)]
     if not data:
         raise ValueError(f"{path}: no data lines (empty, or comments only)")
     first = data[0]
@@ -118,10 +130,10 @@ def read_tum_file(
     head, _, _ = raw.lstrip().partition(b"\n")
     header_order = None
     skip = 0
-    if head and _NAME.match(head.lstrip(b"# \t")) and not head.startswith(b"#"):
-        skip = 1  # a header without '#': skip the first non-blank line
-    if head:
-        header_order = _header_order(head) if _NAME.match(head.lstrip(b"# \t")) else None
+    if head and _is_names(head):
+        header_order = _header_order(head)
+        if not head.startswith(b"#"):
+            skip = 1  # a header without '#': skip the first non-blank line
     order = quat_order or header_order or "xyzw"
     if order not in ("xyzw", "wxyz"):
         raise ValueError(f"quat_order: expected 'xyzw' or 'wxyz', got {quat_order!r}")
