@@ -202,3 +202,16 @@ def test_reader_warns_on_wrong_order(tmp_path):
 )
 def test_header_names_the_order(header, order):
     assert trajfile._header_order(header.encode()) == order
+
+
+def test_euroc_writer_keeps_nanoseconds(tmp_path):
+    T = _poses(3)
+    t = np.array([1403636579.758555392, 1403636579.763555392, 1403636579.768555392])
+    p = tmp_path / "w.csv"
+    euroc.write_euroc(p, t, T)
+    ns = [int(ln.split(",")[0]) for ln in p.read_text().splitlines()[1:]]
+    from decimal import Decimal
+
+    exact = [round(Decimal(float(x)) * 10**9) for x in t]  # the nanoseconds the doubles hold
+    assert max(abs(a - b) for a, b in zip(ns, exact, strict=True)) <= 1
+    assert abs(round(float(t[0]) * 1e9) - exact[0]) > 1  # the one-float product would not

@@ -119,7 +119,8 @@ def write_euroc(path: PathLike, timestamps: Any, poses: Any) -> None:
         )
     x = _layouts.from_matrix(T, layout="xyz_qwxyz")
     x[:, 3:] = hemisphere_continuous(x[:, 3:])
-    ns = np.round(t * 1e9).astype(np.int64)
+    sec = np.floor(t)  # whole seconds apart: t·1e9 in one float would round to 256 ns at 1.4e9 s
+    ns = sec.astype(np.int64) * 10**9 + np.round((t - sec) * 1e9).astype(np.int64)
     with open(path, "w", encoding="utf-8") as fh:
         fh.write(HEADER + "\n")
         fh.writelines(

@@ -6,9 +6,9 @@
   says otherwise). ``#`` starts a comment (whole line or the rest of it); commas and tabs
   separate like spaces; a first line of names (``timestamp tx ty ...``, with or without ``#``) is
   a **header**: detected, skipped, and if it names ``qw`` before ``qx`` the order is taken as
-  ``wxyz``. Parsed in one ``numpy.loadtxt`` call (a 10⁶-line file in about 2 s), validated with
-  vectorised checks; a bad line is then located and named (``file:line: ...``) by a second,
-  per-line pass that runs only on failure.
+  ``wxyz``. Parsed in one ``numpy.loadtxt`` call (a 10⁶-line file in 2–4 s on the
+  development machine), validated with vectorised checks; a bad line is then located and
+  named (``file:line: ...``) by a second, per-line pass that runs only on failure.
 * ``"kitti"`` — 12 numbers ``[R | t]`` row-major per line, no timestamps: the frame index is
   returned as the timestamp (so association pairs frames by index), read by
   :func:`liebridge.io.trajectory.read_kitti`.
