@@ -4,7 +4,7 @@ Subcommands: ``conventions`` (the presets as a table), ``detect`` (measure an in
 convention), ``convert-cov`` (a covariance or information matrix at a pose, between conventions),
 ``optimize`` (a g2o / EDGE3 pose graph in any convention; default sphere2500.txt), ``g2o convert``
 (information between g2o's and GTSAM's semantics), ``bag`` (ROS bags: info, export,
-write-marginals) and ``demo``. Bad input gets one line on stderr
+write-marginals), ``traj ape|rpe|nees`` (trajectory evaluation) and ``demo``. Bad input gets one line on stderr
 and a non-zero exit status, never a traceback.
 """
 
@@ -16,7 +16,7 @@ import sys
 from collections.abc import Sequence
 
 from .. import __version__
-from . import bag_cmd, convert_cov, detect, g2o_cmd, optimize, table
+from . import bag_cmd, convert_cov, detect, g2o_cmd, optimize, table, traj_cmd
 from ._common import CLIError, OneLineParser, one_line
 
 __all__ = ["build_parser", "main"]
@@ -53,6 +53,7 @@ def build_parser() -> argparse.ArgumentParser:
     optimize.add_parser(sub)
     g2o_cmd.add_parser(sub)
     bag_cmd.add_parser(sub)
+    traj_cmd.add_parser(sub)
     d = sub.add_parser(
         "demo",
         help="a one-second self-check: liebridge's SE(3) exp/log against the installed GTSAM",
@@ -80,6 +81,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 getattr(args, "command", None),
                 getattr(args, "g2o_command", None),
                 getattr(args, "bag_command", None),
+                getattr(args, "traj_command", None),
             )
             if w
         ]

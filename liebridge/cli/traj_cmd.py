@@ -1,0 +1,408 @@
+"""``liebridge traj ape|rpe|nees REF EST``: evo's APE/RPE, and NEES with covariances.
+
+The pipeline is evo's: read both files (TUM, KITTI or EuRoC, detected), associate by timestamp
+(``--max-diff`` 0.01 s, ``--offset`` 0 s), align the estimate to the reference (``--align``:
+``none`` by default as evo, ``se3``, ``sim3``, ``4dof``), then compute the metric. ``nees``
+also moves the estimate's covariances (``--cov`` ``(N, 6, 6)`` ``.npy``, one per pose of EST, in
+``--convention``) under the alignment, as that convention requires. ``--format json`` prints
+one JSON object on stdout (``rmse mean median std min max`` and more; ``anees`` for ``nees``);
+``--plot`` writes the trajectories, the errors over time and, for ``nees``, the NEES against
+its χ² bounds. Every input error is one line on stderr.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import warnings
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .._validate import FloatArray
+from ._common import (
+    CLIError,
+    check_output_path,
+    convention_arg,
+    need_matplotlib,
+    one_line,
+    say,
+)
+
+__all__ = ["add_parser"]
+
+
+@dataclass(frozen=True)
+class _Prepared:
+    t_ref: FloatArray
+    T_ref: FloatArray  # associated
+    T_est: FloatArray  # associated, before alignment
+    T_aligned: FloatArray
+    cov_est: FloatArray | None  # associated, before alignment, in the estimator's convention
+    alignment: Any
+    n_ref: int
+    n_est: int
+    resampled: str | None
+
+
+def _read(path: str, fmt: str, quat_order: str | None, what: str) -> tuple[FloatArray, FloatArray]:
+    from ..io import trajfile
+    from ..io.sanity import QuaternionOrderWarning
+
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", QuaternionOrderWarning)
+            out = trajfile.read_trajectory(path, fmt, quat_order=quat_order)
+    except (ValueError, OSError) as exc:
+        raise CLIError(f"{what}: {exc}") from None
+    for w in caught:  # one line each on stderr, never Python's two-line warning format
+        say(f"liebridge traj: warning: {what}: {one_line(str(w.message))}")
+    return out
+
+
+def _prepare(
+    args: argparse.Namespace, cov: FloatArray | None = None, conv: Any = None
+) -> _Prepared:
+    from .. import traj
+
+    t_ref, T_ref = _read(args.ref, args.ref_format, args.quat_order, "REF")
+    t_est, T_est = _read(args.est, args.est_format, args.quat_order, "EST")
+    if cov is not None and cov.shape[0] != len(t_est):
+        raise CLIError(
+            f"--cov: {cov.shape[0]} covariances for {len(t_est)} poses of EST "
+            f"(one per pose, in file order)"
+        )
+    try:
+        traj.check_timestamps(t_ref, "REF timestamps")
+        traj.check_timestamps(t_est, "EST timestamps")
+        s = traj.synchronize(
+            t_ref,
+            T_ref,
+            t_est,
+            T_est,
+            max_diff=args.max_diff,
+            offset=args.offset,
+            interpolate=args.interpolate,
+            cov_est=cov,
+            convention=conv,
+        )
+    except ValueError as exc:
+        raise CLIError(str(exc)) from None
+    try:
+        A = traj.align(s.T_ref, s.T_est, args.align)
+    except ValueError as exc:
+        raise CLIError(f"--align {args.align}: {exc}") from None
+    return _Prepared(
+        s.t,
+        s.T_ref,
+        s.T_est,
+        A.apply(s.T_est),
+        s.cov_est,
+        A,
+        len(t_ref),
+        len(t_est),
+        s.resampled,
+    )
+
+
+def _stats_dict(errors: FloatArray) -> dict[str, float]:
+    from ..traj import statistics
+
+    return statistics(errors).as_dict()
+
+
+def _emit(args: argparse.Namespace, result: dict[str, Any], unit: str) -> None:
+    if args.format == "json":
+        json.dump(result, sys.stdout, allow_nan=False)
+        sys.stdout.write("\n")
+        return
+    head = {k: result[k] for k in ("metric", "pose_relation", "align") if k in result}
+    print(" ".join(f"{k}={v}" for k, v in head.items()) + f" (n={result['n']})")
+    for k in ("rmse", "mean", "median", "std", "min", "max"):
+        print(f"  {k:<7}{result[k]:.6g} {unit}")
+    for k in ("anees", "anees_lower", "anees_upper", "consistent", "fraction_inside"):
+        if k in result:
+            print(f"  {k:<16}{result[k]}")
+
+
+def _unit(relation: str) -> str:
+    return {"trans_part": "m", "point_distance": "m", "angle_deg": "deg", "angle_rad": "rad"}.get(
+        relation, ""
+    )
+
+
+def _alignment_info(p: _Prepared) -> dict[str, Any]:
+    A = p.alignment
+    return {
+        "align": A.kind,
+        "scale": A.scale,
+        "alignment_sim3": A.matrix.tolist(),
+        "n_ref": p.n_ref,
+        "n_est": p.n_est,
+        "n_associated": int(p.T_ref.shape[0]),
+        "resampled": p.resampled,
+    }
+
+
+def _plot(
+    args: argparse.Namespace,
+    p: _Prepared,
+    x: FloatArray,
+    y: FloatArray,
+    ylabel: str,
+    bounds: tuple[float, float] | None = None,
+) -> None:
+    plt = need_matplotlib()
+    n = 2
+    fig, axes = plt.subplots(1, n, figsize=(11, 4.2))
+    ax = axes[0]
+    ax.plot(p.T_ref[:, 0, 3], p.T_ref[:, 1, 3], "k-", lw=1, label="reference")
+    ax.plot(
+        p.T_aligned[:, 0, 3],
+        p.T_aligned[:, 1, 3],
+        "C1-",
+        lw=1,
+        label=f"estimate ({p.alignment.kind})",
+    )
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.legend(loc="best")
+    ax = axes[1]
+    ax.plot(x, y, "C0-", lw=1)
+    if bounds is not None:
+        ax.axhline(bounds[0], color="C3", ls="--", lw=1, label="per-pose χ² bounds")
+        ax.axhline(bounds[1], color="C3", ls="--", lw=1)
+        ax.axhline(float(np.mean(y)), color="C1", lw=1.5, label=f"ANEES {float(np.mean(y)):.4g}")
+        ax.set_yscale("log")
+        ax.legend(loc="best")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel(ylabel)
+    ax.grid(True, alpha=0.3)
+    fig.suptitle(f"liebridge traj {args.traj_command}: {args.est} vs {args.ref}", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(args.plot, dpi=110)
+    plt.close(fig)
+    say(f"wrote {args.plot}")
+
+
+def _ape(args: argparse.Namespace) -> int:
+    from .. import traj
+
+    if args.plot:
+        check_output_path(args.plot, "--plot", (".png", ".pdf", ".svg"))
+    p = _prepare(args)
+    err = traj.ape(p.T_ref, p.T_aligned, args.pose_relation)
+    result = {"metric": "ape", "pose_relation": args.pose_relation, **_stats_dict(err)}
+    result.update(_alignment_info(p))
+    _emit(args, result, _unit(args.pose_relation))
+    if args.plot:
+        _plot(args, p, p.t_ref, err, f"APE {args.pose_relation} [{_unit(args.pose_relation)}]")
+    return 0
+
+
+def _rpe(args: argparse.Namespace) -> int:
+    from .. import traj
+
+    if args.plot:
+        check_output_path(args.plot, "--plot", (".png", ".pdf", ".svg"))
+    if args.unit == "frames" and not float(args.delta).is_integer():
+        raise CLIError(f"--delta: expected an integer for --unit frames, got {args.delta:g}")
+    p = _prepare(args)
+    try:
+        err, pairs = traj.rpe(
+            p.T_ref,
+            p.T_aligned,
+            args.delta,
+            args.unit,
+            args.pose_relation,
+            all_pairs=args.all_pairs,
+        )
+    except ValueError as exc:
+        raise CLIError(str(exc)) from None
+    result: dict[str, Any] = {
+        "metric": "rpe",
+        "pose_relation": args.pose_relation,
+        "delta": args.delta,
+        "delta_unit": args.unit,
+        "all_pairs": bool(args.all_pairs),
+        **_stats_dict(err),
+    }
+    result.update(_alignment_info(p))
+    if args.segments:
+        try:
+            k = traj.kitti_segment_errors(p.T_ref, p.T_aligned)
+        except ValueError as exc:
+            raise CLIError(f"--segments: {exc}") from None
+        result["kitti_segments"] = {
+            "lengths_m": k.lengths.tolist(),
+            "translation_percent": k.translation_percent.tolist(),
+            "rotation_deg_per_m": k.rotation_deg_per_m.tolist(),
+            "count": k.count.tolist(),
+            "translation_percent_mean": k.translation_percent_mean,
+            "rotation_deg_per_m_mean": k.rotation_deg_per_m_mean,
+        }
+    _emit(args, result, _unit(args.pose_relation))
+    if args.segments and args.format != "json":
+        seg = result["kitti_segments"]
+        print("  KITTI segments: length [m], translation [%], rotation [deg/m], count")
+        for row in zip(
+            *(seg[c] for c in ("lengths_m", "translation_percent", "rotation_deg_per_m", "count")),
+            strict=True,
+        ):
+            print(f"    {row[0]:6g} {row[1]:10.4g} {row[2]:12.4g} {row[3]:6d}")
+    if args.plot:
+        _plot(args, p, p.t_ref[pairs[:, 1]], err, f"RPE {args.pose_relation}")
+    return 0
+
+
+def _nees(args: argparse.Namespace) -> int:
+    from .. import traj
+
+    conv = convention_arg(args.convention, "--convention")
+    if args.plot:
+        check_output_path(args.plot, "--plot", (".png", ".pdf", ".svg"))
+    try:
+        cov = np.load(args.cov, allow_pickle=False)
+    except (OSError, ValueError, EOFError) as exc:
+        raise CLIError(f"--cov: cannot read {args.cov} as .npy: {one_line(str(exc))}") from None
+    if not isinstance(cov, np.ndarray) or not np.issubdtype(cov.dtype, np.number):
+        raise CLIError(f"--cov: {args.cov} does not hold one numeric array")
+    if cov.ndim != 3 or cov.shape[1:] != (6, 6):
+        raise CLIError(f"--cov: expected an array of shape (N, 6, 6), got {cov.shape}")
+    p = _prepare(args, np.asarray(cov, dtype=np.float64), conv)
+    assert p.cov_est is not None
+    try:
+        C = p.alignment.transform_covariance(p.T_est, p.cov_est, conv)
+        r = traj.nees(p.T_ref, p.T_aligned, C, conv, confidence=args.confidence)
+    except ValueError as exc:
+        raise CLIError(f"--cov: {exc}") from None
+    result: dict[str, Any] = {
+        "metric": "nees",
+        "convention": conv.name,
+        **_stats_dict(r.nees),
+        "anees": r.anees,
+        "anees_lower": r.anees_bounds[0],
+        "anees_upper": r.anees_bounds[1],
+        "pose_lower": r.pose_bounds[0],
+        "pose_upper": r.pose_bounds[1],
+        "confidence": r.confidence,
+        "consistent": r.consistent,
+        "fraction_inside": r.fraction_inside,
+    }
+    result.update(_alignment_info(p))
+    _emit(args, result, "")
+    if args.plot:
+        _plot(args, p, p.t_ref, r.nees, "NEES (6 dof)", r.pose_bounds)
+    return 0
+
+
+def _common(q: argparse.ArgumentParser) -> None:
+    from ..traj import ALIGNMENTS
+
+    q.add_argument("ref", metavar="REF", help="reference trajectory file (TUM, KITTI, EuRoC)")
+    q.add_argument("est", metavar="EST", help="estimated trajectory file")
+    q.add_argument(
+        "--align",
+        choices=ALIGNMENTS,
+        default="none",
+        help="Umeyama alignment of EST to REF (default: none, as evo)",
+    )
+    q.add_argument(
+        "--format", choices=("text", "json"), default="text", help="json: one JSON object on stdout"
+    )
+    q.add_argument("--plot", metavar="OUT.png", help="write a figure")
+    q.add_argument(
+        "--max-diff",
+        type=float,
+        default=0.01,
+        help="largest time difference of an associated pair [s] (0.01)",
+    )
+    q.add_argument("--offset", type=float, default=0.0, help="added to EST's stamps [s] (0)")
+    q.add_argument(
+        "--interpolate",
+        choices=("lerp_slerp", "geodesic"),
+        default=None,
+        help="resample the longer trajectory at the other's matched stamps (evo's "
+        "interpolation sync: lerp_slerp) instead of taking the nearest poses",
+    )
+    q.add_argument("--ref-format", default="auto", choices=("auto", "tum", "kitti", "euroc"))
+    q.add_argument("--est-format", default="auto", choices=("auto", "tum", "kitti", "euroc"))
+    q.add_argument(
+        "--quat-order",
+        choices=("xyzw", "wxyz"),
+        default=None,
+        help="quaternion order of TUM files (default: from the header, else xyzw)",
+    )
+
+
+def _relation(q: argparse.ArgumentParser) -> None:
+    from ..traj import POSE_RELATIONS
+
+    q.add_argument(
+        "--pose-relation",
+        "-r",
+        choices=POSE_RELATIONS,
+        default="trans_part",
+        help="what of the error pose is measured (default trans_part, as evo)",
+    )
+
+
+def add_parser(sub: Any) -> None:
+    """Register ``liebridge traj`` and its subcommands."""
+    p = sub.add_parser(
+        "traj",
+        help="trajectory evaluation: APE, RPE (as evo) and NEES with covariances",
+        description="Trajectory evaluation: APE, RPE (evo's definitions) and NEES.",
+    )
+    tsub = p.add_subparsers(dest="traj_command", metavar="SUBCOMMAND")
+
+    def _help(_: argparse.Namespace) -> int:
+        p.print_help()
+        return 0
+
+    p.set_defaults(func=_help)
+    a = tsub.add_parser(
+        "ape",
+        help="absolute pose error",
+        description="Absolute pose error of EST against REF (evo_ape).",
+    )
+    _common(a)
+    _relation(a)
+    a.set_defaults(func=_ape)
+    r = tsub.add_parser(
+        "rpe",
+        help="relative pose error",
+        description="Relative pose error of EST against REF (evo_rpe).",
+    )
+    _common(r)
+    _relation(r)
+    r.add_argument("--delta", type=float, default=1, help="pair distance (default 1)")
+    r.add_argument(
+        "--unit",
+        choices=("frames", "m"),
+        default="frames",
+        help="unit of --delta (frames, or metres of path on EST)",
+    )
+    r.add_argument(
+        "--all-pairs",
+        action="store_true",
+        help="all pairs (i, i+delta) instead of non-overlapping ones",
+    )
+    r.add_argument(
+        "--segments", action="store_true", help="also KITTI's per-segment errors (100..800 m)"
+    )
+    r.set_defaults(func=_rpe)
+    n = tsub.add_parser(
+        "nees",
+        help="NEES/ANEES of EST's covariances",
+        description="NEES of EST with its covariances (--cov, one 6x6 per pose of EST, in "
+        "--convention's tangent), with chi-square bounds.",
+    )
+    _common(n)
+    n.add_argument("--cov", required=True, metavar="FILE.npy", help="(N, 6, 6) covariances")
+    n.add_argument("--convention", required=True, help="the estimator's convention (a preset)")
+    n.add_argument("--confidence", type=float, default=0.95, help="of the chi-square bounds")
+    n.set_defaults(func=_nees)

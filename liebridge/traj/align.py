@@ -1,0 +1,198 @@
+"""Umeyama alignment of an estimated trajectory to a reference, with its covariances.
+
+An alignment is a similarity ``S = (s, R, t)`` acting on the estimate's world frame: a pose
+``T_est = [[R_i, p_i], [0, 1]]`` becomes ``S ⊙ T_est = [[R R_i, s R p_i + t], [0, 1]]`` (evo's
+``scale(s)`` then ``transform(se3(R, t))``). Its parameters minimise
+``Σ_i ‖p_ref,i − (s R p_est,i + t)‖²`` over the positions only (Umeyama 1991, eq. 34–43, as in
+evo 1.38 ``evo/core/geometry.py::umeyama_alignment``):
+
+* ``"se3"``  — ``R ∈ SO(3)``, ``t``, ``s = 1`` (6 DoF);
+* ``"sim3"`` — ``R``, ``t`` and the scale ``s`` (7 DoF, monocular);
+* ``"4dof"`` — a rotation about the world ``z`` axis only (yaw) and ``t``, ``s = 1`` (4 DoF: the
+  unobservable directions of visual-inertial odometry with gravity along ``z``; closed form
+  ``θ = atan2(Σ (x × y)_z, Σ x_xy · y_xy)`` over the centred positions, as in
+  rpg_trajectory_evaluation ``align_trajectory.py::get_best_yaw``);
+* ``"none"`` — the identity.
+
+**Covariances move with the poses.** Left-multiplying every pose by a rigid ``G`` leaves GTSAM's
+right (body) twist unchanged, ``G·(X·Exp(ξ)) = (G X)·Exp(ξ)``; scaling the translations by ``s``
+scales its ``v`` part, ``(R, s p)·Exp((ω, s v)) = scale_s(X·Exp((ω, v)))`` exactly. So an increment
+``d`` in the estimate's convention at ``X`` becomes, at ``X' = S ⊙ X``,
+``d' = J d`` with ``J = from_canonical(X') · diag(I₃, s I₃) · to_canonical(X)``, and
+``Σ' = J Σ Jᵀ``. For right-perturbation conventions ``J`` is the identity under ``"se3"``/``"4dof"``
+(tempting and false: that it is the identity for every convention — a left (world-frame)
+covariance rotates with the world, ``Σ' = Ad_G Σ Ad_Gᵀ``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+
+from .. import _validate as v
+from .._validate import FloatArray
+from ..conventions import ConventionLike, get
+from ..conventions import unchecked as cu
+
+__all__ = ["ALIGNMENTS", "Alignment", "AlignmentKind", "align", "umeyama"]
+
+AlignmentKind = Literal["se3", "sim3", "4dof", "none"]
+#: The alignment kinds, as the CLI's ``--align`` takes them.
+ALIGNMENTS: tuple[str, ...] = ("se3", "sim3", "4dof", "none")
+_MIN_POSES = 3
+
+
+@dataclass(frozen=True)
+class Alignment:
+    """A similarity ``S = (scale, R, t)`` taking the estimate's world frame to the reference's.
+
+    Attributes
+    ----------
+    kind : str
+        ``"se3"``, ``"sim3"``, ``"4dof"`` or ``"none"``.
+    R_ref_est : ndarray, shape (3, 3)
+    t_ref_est : ndarray, shape (3,)
+    scale : float
+        1 unless ``kind == "sim3"``.
+    """
+
+    kind: str
+    R_ref_est: FloatArray
+    t_ref_est: FloatArray
+    scale: float = 1.0
+
+    @property
+    def matrix(self) -> FloatArray:
+        """The 4×4 similarity ``[[s R, t], [0, 1]]`` (evo's ``sim3(r, t, s)``)."""
+        S = np.eye(4)
+        S[:3, :3] = self.scale * self.R_ref_est
+        S[:3, 3] = self.t_ref_est
+        return S
+
+    def apply(self, T_est: Any) -> FloatArray:
+        """Poses of the estimate in the reference's world frame: ``[[R R_i, s R p_i + t], …]``.
+
+        Parameters
+        ----------
+        T_est : array_like, shape (..., 4, 4)
+        """
+        T = v.pose(T_est, "T_est")
+        out = np.array(T, dtype=np.float64, copy=True)
+        out[..., :3, :3] = self.R_ref_est @ T[..., :3, :3]
+        out[..., :3, 3] = (self.scale * T[..., :3, 3]) @ self.R_ref_est.T + self.t_ref_est
+        return out
+
+    def covariance_map(self, T_est: Any, convention: ConventionLike) -> FloatArray:
+        """``J`` with ``d' = J d``: an increment at ``T_est`` to one at ``apply(T_est)``.
+
+        Both increments are in ``convention`` (see the module docstring), shape (..., 6, 6).
+        """
+        conv = get(convention)
+        T = v.pose(T_est, "T_est")
+        D = np.diag([1.0, 1.0, 1.0, self.scale, self.scale, self.scale])
+        J = cu.from_canonical(conv, self.apply(T)) @ D @ cu.to_canonical(conv, T)
+        return np.asarray(J, dtype=np.float64)
+
+    def transform_covariance(
+        self, T_est: Any, cov_est: Any, convention: ConventionLike
+    ) -> FloatArray:
+        """Covariances of the aligned estimate, ``J Σ Jᵀ`` (see :meth:`covariance_map`).
+
+        Parameters
+        ----------
+        T_est : array_like, shape (..., 4, 4)
+            The estimate **before** alignment (where ``cov_est`` is expressed).
+        cov_est : array_like, shape (..., 6, 6)
+            In ``convention``'s tangent at ``T_est``.
+        convention : Convention or str
+            The estimator's convention.
+
+        Returns
+        -------
+        ndarray, shape (..., 6, 6)
+            In ``convention``'s tangent at ``apply(T_est)``.
+        """
+        cov = v.covariance(cov_est, "cov_est", 6)
+        J = self.covariance_map(T_est, convention)
+        v.batch_shape(("T_est", J.shape[:-2]), ("cov_est", cov.shape[:-2]))
+        out = J @ cov @ np.swapaxes(J, -1, -2)
+        return np.asarray(0.5 * (out + np.swapaxes(out, -1, -2)), dtype=np.float64)
+
+
+def _positions(x: Any, name: str) -> FloatArray:
+    p = v.vector(x, name, 3)
+    if p.ndim != 2:
+        raise ValueError(f"{name}: expected shape (N, 3), got {p.shape}")
+    return p
+
+
+def umeyama(p_est: Any, p_ref: Any, kind: AlignmentKind | str = "se3") -> Alignment:
+    """Least-squares alignment of positions ``p_ref ≈ s R p_est + t``.
+
+    Parameters
+    ----------
+    p_est, p_ref : array_like, shape (N, 3)
+        Associated positions, N ≥ 3.
+    kind : {"se3", "sim3", "4dof", "none"}
+
+    Raises
+    ------
+    ValueError
+        Fewer than 3 positions, different lengths, an unknown ``kind``, or positions too
+        degenerate to fix the rotation (all on a line, or all equal).
+    """
+    if kind not in ALIGNMENTS:
+        raise ValueError(f"kind: expected one of {', '.join(ALIGNMENTS)}, got {kind!r}")
+    x = _positions(p_est, "p_est")
+    y = _positions(p_ref, "p_ref")
+    if x.shape != y.shape:
+        raise ValueError(f"p_est, p_ref: different numbers of positions, {len(x)} and {len(y)}")
+    if kind == "none":
+        return Alignment("none", np.eye(3), np.zeros(3), 1.0)
+    if len(x) < _MIN_POSES:
+        raise ValueError(
+            f"alignment {kind!r} needs at least {_MIN_POSES} associated poses, got {len(x)}"
+        )
+    n = len(x)
+    mx, my = x.mean(axis=0), y.mean(axis=0)
+    xc, yc = x - mx, y - my
+    if kind == "4dof":
+        a_c = float(np.sum(xc[:, 0] * yc[:, 0] + xc[:, 1] * yc[:, 1]))
+        a_s = float(np.sum(xc[:, 0] * yc[:, 1] - xc[:, 1] * yc[:, 0]))
+        if np.hypot(a_c, a_s) <= np.finfo(float).eps * max(1.0, float(np.abs(xc).sum())):
+            raise ValueError(
+                "alignment '4dof': the horizontal positions do not move; the yaw is undetermined"
+            )
+        th = np.arctan2(a_s, a_c)
+        c, s = np.cos(th), np.sin(th)
+        R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        return Alignment("4dof", R, my - R @ mx, 1.0)
+    sigma_x = float(np.linalg.norm(xc) ** 2) / n
+    cov_xy = (yc.T @ xc) / n
+    u, d, vt = np.linalg.svd(cov_xy)
+    if np.count_nonzero(d > np.finfo(d.dtype).eps) < 2:
+        raise ValueError(
+            f"alignment {kind!r}: the positions are degenerate (singular values of their "
+            f"cross-covariance {d.tolist()}); all on one line or all equal"
+        )
+    S = np.eye(3)
+    if np.linalg.det(u) * np.linalg.det(vt) < 0.0:
+        S[2, 2] = -1.0
+    R = u @ S @ vt
+    scale = float(np.trace(np.diag(d) @ S) / sigma_x) if kind == "sim3" else 1.0
+    return Alignment(kind, R, my - scale * (R @ mx), scale)
+
+
+def align(T_ref: Any, T_est: Any, kind: AlignmentKind | str = "se3") -> Alignment:
+    """:func:`umeyama` on the positions of associated poses ``(N, 4, 4)``.
+
+    Use ``alignment.apply(T_est)`` for the aligned poses and
+    ``alignment.transform_covariance(T_est, cov, convention)`` for their covariances.
+    """
+    Tr = v.pose(T_ref, "T_ref")
+    Te = v.pose(T_est, "T_est")
+    if Tr.ndim != 3 or Te.ndim != 3:
+        raise ValueError(f"T_ref, T_est: expected shape (N, 4, 4), got {Tr.shape}, {Te.shape}")
+    return umeyama(Te[:, :3, 3], Tr[:, :3, 3], kind)
