@@ -3,8 +3,9 @@
 Subcommands: ``conventions`` (the presets as a table), ``detect`` (measure an installed library's
 convention), ``convert-cov`` (a covariance or information matrix at a pose, between conventions),
 ``optimize`` (a g2o / EDGE3 pose graph in any convention; default sphere2500.txt), ``g2o convert``
-(information between g2o's and GTSAM's semantics) and ``demo``. Bad input gets one line on stderr
-and a non-zero exit status, never a traceback.
+(information between g2o's and GTSAM's semantics), ``extrinsics convert`` (a camera–IMU
+extrinsic between Kalibr, OKVIS, ORB-SLAM3, OpenVINS, Basalt, VINS-Fusion, OpenCV) and ``demo``.
+Bad input gets one line on stderr and a non-zero exit status, never a traceback.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import sys
 from collections.abc import Sequence
 
 from .. import __version__
-from . import convert_cov, detect, g2o_cmd, optimize, table
+from . import convert_cov, detect, extrinsics_cmd, g2o_cmd, optimize, table
 from ._common import CLIError, OneLineParser, one_line
 
 __all__ = ["build_parser", "main"]
@@ -51,6 +52,7 @@ def build_parser() -> argparse.ArgumentParser:
     convert_cov.add_parser(sub)
     optimize.add_parser(sub)
     g2o_cmd.add_parser(sub)
+    extrinsics_cmd.add_parser(sub)
     d = sub.add_parser("demo", help="a small self-check against the installed GTSAM")
     d.set_defaults(func=_demo)
     return p
@@ -67,7 +69,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         ["liebridge"]
         + [
             str(w)
-            for w in (getattr(args, "command", None), getattr(args, "g2o_command", None))
+            for w in (
+                getattr(args, "command", None),
+                getattr(args, "g2o_command", None),
+                getattr(args, "extrinsics_command", None),
+            )
             if w
         ]
     )
