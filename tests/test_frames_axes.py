@@ -23,9 +23,7 @@ def _T(R: np.ndarray, t: np.ndarray) -> np.ndarray:
 
 def test_rotations_from_the_definitions() -> None:
     # ENU coordinates of a point given in NED: x_e = y_n (east), y_e = x_n (north), z_e = -z_n
-    np.testing.assert_array_equal(
-        axes.rotation("ENU", "NED"), [[0, 1, 0], [1, 0, 0], [0, 0, -1]]
-    )
+    np.testing.assert_array_equal(axes.rotation("ENU", "NED"), [[0, 1, 0], [1, 0, 0], [0, 0, -1]])
     np.testing.assert_array_equal(axes.rotation("FLU", "FRD"), np.diag([1.0, -1.0, -1.0]))
     # optical z (forward) is body x; optical x (right) is body -y; optical y (down) is body -z
     np.testing.assert_array_equal(

@@ -104,9 +104,7 @@ def test_geodesic_direction_invariant_lerp_slerp_not() -> None:
 
 
 def test_disconnected_chain_names_frames() -> None:
-    tree = TransformTree(
-        [Transform(np.eye(4), "map", "odom"), Transform(np.eye(4), "base", "cam")]
-    )
+    tree = TransformTree([Transform(np.eye(4), "map", "odom"), Transform(np.eye(4), "base", "cam")])
     with pytest.raises(FrameLookupError) as exc:
         tree.lookup("map", "cam")
     msg = str(exc.value)

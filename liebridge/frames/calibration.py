@@ -573,13 +573,22 @@ def read_kalibr(path: PathLike, *, imu_frame: str = "imu0") -> KalibrCamchain:
 _KALIBR_FIELDS = ("T_cam_imu", "T_cn_cnm1", "timeshift_cam_imu")
 
 
-def write_kalibr(path: PathLike, chain: KalibrCamchain) -> None:
+def write_kalibr(
+    path: PathLike, chain: KalibrCamchain, *, style: Literal["kalibr", "opencv"] = "kalibr"
+) -> None:
     """Write ``chain`` as Kalibr does (``yaml.dump``, flow-style rows, full-precision floats).
 
     Kalibr's own writer is ``yaml.dump(data, default_flow_style=None)``
     (``kalibr_common/ConfigReader.py`` ``writeYaml``); the numbers are written with ``repr``
     and read back bit-exact.
+
+    ``style="opencv"`` writes the same data for readers built on OpenCV's ``cv::FileStorage``
+    (OpenVINS reads its ``kalibr_imucam_chain.yaml`` that way): a ``%YAML:1.0`` header and
+    sequence items indented under their key. OpenCV 5.0's YAML parser rejects Kalibr's own
+    layout (items at the key's indentation: "Incorrect indentation"; measured in the tests).
     """
+    if style not in ("kalibr", "opencv"):
+        raise ValueError(f"style: expected 'kalibr' or 'opencv', got {style!r}")
     yaml = _yaml()
     data: dict[str, Any] = {}
     for c in chain.cameras:
@@ -591,7 +600,17 @@ def write_kalibr(path: PathLike, chain: KalibrCamchain) -> None:
         if c.timeshift_cam_imu is not None:
             entry["timeshift_cam_imu"] = float(c.timeshift_cam_imu)
         data[c.name] = entry
-    text = yaml.safe_dump(data, default_flow_style=None, width=2147483647)
+    if style == "kalibr":
+        text = yaml.safe_dump(data, default_flow_style=None, width=2147483647)
+    else:
+
+        class Dumper(yaml.SafeDumper):  # type: ignore[name-defined]
+            def increase_indent(self, flow: bool = False, indentless: bool = False) -> Any:
+                return super().increase_indent(flow, False)
+
+        text = "%YAML:1.0\n" + yaml.dump(
+            data, Dumper=Dumper, default_flow_style=None, width=2147483647
+        )
     Path(path).write_text(text, encoding="utf-8")
 
 
@@ -755,7 +774,7 @@ def format_parameter(ext: SystemExtrinsic, camera: str = "cam0") -> str:
     idx = int(m.group(1)) if m else 0
     if ext.system in ("kalibr", "openvins"):
         head = "%YAML:1.0\n" if ext.system == "openvins" else ""
-        body = "".join(f"  - [{r}]\n" for r in rows)
+        body = "".join(f"    - [{r}]\n" for r in rows)  # indented: cv::FileStorage needs it
         return f"{head}{camera}:\n  {ext.parameter}:\n{body}"
     if ext.system == "okvis":
         return f"T_SC: [{', '.join(rows)}]\n"
