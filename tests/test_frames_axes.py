@@ -40,7 +40,7 @@ def test_rotations_from_the_definitions() -> None:
 
 
 def test_bad_axes() -> None:
-    with pytest.raises(ValueError, match="ENU .world axes. and FRD .body axes."):
+    with pytest.raises(ValueError, match=r"ENU \(world axes\) and FRD \(body axes\)"):
         axes.rotation("ENU", "FRD")
     with pytest.raises(ValueError, match="did you mean 'NED'"):
         axes.get("NDE")

@@ -327,10 +327,10 @@ def test_non_rigid_T_cam_imu_names_file_and_field(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="bottom row"):
         read_kalibr(path)
     path.write_text("cam0:\n  T_cam_imu: [[1, 0, 0], [0, 1, 0]]\n")
-    with pytest.raises(ValueError, match="cam0.T_cam_imu: expected 4x4"):
+    with pytest.raises(ValueError, match=r"cam0\.T_cam_imu: expected 4x4"):
         read_kalibr(path)
     path.write_text("cam0:\n  T_cam_imu: [[1, 0, 0, a]]\n")
-    with pytest.raises(ValueError, match="cam0.T_cam_imu"):
+    with pytest.raises(ValueError, match=r"cam0\.T_cam_imu"):
         read_kalibr(path)
     path.write_text("cam0:\n  T_cam_imu: [1, 2\n")
     with pytest.raises(ValueError, match="not valid YAML"):
