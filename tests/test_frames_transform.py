@@ -139,3 +139,24 @@ def test_inverse_covariance_is_not_unchanged() -> None:
     Sigma = _cov(rng)
     inv = Transform(T, "a", "b", Sigma).inverse()
     assert np.abs(inv.cov - Sigma).max() > 0.1 * np.abs(Sigma).max()
+
+
+@pytest.mark.parametrize(
+    "xi",
+    [
+        np.zeros(6),
+        np.array([1e-12, 0.0, 0.0, 30.0, -30.0, 30.0]),
+        np.array([np.pi, 0.0, 0.0, 30.0, 5.0, -30.0]),  # exactly π, 30 m
+        np.array([0.0, (np.pi - 1e-9) / np.sqrt(2), (np.pi - 1e-9) / np.sqrt(2), 1.0, 2.0, 3.0]),
+    ],
+)
+def test_inverse_and_compose_covariance_edge_poses(xi: np.ndarray) -> None:
+    rng = np.random.default_rng(12)
+    T = se3.exp(xi)
+    S = _cov(rng, 0.02, 0.05)
+    tf = Transform(T, "a", "b", S)
+    n = 30_000
+    d = rng.multivariate_normal(np.zeros(6), S, size=n)
+    inv = tf.inverse()
+    samples = se3.inverse(C.unchecked.retract(C.GTSAM, T, d))
+    _close(_mc_cov(samples, inv.T, C.GTSAM), inv.cov, 0.05)

@@ -136,3 +136,17 @@ def test_batched_times(tree_and_data: tuple) -> None:
     batch = tree.lookup("map", "imu", t)
     assert batch.T.shape == (2, 2, 4, 4)
     np.testing.assert_allclose(batch.T[1, 0], tree.lookup("map", "imu", 0.2).T, atol=1e-12)
+
+
+def test_static_covariances_carried_through_the_chain() -> None:
+    rng = np.random.default_rng(8)
+    S = np.diag([1e-4, 1e-4, 4e-4, 1e-3, 1e-3, 2e-3])
+    a_b = Transform(_pose(rng, 2.0), "a", "b", S)
+    c_b = Transform(_pose(rng, 1.0), "c", "b", 2 * S)
+    tree = TransformTree([a_b, c_b])
+    got = tree.lookup("a", "c")
+    ref = a_b @ c_b.inverse()
+    np.testing.assert_allclose(got.T, ref.T, atol=1e-12)
+    np.testing.assert_allclose(got.cov, ref.cov, atol=1e-15)
+    same = tree.lookup("b", "b", [0.0, 1.0])
+    assert same.T.shape == (2, 4, 4) and same.name == "T_b_b"

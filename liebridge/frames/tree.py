@@ -242,7 +242,9 @@ class TransformTree:
         Returns
         -------
         Transform
-            ``T_target_source`` (no covariance: edges' covariances are not interpolated).
+            ``T_target_source``. Covariances of static edges are carried through the chain
+            (first order, independent edges, see :meth:`Transform.compose`); time-stamped
+            edges count as exact (their covariances are not interpolated).
 
         Raises
         ------
@@ -264,7 +266,7 @@ class TransformTree:
             tt = v.as_float_array(t, "t")
             v.check_finite(tt, "t")
         shape: tuple[int, ...] = () if tt is None else tuple(tt.shape)
-        T = np.broadcast_to(np.eye(4), (*shape, 4, 4)).copy()
+        result: Transform | None = None
         for _, k, fwd in path:
             edge = self._edges[k]
             if isinstance(edge, StampedTransform):
@@ -273,11 +275,21 @@ class TransformTree:
                         f"cannot look up T_{target_frame}_{source_frame} without a time: "
                         f"{edge.transform.name} is time-stamped"
                     )
-                Te = _interpolate(edge, tt, interpolation)
+                e = edge.transform
+                step = Transform(
+                    _interpolate(edge, tt, interpolation), e.target_frame, e.source_frame
+                )
             else:
-                Te = edge.T
-            T = T @ (Te if fwd else U.se3_inverse(Te))
-        return Transform(T, target_frame, source_frame)
+                step = edge
+            step = step if fwd else step.inverse()
+            result = step if result is None else result @ step
+        if result is None:  # target_frame == source_frame
+            return Transform(np.broadcast_to(np.eye(4), (*shape, 4, 4)), target_frame, source_frame)
+        if result.batch_shape != shape:  # a static chain queried at an array of times
+            cov = None if result.cov is None else np.broadcast_to(result.cov, (*shape, 6, 6))
+            T = np.broadcast_to(result.T, (*shape, 4, 4))
+            result = Transform(T, target_frame, source_frame, cov, result.convention)
+        return result
 
     def stamps_of(self, target_frame: str, source_frame: str) -> Sequence[FloatArray]:
         """Return the stamps of the time-stamped edges on the chain (the times a lookup may use)."""
