@@ -393,3 +393,33 @@ def test_kalibr_layout_vs_opencv_filestorage(kalibr_file: Path, tmp_path: Path) 
     assert np.array_equal(M, chain.cameras[0].T_cam_imu.T)  # type: ignore[union-attr]
     again = read_kalibr(ocv)
     assert np.array_equal(again.cameras[1].T_cam_imu.T, chain.cameras[1].T_cam_imu.T)  # type: ignore[union-attr]
+
+
+@pytest.mark.parametrize("system", ["kalibr", "openvins", "basalt", "vins_fusion"])
+def test_time_offset_used_as_the_system_uses_it(
+    system: str, kalibr_file: Path, tmp_path: Path
+) -> None:
+    """t_imu = t_cam + shift in every system that keeps one, each with its own key and unit:
+    kalibr IccSensors.py (t_imu = t_cam + timeshiftCamToImuPrior); open_vins VioManager.cpp
+    (timestamp + _calib_dt_CAMtoIMU); basalt spline_linearize.h (timestamp_ns +
+    cam_time_offset_ns); VINS-Fusion estimator.cpp (curTime = feature.first + td)."""
+    shift = calibration.read_timeshift(kalibr_file)
+    assert shift == 0.00125
+    ext = export_extrinsic(read_extrinsic(kalibr_file), system, timeshift_cam_imu=shift)
+    t_cam = 1403636580.8385556
+    if system == "basalt":
+        t_cam_ns = 1403636580838555648
+        t_imu = (t_cam_ns + ext.extra["cam_time_offset_ns"]) * 1e-9
+        assert isinstance(ext.extra["cam_time_offset_ns"], int)
+        assert t_imu == pytest.approx(t_cam_ns * 1e-9 + shift, abs=1e-9)
+    else:
+        key = "td" if system == "vins_fusion" else "timeshift_cam_imu"
+        assert t_cam + ext.extra[key] == t_cam + shift
+    # the snippet carries it and reads back
+    path = tmp_path / ("c.json" if system == "basalt" else "c.yaml")
+    path.write_text(format_parameter(ext))
+    assert calibration.read_timeshift(path) == pytest.approx(shift, abs=1e-12)
+    # systems without one: nothing is invented
+    for other in ("okvis", "orbslam3", "opencv"):
+        e = export_extrinsic(read_extrinsic(kalibr_file), other, timeshift_cam_imu=shift)
+        assert not {"td", "timeshift_cam_imu", "cam_time_offset_ns"} & set(e.extra)

@@ -6,7 +6,9 @@ prints the extrinsic as ``--to SYSTEM`` stores it: the matrix, its direction in 
 names and the parameter in the system's own syntax. ``--format json`` prints exactly one JSON
 object on stdout with ``system``, ``parameter``, ``T`` (4×4 rows), ``target_frame``,
 ``source_frame`` (``T`` maps ``source_frame`` coordinates to ``target_frame``), ``direction``,
-``camera``, ``from_system``, ``snippet`` and, for OpenCV, ``rvec``/``tvec``.
+``camera``, ``from_system``, ``snippet`` and, for OpenCV, ``rvec``/``tvec``; a time offset in
+FILE (Kalibr ``timeshift_cam_imu``, ``t_imu = t_cam + shift``) is carried to the target's own key
+(``timeshift_cam_imu``, ``td``, ``cam_time_offset_ns``) when it has one.
 """
 
 from __future__ import annotations
@@ -41,9 +43,10 @@ def _convert(args: argparse.Namespace) -> int:
                     "IMU.T_b_c1, body_T_camN or rvec/tvec found); give --from SYSTEM"
                 )
         T_cam_imu = C.read_extrinsic(path, system=src, camera=args.camera, imu_frame=args.imu_frame)
+        shift = C.read_timeshift(path, system=src, camera=args.camera)
     except ImportError as exc:
         raise CLIError(str(exc)) from None
-    ext = C.export_extrinsic(T_cam_imu, to.system)
+    ext = C.export_extrinsic(T_cam_imu, to.system, timeshift_cam_imu=shift)
     snippet = C.format_parameter(ext, args.camera)
     if args.format == "json":
         out = ext.as_dict()
@@ -56,6 +59,10 @@ def _convert(args: argparse.Namespace) -> int:
     print(f"frames: target {tf.target_frame}, source {tf.source_frame}")
     print(f"direction: {ext.direction}")
     print(f"storage: {to.storage}")
+    if shift is not None:
+        have = C.TIME_OFFSETS.get(to.system)
+        where = f"{have[0]} = {ext.extra[have[0]]!r}" if have else f"none in {to.system}"
+        print(f"time offset: t_imu = t_cam + {shift!r} s ({where})")
     print(f"use in {to.system}: {to.use}")
     print(f"source: {to.source}")
     print("snippet:")

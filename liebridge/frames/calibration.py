@@ -46,7 +46,9 @@ open_vins 6948812 (2025-11), basalt 0f3b2b5 (2026-03), VINS-Fusion be55a93 (2021
 
 Kalibr's ``timeshift_cam_imu`` is ``t_imu = t_cam + timeshift_cam_imu`` (kalibr
 ``IccSensors.py``: "t_imu = t_cam + timeshiftCamToImuPrior"). ``T_cn_cnm1`` maps camera n−1
-coordinates to camera n.
+coordinates to camera n. The time offset goes to the systems that keep one, same meaning,
+their own key and unit (:data:`TIME_OFFSETS`): OpenVINS ``timeshift_cam_imu``, VINS-Fusion
+``td``, Basalt ``cam_time_offset_ns``.
 
 YAML needs PyYAML (the ``calib`` extra), imported only when a file is read or written. Files in
 OpenCV's dialect (``%YAML:1.0`` and ``!!opencv-matrix`` nodes, as ORB-SLAM3, VINS-Fusion,
@@ -75,6 +77,7 @@ from .tree import TransformTree
 
 __all__ = [
     "SYSTEMS",
+    "TIME_OFFSETS",
     "ExtrinsicFormat",
     "KalibrCamchain",
     "KalibrCamera",
@@ -87,6 +90,7 @@ __all__ = [
     "from_rvec_tvec",
     "read_extrinsic",
     "read_kalibr",
+    "read_timeshift",
     "system_format",
     "system_names",
     "to_liosam",
@@ -254,7 +258,38 @@ class SystemExtrinsic:
         }
 
 
-def export_extrinsic(T_cam_imu: Transform, system: str) -> SystemExtrinsic:
+#: Where each system keeps the camera–IMU time offset, all meaning ``t_imu = t_cam + offset``:
+#: (key, unit scale from seconds, source). OKVIS (``imageDelay`` is read but not used in
+#: ethz-asl/okvis), ORB-SLAM3 and OpenCV have none.
+TIME_OFFSETS: dict[str, tuple[str, float, str]] = {
+    "kalibr": (
+        "timeshift_cam_imu",
+        1.0,
+        "kalibr IccSensors.py: t_imu = t_cam + timeshiftCamToImuPrior",
+    ),
+    "openvins": (
+        "timeshift_cam_imu",
+        1.0,
+        "open_vins VioManagerOptions.h reads it into calib_camimu_dt; VioManager.cpp uses "
+        "timestamp + _calib_dt_CAMtoIMU as IMU time",
+    ),
+    "basalt": (
+        "cam_time_offset_ns",
+        1e9,
+        "basalt spline_linearize.h: time_ns = acd.timestamp_ns + calibration->cam_time_offset_ns",
+    ),
+    "vins_fusion": (
+        "td",
+        1.0,
+        "VINS-Fusion estimator.cpp: curTime = feature.first + td (config: 'readed image clock "
+        "+ td = real image clock (IMU clock)')",
+    ),
+}
+
+
+def export_extrinsic(
+    T_cam_imu: Transform, system: str, *, timeshift_cam_imu: float | None = None
+) -> SystemExtrinsic:
     """Express the camera–IMU extrinsic ``T_cam_imu`` in ``system``'s convention.
 
     Parameters
@@ -264,6 +299,9 @@ def export_extrinsic(T_cam_imu: Transform, system: str) -> SystemExtrinsic:
         ``source_frame`` the IMU (as Kalibr's ``T_cam_imu``). A covariance is carried along.
     system : str
         One of :func:`system_names`.
+    timeshift_cam_imu : float, optional
+        Kalibr's time offset (``t_imu = t_cam + timeshift_cam_imu``, seconds); exported under the
+        system's own key and unit (:data:`TIME_OFFSETS`) in ``extra`` and the snippet.
 
     Returns
     -------
@@ -282,7 +320,7 @@ def export_extrinsic(T_cam_imu: Transform, system: str) -> SystemExtrinsic:
     own[T_cam_imu.source_frame] = imu_own
     direction = (
         f"{fmt.parameter} maps {tf.source_frame} coordinates to {tf.target_frame} coordinates "
-        f"(p_{tf.target_frame} = R p_{tf.source_frame} + t; {system} calls the frames "
+        f"(p_{tf.target_frame} = R p_{tf.source_frame} + t; {fmt.system} calls the frames "
         f"{own[tf.target_frame]} = {tf.target_frame}, {own[tf.source_frame]} = "
         f"{tf.source_frame}); it is the pose of {tf.source_frame} in {tf.target_frame}"
     )
@@ -292,6 +330,13 @@ def export_extrinsic(T_cam_imu: Transform, system: str) -> SystemExtrinsic:
         extra = {"rvec": rvec.tolist(), "tvec": tvec.tolist()}
     elif fmt.system == "basalt":
         extra = {"pose": _basalt_pose(tf.T)}
+    if timeshift_cam_imu is not None:
+        shift = float(timeshift_cam_imu)
+        if not np.isfinite(shift):
+            raise ValueError(f"timeshift_cam_imu: not finite ({shift!r})")
+        if fmt.system in TIME_OFFSETS:
+            key, scale, _ = TIME_OFFSETS[fmt.system]
+            extra[key] = round(shift * scale) if scale != 1.0 else shift
     return SystemExtrinsic(fmt.system, fmt.parameter, tf, direction, extra)
 
 
@@ -756,6 +801,36 @@ def read_extrinsic(
     return Transform(T, imu_frame, camera).inverse()  # all of these hold T_imu_cam
 
 
+def read_timeshift(
+    path: PathLike, *, system: str | None = None, camera: str = "cam0"
+) -> float | None:
+    """Kalibr's ``timeshift_cam_imu`` (seconds, ``t_imu = t_cam + shift``) from a system's file.
+
+    Reads the system's own key and unit (:data:`TIME_OFFSETS`); None when the file has none or
+    the system keeps none.
+    """
+    data = _read(path)
+    name = detect_system(data) if system is None else system_format(system, "system").system
+    if name not in TIME_OFFSETS or not isinstance(data, dict):
+        return None
+    key, scale, _ = TIME_OFFSETS[name]
+    if name in ("kalibr", "openvins"):
+        entry = data.get(camera)
+        value = entry.get(key) if isinstance(entry, dict) else None
+        where = f"{path}: {camera}.{key}"
+    elif name == "basalt":
+        root = data.get("value0", data)
+        value = root.get(key) if isinstance(root, dict) else None
+        where = f"{path}: {key}"
+    else:
+        value, where = data.get(key), f"{path}: {key}"
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
+        raise ValueError(f"{where}: expected a finite number, got {value!r}")
+    return float(value) / scale
+
+
 def _num(x: float) -> str:
     return repr(float(x) + 0.0)  # + 0.0: no "-0.0" in a config file
 
@@ -775,6 +850,8 @@ def format_parameter(ext: SystemExtrinsic, camera: str = "cam0") -> str:
     if ext.system in ("kalibr", "openvins"):
         head = "%YAML:1.0\n" if ext.system == "openvins" else ""
         body = "".join(f"    - [{r}]\n" for r in rows)  # indented: cv::FileStorage needs it
+        if "timeshift_cam_imu" in ext.extra:
+            body += f"  timeshift_cam_imu: {_num(ext.extra['timeshift_cam_imu'])}\n"
         return f"{head}{camera}:\n  {ext.parameter}:\n{body}"
     if ext.system == "okvis":
         return f"T_SC: [{', '.join(rows)}]\n"
@@ -782,13 +859,16 @@ def format_parameter(ext: SystemExtrinsic, camera: str = "cam0") -> str:
         key = ext.parameter if ext.system == "orbslam3" else f"body_T_cam{idx}"
         dt = "f" if ext.system == "orbslam3" else "d"
         data = ",\n          ".join(rows)
+        td = f"td: {_num(ext.extra['td'])}\n" if "td" in ext.extra else ""
         return (
             f"%YAML:1.0\n{key}: !!opencv-matrix\n   rows: 4\n   cols: 4\n   dt: {dt}\n"
-            f"   data: [{data}]\n"
+            f"   data: [{data}]\n{td}"
         )
     if ext.system == "basalt":
-        poses = [_basalt_pose(T)]
-        return json.dumps({"value0": {"T_imu_cam": poses}}, indent=4) + "\n"
+        value0: dict[str, Any] = {"T_imu_cam": [_basalt_pose(T)]}
+        if "cam_time_offset_ns" in ext.extra:
+            value0["cam_time_offset_ns"] = ext.extra["cam_time_offset_ns"]
+        return json.dumps({"value0": value0}, indent=4) + "\n"
     rvec, tvec = to_rvec_tvec(ext.transform)
     return (
         f"rvec: [{', '.join(_num(x) for x in rvec)}]\ntvec: [{', '.join(_num(x) for x in tvec)}]\n"
