@@ -120,6 +120,8 @@ def test_other_lookup_errors(tree_and_data: tuple) -> None:
         tree.lookup("map", "cam")
     with pytest.raises(FrameLookupError, match=r"outside its data \[0.0, 0.4\]"):
         tree.lookup("map", "cam", 0.5)
+    with pytest.raises(FrameLookupError, match=r"time -0.1 is outside"):
+        tree.lookup("map", "cam", [[0.1, 0.2], [0.3, -0.1]])
     with pytest.raises(ValueError, match="interpolation"):
         tree.lookup("map", "cam", 0.1, interpolation="cubic")
     with pytest.raises(ValueError, match="already connected"):

@@ -88,7 +88,7 @@ def _interpolate(edge: StampedTransform, t: FloatArray, how: str) -> FloatArray:
     lo, hi = float(s[0]), float(s[-1])
     out_of_range = (t < lo) | (t > hi)
     if out_of_range.any():
-        bad = float(t[np.argwhere(out_of_range)[0][0]] if t.ndim else t)
+        bad = float(t[tuple(np.argwhere(out_of_range)[0])])
         raise FrameLookupError(
             f"{edge.transform.name}: time {bad!r} is outside its data [{lo!r}, {hi!r}] "
             "(extrapolation is not done)"
