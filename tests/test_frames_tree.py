@@ -5,6 +5,8 @@ from __future__ import annotations
 import gtsam
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation, Slerp
 
 from liebridge.frames import FrameLookupError, StampedTransform, Transform, TransformTree
@@ -152,3 +154,25 @@ def test_static_covariances_carried_through_the_chain() -> None:
     np.testing.assert_allclose(got.cov, ref.cov, atol=1e-15)
     same = tree.lookup("b", "b", [0.0, 1.0])
     assert same.T.shape == (2, 4, 4) and same.name == "T_b_b"
+
+
+@given(st.floats(0.0, 0.4), st.sampled_from(["lerp_slerp", "geodesic"]))
+def test_lookups_chain_and_invert(t: float, how: str) -> None:
+    rng = np.random.default_rng(5)
+    stamps = np.array([0.0, 0.1, 0.25, 0.4])
+    tree = TransformTree(
+        [
+            Transform(_pose(rng, 30.0), "map", "odom"),
+            StampedTransform(
+                Transform(np.stack([_pose(rng, 3.0) for _ in stamps]), "odom", "base"), stamps
+            ),
+            Transform(_pose(rng, 0.2), "base", "cam"),
+        ]
+    )
+    a_c = tree.lookup("map", "cam", t, interpolation=how)
+    a_b = tree.lookup("map", "base", t, interpolation=how)
+    b_c = tree.lookup("base", "cam", t, interpolation=how)
+    np.testing.assert_allclose((a_b @ b_c).T, a_c.T, atol=1e-9)
+    np.testing.assert_allclose(
+        tree.lookup("cam", "map", t, interpolation=how).T, a_c.inverse().T, atol=1e-9
+    )
