@@ -1,0 +1,875 @@
+"""Calibration files: Kalibr's camchain-imucam.yaml, and the camera–IMU extrinsic of VIO systems.
+
+The same extrinsic has a different name **and direction** in every system. Kalibr's
+``T_cam_imu`` maps IMU coordinates to camera coordinates (``p_cam = T_cam_imu p_imu``); OKVIS,
+ORB-SLAM3, OpenVINS, Basalt and VINS-Fusion all store the inverse, ``T_imu_cam``, each under its
+own name; OpenCV's ``rvec, tvec`` map "world" (here: the IMU frame) coordinates to the camera.
+Every row of :data:`SYSTEMS` was read in the system's source (file cited on the row) and is
+tested by reproducing the system's own use of the parameter on a test point
+(``tests/test_frames_calibration.py``):
+
+============  ==================  ===========  =====================================================
+system        parameter           holds        the system's use (source)
+============  ==================  ===========  =====================================================
+kalibr        ``T_cam_imu``       T_cam_imu    ``T_c_w = T_cN_b * T_b_w`` (kalibr
+                                               ``IccSensors.py`` ``addCameraErrorTerms``);
+                                               written by ``ConfigReader.py``
+                                               ``setExtrinsicsImuToCam``
+okvis         ``T_SC``            T_imu_cam    ``hp_C = T_CS * hp_S`` with ``T_CS = T_SC⁻¹`` (okvis
+                                               ``ReprojectionError.hpp``); 16 numbers row-major
+                                               (``VioParametersReader.cpp``)
+orbslam3      ``IMU.T_b_c1``      T_imu_cam    ``Tcb = Tbc⁻¹`` (``ImuTypes.cc`` ``Calib::Set``),
+                                               ``mTcw = mImuCalib.mTcb * Tbw`` (``Frame.cc``);
+                                               read from ``IMU.T_b_c1`` (``Settings.cc``
+                                               ``readIMU``) with ``at<float>``: ``dt: f``
+openvins      ``T_imu_cam``       T_imu_cam    parsed into ``T_CtoI`` (``VioManagerOptions.h``),
+                                               ``R_ItoC = R_CtoIᵀ``, ``p_IinC = −R_CtoIᵀ p_CinI``,
+                                               ``p_FinC = R_ItoC p_FinI + p_IinC``
+                                               (``UpdaterHelper.cpp``); a missing ``T_imu_cam``
+                                               falls back to an inverted ``T_cam_imu``
+                                               (``opencv_yaml_parse.h``)
+basalt        ``T_imu_cam``       T_imu_cam    ``T_w_c = T_w_i * calib.T_i_c`` (basalt
+                                               ``poses_linearize.h``); JSON ``T_imu_cam`` =
+                                               ``Calibration::T_i_c`` (basalt-headers
+                                               ``headers_serialization.h``), ``{px..pz, qx..qw}``
+vins_fusion   ``body_T_cam0``     T_imu_cam    ``RIC, TIC`` = its blocks (``parameters.cpp``),
+                                               ``pts_camera = qic⁻¹ (pts_imu − tic)``
+                                               (``projectionTwoFrameOneCamFactor.cpp``)
+opencv        ``rvec, tvec``      T_cam_imu    ``x_cam = Rodrigues(rvec) X + tvec`` (OpenCV
+                                               ``solvePnP``/``projectPoints``), the IMU frame
+                                               playing OpenCV's "world"
+============  ==================  ===========  =====================================================
+
+Versions read: kalibr 1f60227 (2024-03), okvis f0c9ba4 (2020-07), ORB_SLAM3 master (2021-2022),
+open_vins 6948812 (2025-11), basalt 0f3b2b5 (2026-03), VINS-Fusion be55a93 (2021-07), LIO-SAM
+0be1fbe (2023-04).
+
+Kalibr's ``timeshift_cam_imu`` is ``t_imu = t_cam + timeshift_cam_imu`` (kalibr
+``IccSensors.py``: "t_imu = t_cam + timeshiftCamToImuPrior"). ``T_cn_cnm1`` maps camera n−1
+coordinates to camera n. The time offset goes to the systems that keep one, same meaning,
+their own key and unit (:data:`TIME_OFFSETS`): OpenVINS ``timeshift_cam_imu``, VINS-Fusion
+``td``, Basalt ``cam_time_offset_ns``.
+
+YAML needs PyYAML (the ``calib`` extra), imported only when a file is read or written. Files in
+OpenCV's dialect (``%YAML:1.0`` and ``!!opencv-matrix`` nodes, as ORB-SLAM3, VINS-Fusion,
+OpenVINS and OKVIS use) are read too, and :func:`format_parameter` writes each system's
+parameter in that system's own syntax (checked by reading it back with OpenCV's
+``FileStorage`` in the tests).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+
+from .. import _validate as v
+from .._validate import FloatArray
+from ..io import poses as pose_io
+from ..lie import unchecked as U
+from .transform import Transform, frame_name
+from .tree import TransformTree
+
+__all__ = [
+    "SYSTEMS",
+    "TIME_OFFSETS",
+    "ExtrinsicFormat",
+    "KalibrCamchain",
+    "KalibrCamera",
+    "SystemExtrinsic",
+    "detect_file_system",
+    "detect_system",
+    "export_extrinsic",
+    "format_parameter",
+    "from_liosam",
+    "from_rvec_tvec",
+    "read_extrinsic",
+    "read_kalibr",
+    "read_timeshift",
+    "system_format",
+    "system_names",
+    "to_liosam",
+    "to_rvec_tvec",
+    "write_kalibr",
+]
+
+PathLike = str | Path
+Holds = Literal["T_cam_imu", "T_imu_cam"]
+
+
+# ----------------------------------------------------------------------------- the systems
+@dataclass(frozen=True)
+class ExtrinsicFormat:
+    """How one system names, orients and stores the camera–IMU extrinsic.
+
+    ``holds`` is the direction in liebridge's naming: ``"T_cam_imu"`` maps IMU coordinates to
+    camera coordinates, ``"T_imu_cam"`` camera coordinates to IMU coordinates.
+    """
+
+    system: str
+    parameter: str
+    holds: Holds
+    storage: str
+    use: str
+    source: str
+    own_frames: tuple[str, str]  # the system's own names for (camera, imu)
+
+
+SYSTEMS: dict[str, ExtrinsicFormat] = {
+    f.system: f
+    for f in (
+        ExtrinsicFormat(
+            "kalibr",
+            "T_cam_imu",
+            "T_cam_imu",
+            "4x4 rows (YAML list of lists) under camN",
+            "p_cam = T_cam_imu p_imu (T_c_w = T_cN_b * T_b_w)",
+            "ethz-asl/kalibr aslam_offline_calibration/kalibr/python/kalibr_imu_camera_calibration/"
+            "IccSensors.py (addCameraErrorTerms); kalibr_common/ConfigReader.py",
+            ("cam", "imu"),
+        ),
+        ExtrinsicFormat(
+            "okvis",
+            "T_SC",
+            "T_imu_cam",
+            "16 numbers, row-major, in a cameras list item",
+            "hp_C = T_CS hp_S with T_CS = T_SC^-1 (S = sensor/IMU, C = camera)",
+            "ethz-asl/okvis okvis_ceres/include/okvis/ceres/implementation/ReprojectionError.hpp; "
+            "okvis_common/src/VioParametersReader.cpp",
+            ("C", "S"),
+        ),
+        ExtrinsicFormat(
+            "orbslam3",
+            "IMU.T_b_c1",
+            "T_imu_cam",
+            "!!opencv-matrix 4x4, dt: f (read with cv::Mat::at<float>)",
+            "Tcb = Tbc^-1, Tcw = Tcb * Tbw (b = body/IMU, c1 = first camera)",
+            "UZ-SLAMLab/ORB_SLAM3 src/Settings.cc (readIMU), src/ImuTypes.cc (Calib::Set), "
+            "src/Frame.cc (SetImuPoseVelocity)",
+            ("c1", "b"),
+        ),
+        ExtrinsicFormat(
+            "openvins",
+            "T_imu_cam",
+            "T_imu_cam",
+            "4x4 rows (YAML list of lists) under camN (kalibr_imucam_chain.yaml)",
+            "T_CtoI = T_imu_cam; p_FinC = R_ItoC p_FinI + p_IinC with R_ItoC = R_CtoI^T, "
+            "p_IinC = -R_CtoI^T p_CinI",
+            "rpng/open_vins ov_msckf/src/core/VioManagerOptions.h; "
+            "ov_msckf/src/update/UpdaterHelper.cpp; ov_core/src/utils/opencv_yaml_parse.h",
+            ("C", "I"),
+        ),
+        ExtrinsicFormat(
+            "basalt",
+            "T_imu_cam",
+            "T_imu_cam",
+            'JSON list of {"px","py","pz","qx","qy","qz","qw"} (Calibration::T_i_c)',
+            "T_w_c = T_w_i * T_i_c",
+            "VladyslavUsenko/basalt include/basalt/optimization/poses_linearize.h; "
+            "basalt-headers include/basalt/serialization/headers_serialization.h",
+            ("c", "i"),
+        ),
+        ExtrinsicFormat(
+            "vins_fusion",
+            "body_T_cam0",
+            "T_imu_cam",
+            "!!opencv-matrix 4x4, dt: d",
+            "pts_imu = ric pts_camera + tic; pts_camera = ric^-1 (pts_imu - tic)",
+            "HKUST-Aerial-Robotics/VINS-Fusion vins_estimator/src/estimator/parameters.cpp; "
+            "vins_estimator/src/factor/projectionTwoFrameOneCamFactor.cpp",
+            ("cam0", "body"),
+        ),
+        ExtrinsicFormat(
+            "opencv",
+            "rvec, tvec",
+            "T_cam_imu",
+            "rotation vector (Rodrigues) and translation, world (here: IMU) -> camera",
+            "x_cam = R(rvec) X + tvec (cv::solvePnP, cv::projectPoints)",
+            "OpenCV calib3d documentation (solvePnP, projectPoints, Rodrigues)",
+            ("camera", "world"),
+        ),
+    )
+}
+
+
+def system_names() -> tuple[str, ...]:
+    """Names accepted by :func:`export_extrinsic` and the CLI's ``--to``/``--from``."""
+    return tuple(SYSTEMS)
+
+
+def system_format(name: Any, what: str = "system") -> ExtrinsicFormat:
+    """Return the :class:`ExtrinsicFormat` of ``name`` (an unknown name raises naming ``what``)."""
+    if not isinstance(name, str):
+        raise TypeError(f"{what}: expected a system name (str), got {type(name).__name__}")
+    key = name.strip().lower().replace("-", "_")
+    key = {"orb_slam3": "orbslam3", "vins": "vins_fusion", "vinsfusion": "vins_fusion"}.get(
+        key, key
+    )
+    if key in SYSTEMS:
+        return SYSTEMS[key]
+    import difflib
+
+    close = difflib.get_close_matches(key, list(SYSTEMS), n=2, cutoff=0.5)
+    hint = f"; did you mean {' or '.join(repr(c) for c in close)}?" if close else ""
+    raise ValueError(f"{what}: unknown system {name!r}{hint} (known: {', '.join(SYSTEMS)})")
+
+
+@dataclass(frozen=True)
+class SystemExtrinsic:
+    """The camera–IMU extrinsic as one system stores it.
+
+    Attributes
+    ----------
+    system, parameter : str
+        The system and the name its configuration uses.
+    transform : Transform
+        The stored matrix with its frames: ``T`` maps ``source_frame`` to ``target_frame``.
+    direction : str
+        The direction in words.
+    extra : dict
+        System-specific forms (``rvec``/``tvec`` for OpenCV, the JSON pose for Basalt).
+    """
+
+    system: str
+    parameter: str
+    transform: Transform
+    direction: str
+    extra: Mapping[str, Any] = field(default_factory=dict)
+
+    def as_dict(self) -> dict[str, Any]:
+        """Return a JSON-ready dict: ``system``, ``parameter``, ``T`` (rows), frames, direction."""
+        tf = self.transform
+        return {
+            "system": self.system,
+            "parameter": self.parameter,
+            "T": (np.asarray(tf.T) + 0.0).tolist(),
+            "target_frame": tf.target_frame,
+            "source_frame": tf.source_frame,
+            "direction": self.direction,
+            **{
+                k: (np.asarray(val).tolist() if isinstance(val, np.ndarray) else val)
+                for k, val in self.extra.items()
+            },
+        }
+
+
+#: Where each system keeps the camera–IMU time offset, all meaning ``t_imu = t_cam + offset``:
+#: (key, unit scale from seconds, source). OKVIS (``imageDelay`` is read but not used in
+#: ethz-asl/okvis), ORB-SLAM3 and OpenCV have none.
+TIME_OFFSETS: dict[str, tuple[str, float, str]] = {
+    "kalibr": (
+        "timeshift_cam_imu",
+        1.0,
+        "kalibr IccSensors.py: t_imu = t_cam + timeshiftCamToImuPrior",
+    ),
+    "openvins": (
+        "timeshift_cam_imu",
+        1.0,
+        "open_vins VioManagerOptions.h reads it into calib_camimu_dt; VioManager.cpp uses "
+        "timestamp + _calib_dt_CAMtoIMU as IMU time",
+    ),
+    "basalt": (
+        "cam_time_offset_ns",
+        1e9,
+        "basalt spline_linearize.h: time_ns = acd.timestamp_ns + calibration->cam_time_offset_ns",
+    ),
+    "vins_fusion": (
+        "td",
+        1.0,
+        "VINS-Fusion estimator.cpp: curTime = feature.first + td (config: 'readed image clock "
+        "+ td = real image clock (IMU clock)')",
+    ),
+}
+
+
+def export_extrinsic(
+    T_cam_imu: Transform, system: str, *, timeshift_cam_imu: float | None = None
+) -> SystemExtrinsic:
+    """Express the camera–IMU extrinsic ``T_cam_imu`` in ``system``'s convention.
+
+    Parameters
+    ----------
+    T_cam_imu : Transform
+        Maps IMU coordinates to camera coordinates: ``target_frame`` is the camera,
+        ``source_frame`` the IMU (as Kalibr's ``T_cam_imu``). A covariance is carried along.
+    system : str
+        One of :func:`system_names`.
+    timeshift_cam_imu : float, optional
+        Kalibr's time offset (``t_imu = t_cam + timeshift_cam_imu``, seconds); exported under the
+        system's own key and unit (:data:`TIME_OFFSETS`) in ``extra`` and the snippet.
+
+    Returns
+    -------
+    SystemExtrinsic
+        Its ``transform`` is ``T_cam_imu`` or its inverse, as the system stores it.
+    """
+    fmt = system_format(system)
+    if not isinstance(T_cam_imu, Transform):
+        raise TypeError(f"T_cam_imu: expected a Transform, got {type(T_cam_imu).__name__}")
+    if T_cam_imu.batch_shape:
+        raise ValueError(f"T_cam_imu: expected one transform, got a batch {T_cam_imu.batch_shape}")
+    tf = T_cam_imu if fmt.holds == "T_cam_imu" else T_cam_imu.inverse()
+    cam_own, imu_own = fmt.own_frames
+    own: dict[str, str] = {}
+    own[T_cam_imu.target_frame] = cam_own
+    own[T_cam_imu.source_frame] = imu_own
+    direction = (
+        f"{fmt.parameter} maps {tf.source_frame} coordinates to {tf.target_frame} coordinates "
+        f"(p_{tf.target_frame} = R p_{tf.source_frame} + t; {fmt.system} calls the frames "
+        f"{own[tf.target_frame]} = {tf.target_frame}, {own[tf.source_frame]} = "
+        f"{tf.source_frame}); it is the pose of {tf.source_frame} in {tf.target_frame}"
+    )
+    extra: dict[str, Any] = {}
+    if fmt.system == "opencv":
+        rvec, tvec = to_rvec_tvec(tf)
+        extra = {"rvec": rvec.tolist(), "tvec": tvec.tolist()}
+    elif fmt.system == "basalt":
+        extra = {"pose": _basalt_pose(tf.T)}
+    if timeshift_cam_imu is not None:
+        shift = float(timeshift_cam_imu)
+        if not np.isfinite(shift):
+            raise ValueError(f"timeshift_cam_imu: not finite ({shift!r})")
+        if fmt.system in TIME_OFFSETS:
+            key, scale, _ = TIME_OFFSETS[fmt.system]
+            extra[key] = round(shift * scale) if scale != 1.0 else shift
+    return SystemExtrinsic(fmt.system, fmt.parameter, tf, direction, extra)
+
+
+def _basalt_pose(T: FloatArray) -> dict[str, float]:
+    x = pose_io.from_matrix(T, layout="xyz_qxyzw")
+    return dict(zip(("px", "py", "pz", "qx", "qy", "qz", "qw"), map(float, x), strict=True))
+
+
+# ----------------------------------------------------------------------------- OpenCV rvec, tvec
+def from_rvec_tvec(
+    rvec: Any, tvec: Any, *, target_frame: str = "camera", source_frame: str = "world"
+) -> Transform:
+    """OpenCV's ``rvec, tvec`` (``(..., 3)`` each) as ``T_camera_world``.
+
+    ``x_cam = R(rvec) X_world + tvec`` with ``R(rvec)`` Rodrigues' rotation of the rotation
+    vector ``rvec`` (OpenCV ``solvePnP`` returns the pose of the world in the camera). GTSAM
+    prefers the camera's pose in the world, ``T_world_camera``: take :meth:`Transform.inverse`.
+    """
+    r = v.tangent(rvec, "rvec", 3)
+    tv = v.vector(tvec, "tvec", 3)
+    shape = v.batch_shape(("rvec", r.shape[:-1]), ("tvec", tv.shape[:-1]))
+    R = U.so3_exp(np.broadcast_to(r, (*shape, 3)))
+    return Transform(
+        U.se3_assemble(R, np.broadcast_to(tv, (*shape, 3))), target_frame, source_frame
+    )
+
+
+def to_rvec_tvec(T_camera_world: Transform) -> tuple[FloatArray, FloatArray]:
+    """Inverse of :func:`from_rvec_tvec`: ``(rvec, tvec)``, ``‖rvec‖ ∈ [0, π]``."""
+    if not isinstance(T_camera_world, Transform):
+        raise TypeError(
+            f"T_camera_world: expected a Transform, got {type(T_camera_world).__name__}"
+        )
+    return U.so3_log(T_camera_world.R), np.array(T_camera_world.t)
+
+
+# ----------------------------------------------------------------------------- LIO-SAM
+def to_liosam(T_lidar_imu: Transform, R_imu_orient: Any = None) -> dict[str, list[float]]:
+    """LIO-SAM's ``extrinsicRot``, ``extrinsicRPY``, ``extrinsicTrans`` from ``T_lidar_imu``.
+
+    What LIO-SAM does with them (TixiaoShan/LIO-SAM ``include/utility.h`` ``imuConverter``,
+    ``src/imuPreintegration.cpp``, 0be1fbe):
+
+    * ``extrinsicRot`` (9 numbers, row-major) **rotates IMU vectors** into the lidar frame:
+      ``acc = extRot * acc``, ``gyr = extRot * gyr`` — it is ``R_lidar_imu``;
+    * ``extrinsicRPY`` is for the 9-axis IMU's **orientation output**, whose frame may differ
+      from its accelerometer frame: ``q_final = q_from * extQRPY`` with
+      ``extQRPY = Quaterniond(extRPY).inverse()``, so ``extRPY = R_lidar_orient`` where
+      ``q_from = q_world_orient``; with ``R_imu_orient`` (``R_imu_orient`` maps the orientation
+      frame to the IMU frame; default identity) it is ``R_lidar_imu · R_imu_orient``;
+    * ``extrinsicTrans`` is the IMU's position in the lidar frame: ``lidar2Imu =
+      Pose3(I, extTrans)``, ``imuPose = lidarPose.compose(lidar2Imu)`` — the translation of
+      ``T_lidar_imu``. The params.yaml comment "T_lb (lidar -> imu)" names the same matrix.
+
+    Returns
+    -------
+    dict
+        ``{"extrinsicRot": [9], "extrinsicRPY": [9], "extrinsicTrans": [3]}`` (lists of floats).
+    """
+    if not isinstance(T_lidar_imu, Transform):
+        raise TypeError(f"T_lidar_imu: expected a Transform, got {type(T_lidar_imu).__name__}")
+    R_li = np.asarray(T_lidar_imu.R)
+    R_io = np.eye(3) if R_imu_orient is None else v.rotation(R_imu_orient, "R_imu_orient")
+    return {
+        "extrinsicRot": R_li.ravel().tolist(),
+        "extrinsicRPY": (R_li @ R_io).ravel().tolist(),
+        "extrinsicTrans": np.asarray(T_lidar_imu.t).tolist(),
+    }
+
+
+def from_liosam(
+    extrinsicRot: Any,
+    extrinsicRPY: Any,
+    extrinsicTrans: Any,
+    *,
+    lidar_frame: str = "lidar",
+    imu_frame: str = "imu",
+) -> tuple[Transform, FloatArray]:
+    """Inverse of :func:`to_liosam`: ``(T_lidar_imu, R_imu_orient)``.
+
+    Each argument is LIO-SAM's list (9, 9 and 3 numbers, row-major); a non-rotation raises
+    naming the parameter.
+    """
+    R = v.rotation(np.reshape(v.vector(extrinsicRot, "extrinsicRot", 9), (3, 3)), "extrinsicRot")
+    Rp = v.rotation(np.reshape(v.vector(extrinsicRPY, "extrinsicRPY", 9), (3, 3)), "extrinsicRPY")
+    t = v.vector(extrinsicTrans, "extrinsicTrans", 3)
+    return Transform(U.se3_assemble(R, t), lidar_frame, imu_frame), np.asarray(R.T @ Rp)
+
+
+# ----------------------------------------------------------------------------- YAML
+def _yaml() -> Any:
+    try:
+        import yaml
+    except ImportError:
+        raise ImportError(
+            "reading and writing calibration YAML needs PyYAML, an optional extra: "
+            'pip install "liebridge[calib]"'
+        ) from None
+    return yaml
+
+
+_OPENCV_TAG = "tag:yaml.org,2002:opencv-matrix"
+
+
+class _OpenCVMatrix(dict[str, Any]):
+    """An ``!!opencv-matrix`` node (rows, cols, dt, data) as read."""
+
+
+def _loader() -> Any:
+    yaml = _yaml()
+
+    class Loader(yaml.SafeLoader):  # type: ignore[name-defined]
+        pass
+
+    def construct(loader: Any, node: Any) -> _OpenCVMatrix:
+        return _OpenCVMatrix(loader.construct_mapping(node, deep=True))
+
+    Loader.add_constructor(_OPENCV_TAG, construct)
+    return Loader
+
+
+def _load_text(text: str, path: PathLike) -> Any:
+    """YAML (plain or OpenCV's dialect) or JSON text → Python objects; errors name the file."""
+    stripped = text.lstrip()
+    if stripped.startswith("{") and '"' in stripped[:200]:
+        try:
+            return json.loads(text)
+        except json.JSONDecodeError:
+            pass  # YAML flow mappings also start with "{"
+    yaml = _yaml()
+    # OpenCV writes "%YAML:1.0" (or "%YAML 1.2"): a directive PyYAML rejects; drop it
+    text = re.sub(r"\A\s*%YAML[: ]\s*\d+\.\d+[^\n]*\n", "", text)
+    try:
+        return yaml.load(text, Loader=_loader())  # a SafeLoader subclass
+    except yaml.YAMLError as exc:
+        msg = " ".join(str(exc).split())
+        raise ValueError(f"{path}: not valid YAML: {msg}") from None
+
+
+def _read(path: PathLike) -> Any:
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: not a text file (UTF-8)") from None
+    return _load_text(text, path)
+
+
+def _matrix(value: Any, where: str, shape: tuple[int, ...]) -> FloatArray:
+    """Read a numeric matrix from a list of lists, a flat list or an ``!!opencv-matrix``."""
+    if isinstance(value, _OpenCVMatrix):
+        try:
+            rows, cols, data = int(value["rows"]), int(value["cols"]), value["data"]
+        except (KeyError, TypeError, ValueError):
+            raise ValueError(f"{where}: an !!opencv-matrix needs rows, cols and data") from None
+        if not isinstance(data, list) or len(data) != rows * cols:
+            n = len(data) if isinstance(data, list) else "no list of"
+            raise ValueError(f"{where}: !!opencv-matrix {rows}x{cols} with {n} data values")
+        value = [data[i * cols : (i + 1) * cols] for i in range(rows)]
+    try:
+        arr = v.as_float_array(value, where)
+    except TypeError as exc:
+        raise ValueError(str(exc)) from None
+    if arr.size == int(np.prod(shape)) and arr.ndim <= 2:
+        arr = arr.reshape(shape)
+    if arr.shape != shape:
+        raise ValueError(f"{where}: expected {'x'.join(map(str, shape))} numbers, got {arr.shape}")
+    v.check_finite(arr, where)
+    return arr
+
+
+def _pose(value: Any, where: str) -> FloatArray:
+    """Read a rigid 4x4 from a file; the rotation tolerance follows the printed precision."""
+    T = _matrix(value, where, (4, 4))
+    fields = [repr(float(x)) for x in T[:3, :3].ravel()]
+    tol = pose_io.text_rotation_tol(fields)
+    try:
+        return v.pose(T, where, tol)
+    except ValueError as exc:
+        raise ValueError(f"{exc} (a rigid transform is required)") from None
+
+
+# ----------------------------------------------------------------------------- Kalibr
+@dataclass(frozen=True)
+class KalibrCamera:
+    """One ``camN`` entry of a Kalibr camchain(-imucam) file.
+
+    Attributes
+    ----------
+    name : str
+        ``"cam0"``, ``"cam1"``, ...
+    T_cam_imu : Transform or None
+        Maps IMU coordinates to this camera's (``target_frame`` = ``name``).
+    T_cn_cnm1 : Transform or None
+        Maps the previous camera's coordinates to this camera's.
+    timeshift_cam_imu : float or None
+        ``t_imu = t_cam + timeshift_cam_imu`` (seconds).
+    fields : dict
+        Every other key as read (intrinsics, distortion, resolution, rostopic...), written back
+        unchanged.
+    """
+
+    name: str
+    T_cam_imu: Transform | None = None
+    T_cn_cnm1: Transform | None = None
+    timeshift_cam_imu: float | None = None
+    fields: Mapping[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class KalibrCamchain:
+    """A Kalibr ``camchain-imucam.yaml`` (or ``camchain.yaml``): cameras in file order."""
+
+    cameras: tuple[KalibrCamera, ...]
+    imu_frame: str = "imu0"
+
+    def camera(self, name: str) -> KalibrCamera:
+        """Return the camera called ``name``; raise naming the cameras present."""
+        for c in self.cameras:
+            if c.name == name:
+                return c
+        have = ", ".join(c.name for c in self.cameras) or "(none)"
+        raise ValueError(f"camera: no camera {name!r} in the chain (cameras: {have})")
+
+    def tree(self) -> TransformTree:
+        """Build a TransformTree of the IMU and cameras (``T_cam_imu``, else ``T_cn_cnm1``)."""
+        tree = TransformTree()
+        for c in self.cameras:
+            if c.T_cam_imu is not None:
+                tree.add(c.T_cam_imu)
+        for c in self.cameras:
+            if c.T_cn_cnm1 is not None and c.T_cam_imu is None:
+                tree.add(c.T_cn_cnm1)
+        return tree
+
+
+def read_kalibr(path: PathLike, *, imu_frame: str = "imu0") -> KalibrCamchain:
+    """Read a Kalibr camchain(-imucam) YAML file.
+
+    Every ``T_cam_imu`` / ``T_cn_cnm1`` must be a rigid 4×4 (rotation orthonormal within the
+    precision the numbers were printed with, bottom row ``[0, 0, 0, 1]``); otherwise a
+    ``ValueError`` names the file, the camera and the field. The matrices are returned as
+    written, never projected.
+    """
+    frame_name(imu_frame, "imu_frame")
+    data = _read(path)
+    if not isinstance(data, dict) or not data:
+        raise ValueError(f"{path}: expected a mapping of cameras (cam0, cam1, ...)")
+    cams: list[KalibrCamera] = []
+    names = list(data)
+    for i, name in enumerate(names):
+        entry = data[name]
+        if not isinstance(name, str) or not isinstance(entry, dict):
+            raise ValueError(f"{path}: {name!r} is not a camera entry (a mapping under camN)")
+        rest = {k: val for k, val in entry.items() if k not in _KALIBR_FIELDS}
+        T_ci = T_cc = None
+        if "T_cam_imu" in entry:
+            T_ci = Transform(
+                _pose(entry["T_cam_imu"], f"{path}: {name}.T_cam_imu"), name, imu_frame
+            )
+        if "T_cn_cnm1" in entry:
+            if i == 0:
+                raise ValueError(f"{path}: {name}.T_cn_cnm1 on the first camera (no previous)")
+            T = _pose(entry["T_cn_cnm1"], f"{path}: {name}.T_cn_cnm1")
+            T_cc = Transform(T, name, str(names[i - 1]))
+        shift = entry.get("timeshift_cam_imu")
+        if shift is not None:
+            if isinstance(shift, bool) or not isinstance(shift, (int, float)):
+                raise ValueError(
+                    f"{path}: {name}.timeshift_cam_imu: expected a number, got {shift!r}"
+                )
+            shift = float(shift)
+            if not np.isfinite(shift):
+                raise ValueError(f"{path}: {name}.timeshift_cam_imu is not finite")
+        cams.append(KalibrCamera(name, T_ci, T_cc, shift, rest))
+    return KalibrCamchain(tuple(cams), imu_frame)
+
+
+_KALIBR_FIELDS = ("T_cam_imu", "T_cn_cnm1", "timeshift_cam_imu")
+
+
+def write_kalibr(
+    path: PathLike, chain: KalibrCamchain, *, style: Literal["kalibr", "opencv"] = "kalibr"
+) -> None:
+    """Write ``chain`` as Kalibr does (``yaml.dump``, flow-style rows, full-precision floats).
+
+    Kalibr's own writer is ``yaml.dump(data, default_flow_style=None)``
+    (``kalibr_common/ConfigReader.py`` ``writeYaml``); the numbers are written with ``repr``
+    and read back bit-exact.
+
+    ``style="opencv"`` writes the same data for readers built on OpenCV's ``cv::FileStorage``
+    (OpenVINS reads its ``kalibr_imucam_chain.yaml`` that way): a ``%YAML:1.0`` header and
+    sequence items indented under their key. OpenCV 5.0's YAML parser rejects Kalibr's own
+    layout (items at the key's indentation: "Incorrect indentation"; measured in the tests).
+    """
+    if style not in ("kalibr", "opencv"):
+        raise ValueError(f"style: expected 'kalibr' or 'opencv', got {style!r}")
+    yaml = _yaml()
+    data: dict[str, Any] = {}
+    for c in chain.cameras:
+        entry: dict[str, Any] = {k: _plain(val) for k, val in c.fields.items()}
+        if c.T_cam_imu is not None:
+            entry["T_cam_imu"] = np.asarray(c.T_cam_imu.T).tolist()
+        if c.T_cn_cnm1 is not None:
+            entry["T_cn_cnm1"] = np.asarray(c.T_cn_cnm1.T).tolist()
+        if c.timeshift_cam_imu is not None:
+            entry["timeshift_cam_imu"] = float(c.timeshift_cam_imu)
+        data[c.name] = entry
+    if style == "kalibr":
+        text = yaml.safe_dump(data, default_flow_style=None, width=2147483647)
+    else:
+
+        class Dumper(yaml.SafeDumper):  # type: ignore[name-defined]
+            def increase_indent(self, flow: bool = False, indentless: bool = False) -> Any:
+                return super().increase_indent(flow, False)
+
+        text = "%YAML:1.0\n" + yaml.dump(
+            data, Dumper=Dumper, default_flow_style=None, width=2147483647
+        )
+    Path(path).write_text(text, encoding="utf-8")
+
+
+def _plain(x: Any) -> Any:
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    if isinstance(x, dict):
+        return {k: _plain(val) for k, val in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_plain(val) for val in x]
+    return x
+
+
+# ----------------------------------------------------------------------------- other systems' files
+def detect_system(data: Any) -> str | None:
+    """Which system's file ``data`` (parsed YAML/JSON) looks like, or None."""
+    if not isinstance(data, dict):
+        return None
+    if "value0" in data and isinstance(data["value0"], dict) and "T_imu_cam" in data["value0"]:
+        return "basalt"
+    if "T_imu_cam" in data and isinstance(data["T_imu_cam"], list) and data["T_imu_cam"]:
+        if isinstance(data["T_imu_cam"][0], dict):
+            return "basalt"
+    if "cameras" in data and isinstance(data["cameras"], list):
+        return "okvis"
+    if "IMU.T_b_c1" in data or "Tbc" in data:
+        return "orbslam3"
+    if any(re.fullmatch(r"body_T_cam\d+", str(k)) for k in data):
+        return "vins_fusion"
+    if "rvec" in data and "tvec" in data:
+        return "opencv"
+    cams = [val for k, val in data.items() if re.fullmatch(r"cam\d+", str(k))]
+    if cams and all(isinstance(c, dict) for c in cams):
+        if any("T_cam_imu" in c for c in cams):
+            return "kalibr"
+        if any("T_imu_cam" in c for c in cams):
+            return "openvins"
+    return None
+
+
+def detect_file_system(path: PathLike) -> str | None:
+    """:func:`detect_system` of a file (None if no system's keys are found)."""
+    return detect_system(_read(path))
+
+
+def read_extrinsic(
+    path: PathLike,
+    *,
+    system: str | None = None,
+    camera: str = "cam0",
+    imu_frame: str = "imu0",
+) -> Transform:
+    """Read the camera–IMU extrinsic from ``system``'s file and return it as ``T_cam_imu``.
+
+    Parameters
+    ----------
+    path : str or Path
+        A Kalibr camchain-imucam.yaml, an OpenVINS kalibr_imucam_chain.yaml, an OKVIS config, an
+        ORB-SLAM3 or VINS-Fusion settings file, a Basalt calibration JSON, or a YAML/JSON with
+        ``rvec`` and ``tvec`` (OpenCV).
+    system : str, optional
+        The file's system (:func:`system_names`); by default detected from its keys.
+    camera : str
+        ``"cam0"``, ``"cam1"``... (ORB-SLAM3's ``T_b_c1`` is the first camera only).
+    imu_frame : str
+        Name of the IMU frame in the result.
+
+    Returns
+    -------
+    Transform
+        ``T_{camera}_{imu_frame}``: maps IMU coordinates to camera coordinates.
+    """
+    frame_name(camera, "camera")
+    m = re.fullmatch(r"cam(\d+)", camera)
+    if m is None:
+        raise ValueError(f"camera: expected cam0, cam1, ..., got {camera!r}")
+    idx = int(m.group(1))
+    data = _read(path)
+    name = detect_system(data) if system is None else system_format(system, "system").system
+    if name is None:
+        raise ValueError(
+            f"{path}: cannot tell which system wrote it (no T_cam_imu, T_imu_cam, T_SC, "
+            f"IMU.T_b_c1, body_T_camN, rvec/tvec found); give the system explicitly"
+        )
+    fmt = SYSTEMS[name]
+    if name == "kalibr":
+        chain = read_kalibr(path, imu_frame=imu_frame)
+        cam = chain.camera(camera)
+        if cam.T_cam_imu is None:
+            raise ValueError(f"{path}: {camera} has no T_cam_imu (a camchain without the IMU?)")
+        return cam.T_cam_imu
+    if not isinstance(data, dict):
+        raise ValueError(f"{path}: expected a mapping at the top level for {name}")
+
+    def need(mapping: Any, key: str, where: str) -> Any:
+        if not isinstance(mapping, dict) or key not in mapping:
+            raise ValueError(f"{path}: no {where} (expected in a {name} file)")
+        return mapping[key]
+
+    if name == "opencv":
+        r = _matrix(need(data, "rvec", "rvec"), f"{path}: rvec", (3,))
+        t = _matrix(need(data, "tvec", "tvec"), f"{path}: tvec", (3,))
+        return from_rvec_tvec(r, t, target_frame=camera, source_frame=imu_frame)
+    where = f"{path}: {fmt.parameter}"
+    if name == "openvins":
+        entry = need(data, camera, camera)
+        where = f"{path}: {camera}.T_imu_cam"
+        if "T_imu_cam" in entry:
+            T = _pose(entry["T_imu_cam"], where)
+        else:  # OpenVINS falls back to an inverted T_cam_imu (opencv_yaml_parse.h)
+            T = U.se3_inverse(_pose(need(entry, "T_cam_imu", f"{camera}.T_imu_cam"), where))
+    elif name == "okvis":
+        cams = data["cameras"]
+        if idx >= len(cams):
+            raise ValueError(f"{path}: no camera {idx} in cameras (it has {len(cams)})")
+        where = f"{path}: cameras[{idx}].T_SC"
+        T = _pose(need(cams[idx], "T_SC", f"cameras[{idx}].T_SC"), where)
+    elif name == "orbslam3":
+        if idx != 0:
+            raise ValueError(f"{path}: ORB-SLAM3 stores IMU.T_b_c1 for the first camera only")
+        key = "IMU.T_b_c1" if "IMU.T_b_c1" in data else "Tbc"
+        where = f"{path}: {key}"
+        T = _pose(data[key], where)
+    elif name == "vins_fusion":
+        key = f"body_T_cam{idx}"
+        where = f"{path}: {key}"
+        T = _pose(need(data, key, key), where)
+    else:  # basalt
+        root = data.get("value0", data)
+        poses = need(root, "T_imu_cam", "T_imu_cam")
+        if not isinstance(poses, list) or idx >= len(poses):
+            raise ValueError(f"{path}: no camera {idx} in T_imu_cam")
+        p = poses[idx]
+        where = f"{path}: T_imu_cam[{idx}]"
+        keys = ("px", "py", "pz", "qx", "qy", "qz", "qw")
+        if not isinstance(p, dict) or any(k not in p for k in keys):
+            raise ValueError(f"{where}: expected keys {', '.join(keys)}")
+        x = _matrix([p[k] for k in keys], where, (7,))
+        try:
+            T = pose_io.to_matrix(x, layout="xyz_qxyzw")
+        except ValueError as exc:
+            raise ValueError(f"{where}: {exc}") from None
+    return Transform(T, imu_frame, camera).inverse()  # all of these hold T_imu_cam
+
+
+def read_timeshift(
+    path: PathLike, *, system: str | None = None, camera: str = "cam0"
+) -> float | None:
+    """Kalibr's ``timeshift_cam_imu`` (seconds, ``t_imu = t_cam + shift``) from a system's file.
+
+    Reads the system's own key and unit (:data:`TIME_OFFSETS`); None when the file has none or
+    the system keeps none.
+    """
+    data = _read(path)
+    name = detect_system(data) if system is None else system_format(system, "system").system
+    if name not in TIME_OFFSETS or not isinstance(data, dict):
+        return None
+    key, scale, _ = TIME_OFFSETS[name]
+    if name in ("kalibr", "openvins"):
+        entry = data.get(camera)
+        value = entry.get(key) if isinstance(entry, dict) else None
+        where = f"{path}: {camera}.{key}"
+    elif name == "basalt":
+        root = data.get("value0", data)
+        value = root.get(key) if isinstance(root, dict) else None
+        where = f"{path}: {key}"
+    else:
+        value, where = data.get(key), f"{path}: {key}"
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
+        raise ValueError(f"{where}: expected a finite number, got {value!r}")
+    return float(value) / scale
+
+
+def _num(x: float) -> str:
+    return repr(float(x) + 0.0)  # + 0.0: no "-0.0" in a config file
+
+
+def format_parameter(ext: SystemExtrinsic, camera: str = "cam0") -> str:
+    """Write the parameter in its system's own configuration syntax (a snippet to paste).
+
+    Kalibr/OpenVINS: YAML rows under ``camN``; OKVIS: ``T_SC: [16 numbers]``; ORB-SLAM3 and
+    VINS-Fusion: OpenCV ``!!opencv-matrix`` (``dt: f`` for ORB-SLAM3, which reads floats;
+    ``dt: d`` for VINS-Fusion); Basalt: JSON; OpenCV: ``rvec``/``tvec`` YAML lists. Numbers are
+    written with ``repr`` (they read back bit-exact, except ORB-SLAM3's float32).
+    """
+    T = np.asarray(ext.transform.T)
+    rows = [", ".join(_num(x) for x in row) for row in T]
+    m = re.fullmatch(r"cam(\d+)", camera)
+    idx = int(m.group(1)) if m else 0
+    if ext.system in ("kalibr", "openvins"):
+        head = "%YAML:1.0\n" if ext.system == "openvins" else ""
+        body = "".join(f"    - [{r}]\n" for r in rows)  # indented: cv::FileStorage needs it
+        if "timeshift_cam_imu" in ext.extra:
+            body += f"  timeshift_cam_imu: {_num(ext.extra['timeshift_cam_imu'])}\n"
+        return f"{head}{camera}:\n  {ext.parameter}:\n{body}"
+    if ext.system == "okvis":
+        return f"T_SC: [{', '.join(rows)}]\n"
+    if ext.system in ("orbslam3", "vins_fusion"):
+        key = ext.parameter if ext.system == "orbslam3" else f"body_T_cam{idx}"
+        dt = "f" if ext.system == "orbslam3" else "d"
+        data = ",\n          ".join(rows)
+        td = f"td: {_num(ext.extra['td'])}\n" if "td" in ext.extra else ""
+        return (
+            f"%YAML:1.0\n{key}: !!opencv-matrix\n   rows: 4\n   cols: 4\n   dt: {dt}\n"
+            f"   data: [{data}]\n{td}"
+        )
+    if ext.system == "basalt":
+        value0: dict[str, Any] = {"T_imu_cam": [_basalt_pose(T)]}
+        if "cam_time_offset_ns" in ext.extra:
+            value0["cam_time_offset_ns"] = ext.extra["cam_time_offset_ns"]
+        return json.dumps({"value0": value0}, indent=4) + "\n"
+    rvec, tvec = to_rvec_tvec(ext.transform)
+    return (
+        f"rvec: [{', '.join(_num(x) for x in rvec)}]\ntvec: [{', '.join(_num(x) for x in tvec)}]\n"
+    )
