@@ -22,11 +22,16 @@ def _euclidean_local(y0: Any, y: Any) -> FloatArray:
     return np.asarray(y, dtype=np.float64) - np.asarray(y0, dtype=np.float64)
 
 
+#: Matrix shapes read as group elements when a retraction is given, and their default tangent
+#: dimension: SO(2) 1; SO(3) 3 (an SE(2) pose is 3×3 too: pass ``dim=3``, same number); SE(3) 6
+#: (Sim(3) is 4×4 too: pass ``dim=7``); SE₂(3) 9.
+_GROUP_SHAPES = ((2, 2), (3, 3), (4, 4), (5, 5))
+_DEFAULT_DIM = {2: 1, 3: 3, 4: 6, 5: 9}
+
+
 def _tangent_dim(x: FloatArray) -> int:
-    if x.ndim >= 2 and x.shape[-2:] == (3, 3):
-        return 3
-    if x.ndim >= 2 and x.shape[-2:] == (4, 4):
-        return 6
+    if x.ndim >= 2 and x.shape[-2:] in _GROUP_SHAPES:
+        return _DEFAULT_DIM[x.shape[-1]]
     return int(x.shape[-1])
 
 
@@ -62,7 +67,8 @@ def numerical_jacobian(
     out_local : callable or ``"euclidean"``, optional
         Local map of the output. ``"euclidean"`` (or no ``local`` either) means ``y − y0``.
     dim : int, optional
-        Input tangent dimension; inferred as 3 for ``(3, 3)``, 6 for ``(4, 4)``, else ``n``.
+        Input tangent dimension; inferred as 1 for ``(2, 2)``, 3 for ``(3, 3)``, 6 for ``(4, 4)``
+        (pass 7 for Sim(3)), 9 for ``(5, 5)``, else ``n``.
     eps : float
         Step. The default 1e-6 gives errors around 1e-9 for O(1) second derivatives.
 
@@ -80,7 +86,7 @@ def numerical_jacobian(
             raise ValueError(f"dim: {dim} does not match the vector length {n} of x")
     else:
         n = dim if dim is not None else _tangent_dim(x_arr)
-        group = x_arr.ndim >= 2 and x_arr.shape[-2:] in ((3, 3), (4, 4))
+        group = x_arr.ndim >= 2 and x_arr.shape[-2:] in _GROUP_SHAPES
         batch = x_arr.shape[:-2] if group else x_arr.shape[:-1]
     ret: Retract = retract if retract is not None else (lambda a, d: np.asarray(a) + d)
     if out_local is None:
