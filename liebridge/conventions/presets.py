@@ -526,7 +526,7 @@ THESEUS_SE2 = Convention(
     rotation="exp",
     quat_order="wxyz",
     group="se2",
-    source="S theseus/geometry/se2.py (exp_map of (ux, uy, θ); retract = compose(exp_map))",
+    source="S theseus/geometry/se2.py (exp_map of (ux, uy, θ), retract = compose with exp_map)",
     notes="retract(X, d) = X·exp(d), d = (ux, uy, θ); storage [x, y, cos, sin].",
 )
 """Theseus ``SE2``: right, (u, θ), SE(2) exp."""
