@@ -1,5 +1,7 @@
-"""The other groups in one run: a GTSAM Pose2 marginal as a ROS 6×6, Sim(3) between GTSAM and
-Sophus, and GTSAM's NavState chart against manif's SE_2(3).
+"""The other groups in one run: Pose2 → ROS 6×6, Sim(3) GTSAM → Sophus, NavState → manif.
+
+A GTSAM Pose2 marginal becomes a ROS ``PoseWithCovariance`` 6×6; a Sim(3) covariance goes from
+GTSAM's to Sophus's tangent; GTSAM's NavState chart is compared with manif's SE_2(3).
 
 Prints, for each case, the converted covariance and its agreement with a Monte Carlo of the
 source library's own retraction read in the destination's chart (``--samples`` draws).

@@ -50,7 +50,7 @@ def test_conventions_table_by_group() -> None:
     assert names == [c.name for c in GROUP_PRESETS if c.group == "sim3"]
     assert len(PRESETS) + len(GROUP_PRESETS) == len(ALL_PRESETS)
     one = subprocess.run(
-        [sys.executable, "-m", "liebridge.cli", "conventions", "gtsam_navstate"],
+        [sys.executable, "-m", "liebridge.cli", "conventions", "manif_se23"],
         capture_output=True, text=True, env=_env(), check=True,
     ).stdout  # fmt: skip
-    assert "gtsam_navstate (se23)" in one and "linear to first order only" in one
+    assert "manif_se23 (se23)" in one and "from gtsam_navstate's tangent: linear to first" in one
