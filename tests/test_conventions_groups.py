@@ -331,3 +331,35 @@ def test_se3_users_see_no_change() -> None:
     R = se23.exp(np.r_[0.1, 0.2, 0.3, np.zeros(6)])[:3, :3]
     assert C.GTSAM.retract(R, np.array([0.1, 0.0, 0.0])).shape == (3, 3)  # SO(3) part, as before
     assert Convention("x", "right", "rot_first", "split_body", "exp", "wxyz").chart == "so3xr3_body"
+
+
+@pytest.mark.parametrize(
+    ("src", "dst"),
+    [
+        ("gtsam_pose2", "g2o_se2"),
+        ("symforce_pose2", "ros_pose2"),
+        ("gtsam_similarity3", "g2o_sim3"),
+        ("sophus_sim3", "pypose_sim3"),
+        ("gtsam_navstate", "manif_se23"),
+    ],
+)
+def test_convert_jacobian_matches_finite_differences_in_both_conventions(
+    src: str, dst: str
+) -> None:
+    """J of Y = X⁻¹·A (a group input and output) converted = J measured in the other chart."""
+    a, b = C.get(src), C.get(dst)
+    rng = np.random.default_rng(21)
+    X, A = _PROBE[a.group](rng), _PROBE[a.group](rng)
+
+    def f(Z: np.ndarray) -> np.ndarray:
+        return np.linalg.inv(Z) @ A
+
+    Y = f(X)
+    J_src = numerical_jacobian(f, X, in_convention=a, out_convention=a)
+    J_dst = numerical_jacobian(f, X, in_convention=b, out_convention=b)
+    conv = lb.convert_jacobian(J_src, a, b, at_input=X, at_output=Y)
+    if b.embed is not None:  # the extra ROS coordinates do not move the pose: zero columns/rows
+        keep = list(b.embed.index)
+        J_dst = J_dst[np.ix_(keep, keep)]
+        conv = conv[np.ix_(keep, keep)]
+    np.testing.assert_allclose(conv, J_dst, atol=1e-6 * max(1.0, np.abs(J_dst).max()))
