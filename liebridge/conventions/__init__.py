@@ -8,6 +8,7 @@ True
 """
 
 from . import unchecked
+from .bundle import Bundle, Vector
 from .convention import CANONICAL, GROUP_NAMES, Convention, Embed, group_input
 from .convert import (
     convert_covariance,
@@ -108,11 +109,13 @@ __all__ = [
     "SYMFORCE_POSE2",
     "THESEUS",
     "THESEUS_SE2",
+    "Bundle",
     "Convention",
     "ConventionLike",
     "ConventionNotDetected",
     "Embed",
     "StorageLayout",
+    "Vector",
     "convert_covariance",
     "convert_information",
     "convert_jacobian",

@@ -24,6 +24,7 @@ import numpy as np
 
 from .. import _validate as v
 from .._validate import FloatArray
+from .bundle import Bundle
 from .convention import Convention
 from .registry import ConventionLike, get
 from .unchecked import tangent_map as unchecked_map
@@ -69,6 +70,8 @@ def is_exactly_linear(src: ConventionLike, dst: ConventionLike) -> bool:
     """
     a, b = get(src), get(dst)
     _check_groups(a, b)
+    if isinstance(a, Bundle) and isinstance(b, Bundle):
+        return a.exactly_linear_to(b, is_exactly_linear)
     if _chart_family(a) != _chart_family(b):
         return False
     return a.rotation == b.rotation or {a.rotation, b.rotation} <= _LINEAR_ROTATIONS

@@ -86,7 +86,10 @@ def numerical_jacobian(
             raise ValueError(f"dim: {dim} does not match the vector length {n} of x")
     else:
         n = dim if dim is not None else _tangent_dim(x_arr)
-        group = x_arr.ndim >= 2 and x_arr.shape[-2:] in _GROUP_SHAPES
+        square = x_arr.ndim >= 2 and x_arr.shape[-2] == x_arr.shape[-1]
+        # a square matrix is a group element when its size is a group's, or when the tangent
+        # size differs from its last axis (then it cannot be a batch of vectors: a bundle)
+        group = square and (x_arr.shape[-2:] in _GROUP_SHAPES or n != x_arr.shape[-1])
         batch = x_arr.shape[:-2] if group else x_arr.shape[:-1]
     ret: Retract = retract if retract is not None else (lambda a, d: np.asarray(a) + d)
     if out_local is None:
