@@ -496,8 +496,10 @@ def covariance(x: Any, name: str, dim: int, tol: float = COVARIANCE_TOL) -> Floa
 def _orthonormal_residuals(A: FloatArray) -> tuple[FloatArray, FloatArray]:
     """``max|AᵀA − I|`` and ``det A`` of every ``A[...]`` (any small size, e.g. 2×2)."""
     n = A.shape[-1]
-    err = np.abs(np.einsum("...ki,...kj->...ij", A, A) - np.eye(n)).max(axis=(-1, -2))
-    return err, np.linalg.det(A)
+    with np.errstate(over="ignore", invalid="ignore"):  # huge entries: a large residual, reported
+        err = np.abs(np.einsum("...ki,...kj->...ij", A, A) - np.eye(n)).max(axis=(-1, -2))
+        det = np.linalg.det(A)
+    return err, det
 
 
 def _check_orthonormal(A: FloatArray, name: str, tol: float, what: str) -> None:
@@ -575,7 +577,8 @@ def similarity(x: Any, name: str, tol: float = ROTATION_TOL) -> FloatArray:
         )
     _check_bottom(arr, name, _SIM3_BOTTOM, "Sim(3)", hint)
     A = arr[..., :3, :3]
-    det = np.linalg.det(A)
+    with np.errstate(over="ignore", invalid="ignore"):
+        det = np.linalg.det(A)
     if (det <= 0).any():
         i = _batch_index(np.asarray(det <= 0))
         raise ValueError(

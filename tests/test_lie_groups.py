@@ -337,3 +337,28 @@ def test_bad_elements_one_clear_error() -> None:
         sim3.exp([1e13, 0, 0, 0, 0, 0, 0])
     with pytest.raises(ValueError, match=r"R: expected shape \(\.\.\., 2, 2\)"):
         so2.log(np.eye(3))
+
+
+_SE2_ANGLES = [1e-12, 1e-6, 1e-3, 0.3, 0.4999, 0.5, 0.5001, 2.0, PI - 1e-9, -0.2]
+
+
+@pytest.mark.parametrize("theta", _SE2_ANGLES)
+def test_se2_closed_forms_match_mpmath(theta: float) -> None:
+    """``Exp``, ``Log`` and ``jl`` of SE(2) against their closed forms in 50-digit arithmetic."""
+    mpmath.mp.dps = 50
+    t = mpmath.mpf(theta)
+    v1, v2 = mpmath.mpf("0.7"), mpmath.mpf("-1.3")
+    A, b = mpmath.sin(t) / t, (1 - mpmath.cos(t)) / t
+    B, tC = (1 - mpmath.cos(t)) / t**2, (t - mpmath.sin(t)) / t**2
+    ref_t = [A * v1 - b * v2, b * v1 + A * v2]
+    ref_jl = [[A, -b, v1 * tC + v2 * B], [b, A, -v1 * B + v2 * tC], [0, 0, 1]]
+    xi = np.array([0.7, -1.3, theta])
+    E = se2.exp(xi)
+    np.testing.assert_allclose(E[:2, 2], [float(x) for x in ref_t], rtol=2e-16, atol=1e-17)
+    J = se2.jl(xi)
+    np.testing.assert_allclose(J, [[float(x) for x in r] for r in ref_jl], rtol=4e-16, atol=1e-17)
+    # Log of the exactly rounded element recovers (v, θ) to rounding
+    T = np.eye(3)
+    T[:2, :2] = _rot2(theta)
+    T[:2, 2] = [float(x) for x in ref_t]
+    np.testing.assert_allclose(se2.log(T), xi, rtol=0, atol=4e-16 * 2)

@@ -66,6 +66,8 @@ def numerical_jacobian(
             cin = get(in_convention)
             retract = retract if retract is not None else cin.retract
             local = local if local is not None else cin.local
+            if dim is None:  # the convention knows its tangent (Sim(3) is 4×4 with 7 dof)
+                dim = cin.dim(np.asarray(x, dtype=np.float64))
         if out_convention is not None:
             out_local = out_local if out_local is not None else get(out_convention).local
     return numdiff.numerical_jacobian(

@@ -8,7 +8,7 @@ import numpy as np
 
 from .. import _validate as v
 from .._validate import FloatArray
-from ..conventions import ConventionLike, get, group_input, unchecked
+from ..conventions import ConventionLike, get, unchecked
 
 
 def monte_carlo_covariance(
@@ -53,10 +53,10 @@ def monte_carlo_covariance(
             "monte_carlo_covariance: the arguments are (cov, X, src, dst); got a pose as cov and "
             "a 6×6 matrix as X (the order before 0.2)"
         )
-    Xa = group_input(X)
+    Xa = a.element(X)  # the group is the conventions' (SE(3) ones also take a rotation)
     if Xa.ndim != 2:
         raise ValueError(f"X: expected one pose or rotation, got shape {Xa.shape}")
-    dim = 3 if Xa.shape == (3, 3) else 6
+    dim = a.dim(Xa)
     C = v.covariance(cov, "cov", dim)
     if n < 2:
         raise ValueError(f"n: need at least 2 samples, got {n}")

@@ -11,7 +11,7 @@ import json
 import re
 from typing import Any
 
-from ..conventions import PRESETS, Convention
+from ..conventions import ALL_PRESETS, GROUP_NAMES, PRESETS, Convention
 from ._common import option_value
 
 __all__ = ["add_parser", "evidence_summary", "render", "rows"]
@@ -70,13 +70,42 @@ def _row(c: Convention) -> dict[str, str]:
     }
 
 
-def rows() -> list[dict[str, str]]:
-    """One abbreviated row per preset, in registry order."""
-    return [_row(c) for c in PRESETS]
+#: Section titles of ``--group all``, in this order (SE(3) first: its presets also take SO(3)).
+GROUP_TITLES = {
+    "se3": "SE(3) (and SO(3): a 3×3 rotation given to these)",
+    "so3": "SO(3)",
+    "so2": "SO(2)",
+    "se2": "SE(2)",
+    "sim3": "Sim(3)",
+    "se23": "SE₂(3) (extended pose / navigation state)",
+}
+
+GROUP_LEGEND = (
+    "Tangent orders per group: SE(2) `rot_first` = (ω, x, y), `trans_first` = (x, y, ω) "
+    "(GTSAM's); Sim(3) `rot_first` = (ω, u, λ) (GTSAM's), `trans_first` = (u, ω, λ), log-scale "
+    "last; SE₂(3) `rot_first` = (ω, p, v) (GTSAM's), `trans_first` = (p, v, ω). chart: the "
+    "group's name = its exponential; `split_body`/`split_world` = blocks perturbed separately, "
+    "vector increments in the body (t + A·u) or world (t + u) frame. `ros_pose2` embeds "
+    "(x, y, yaw) at entries (0, 1, 5) of ROS's 6-vector."
+)
+
+
+def _presets(group: str | None) -> tuple[Convention, ...]:
+    if group is None:
+        return PRESETS
+    if group == "all":
+        return ALL_PRESETS
+    return tuple(c for c in ALL_PRESETS if c.group == group)
+
+
+def rows(group: str | None = None) -> list[dict[str, str]]:
+    """One abbreviated row per preset, in registry order (SE(3)'s by default; ``"all"``)."""
+    return [_row(c) for c in _presets(group)]
 
 
 def _as_dict(c: Convention) -> dict[str, Any]:
-    return {
+    out: dict[str, Any] = {} if c.group == "se3" else {"group": c.group}
+    return out | {
         "name": c.name,
         "side": c.side,
         "order": c.order,
@@ -89,37 +118,64 @@ def _as_dict(c: Convention) -> dict[str, Any]:
     }
 
 
-def _json() -> str:
-    return json.dumps([_as_dict(c) for c in PRESETS], indent=2, ensure_ascii=False)
+def _json(group: str | None = None) -> str:
+    return json.dumps([_as_dict(c) for c in _presets(group)], indent=2, ensure_ascii=False)
 
 
-def _markdown() -> str:
+def _markdown_rows(group: str | None) -> list[str]:
     lines = [
         "| " + " | ".join(COLUMNS) + " |",
         "|" + "|".join("---" for _ in COLUMNS) + "|",
     ]
-    for r in rows():
+    for r in rows(group):
         cells = [f"`{r[k]}`" if k != "evidence" else r[k].replace("|", "\\|") for k in COLUMNS]
         lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join([*lines, "", LEGEND])
+    return lines
 
 
-def _text() -> str:
-    table = [dict(zip(COLUMNS, COLUMNS, strict=True)), *rows()]
+def _markdown(group: str | None = None) -> str:
+    if group != "all":
+        legend = LEGEND if group in (None, "se3") else GROUP_LEGEND
+        return "\n".join([*_markdown_rows(group), "", legend])
+    out: list[str] = []
+    for g in GROUP_TITLES:
+        if any(c.group == g for c in ALL_PRESETS):
+            out += [f"#### {GROUP_TITLES[g]}", "", *_markdown_rows(g), ""]
+    return "\n".join([*out, LEGEND, "", GROUP_LEGEND])
+
+
+def _text_rows(group: str | None) -> list[str]:
+    table = [dict(zip(COLUMNS, COLUMNS, strict=True)), *rows(group)]
     widths = {k: max(len(r[k]) for r in table) for k in COLUMNS}
     lines = ["  ".join(r[k].ljust(widths[k]) for k in COLUMNS).rstrip() for r in table]
     lines.insert(1, "  ".join("-" * widths[k] for k in COLUMNS))
-    return "\n".join(lines)
+    return lines
 
 
-def render(fmt: str = "table") -> str:
-    """Render the presets as ``"table"`` (aligned text), ``"markdown"`` or ``"json"``."""
+def _text(group: str | None = None) -> str:
+    if group != "all":
+        return "\n".join(_text_rows(group))
+    out: list[str] = []
+    for g in GROUP_TITLES:
+        if any(c.group == g for c in ALL_PRESETS):
+            out += [GROUP_TITLES[g], *_text_rows(g), ""]
+    return "\n".join(out).rstrip()
+
+
+def render(fmt: str = "table", group: str | None = None) -> str:
+    """Render the presets as ``"table"`` (aligned text), ``"markdown"`` or ``"json"``.
+
+    ``group``: ``None`` (the SE(3)/SO(3) presets, as before groups existed), one of
+    ``so2, se2, so3, se3, sim3, se23``, or ``"all"`` (every preset, one section per group).
+    """
+    if group is not None and group != "all" and group not in GROUP_NAMES:
+        raise ValueError(f"group: expected one of {GROUP_NAMES} or 'all', got {group!r}")
     if fmt == "table":
-        return _text()
+        return _text(group)
     if fmt == "markdown":
-        return _markdown()
+        return _markdown(group)
     if fmt == "json":
-        return _json()
+        return _json(group)
     raise ValueError(f"format: expected 'table', 'markdown' or 'json', got {fmt!r}")
 
 
@@ -150,6 +206,8 @@ def _describe_one(c: Convention) -> str:
     from ..lie import se3
     from ._common import tangent_label
 
+    if c.group != "se3":
+        return _describe_group(c)
     X = se3.exp(np.array([0.4, -0.7, 0.5, 1.5, -2.0, 0.8]))
     M = tangent_map(X, "gtsam", c)
     lines = [
@@ -170,6 +228,42 @@ def _describe_one(c: Convention) -> str:
     return "\n".join(lines)
 
 
+_GTSAM_OF = {
+    "so2": "gtsam_rot2",
+    "se2": "gtsam_pose2",
+    "sim3": "gtsam_similarity3",
+    "se23": "gtsam_navstate",
+    "so3": "gtsam",
+}
+
+
+def _describe_group(c: Convention) -> str:
+    import numpy as np
+
+    from ..conventions.convert import is_exactly_linear, tangent_map
+    from ..lie import se2, se23, sim3, so2, so3
+
+    probe = {
+        "so2": lambda: so2.exp([0.9]),
+        "se2": lambda: se2.exp([1.5, -2.0, 0.8]),
+        "sim3": lambda: sim3.exp([0.4, -0.7, 0.5, 1.5, -2.0, 0.8, 0.3]),
+        "se23": lambda: se23.exp([0.4, -0.7, 0.5, 1.5, -2.0, 0.8, -0.6, 1.1, 0.7]),
+        "so3": lambda: so3.exp([0.4, -0.7, 0.5]),
+    }[c.group]()
+    ref = _GTSAM_OF[c.group]
+    M = tangent_map(probe, ref, c)
+    lines = [
+        c.describe(),
+        f"source: {c.source}",
+        f"notes: {c.notes}",
+        f"from {ref}'s tangent: "
+        + ("exactly linear" if is_exactly_linear(ref, c) else "linear to first order only")
+        + "; at a generic element, d = M ξ with M =",
+        np.array2string(M, precision=4, suppress_small=True),
+    ]
+    return "\n".join(lines)
+
+
 def _run(args: argparse.Namespace) -> int:
     if args.name:
         from ._common import convention_arg
@@ -182,7 +276,7 @@ def _run(args: argparse.Namespace) -> int:
         else:
             print(_describe_one(conv))
         return 0
-    print(render(args.format))
+    print(render(args.format, args.group))
     return 0
 
 
@@ -209,5 +303,12 @@ def add_parser(sub: Any) -> None:
         default="table",
         help="output format (default: table; markdown is the README's table; json has the "
         "full sources and notes)",
+    )
+    p.add_argument(
+        "--group",
+        choices=(*GROUP_NAMES, "all"),
+        default=None,
+        help="list the presets of one group (so2, se2, so3, se3, sim3, se23), or 'all' with one "
+        "section per group (default: the SE(3) presets)",
     )
     p.set_defaults(func=_run)

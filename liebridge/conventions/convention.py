@@ -18,6 +18,17 @@ A :class:`Convention` says how a library perturbs a pose ``X = (R, t)`` with a 6
 ``quat_order``
     how the library stores quaternions (``wxyz`` or ``xyzw``); it does not enter the retraction.
 
+``group``
+    which Lie group the elements belong to: ``so2``, ``se2``, ``so3``, ``se3``, ``sim3``,
+    ``se23`` (default ``se3``, which also accepts a ``(..., 3, 3)`` rotation as its SO(3) part, as
+    before groups existed). Each group has its own canonical tangent (GTSAM's) and its charts:
+    the coupled one named after the group (``se2``, ``se3``, ``sim3``, ``se23``) and the split
+    ones ``split_body``/``split_world`` (SE(3) spells them ``so3xr3_body``/``so3xr3_world``).
+    See ``docs/design-groups.md``.
+``embed``
+    optional :class:`Embed`: the tangent is a longer vector holding the group's coordinates at
+    fixed entries (``ros_pose2``: SE(2)'s ``(x, y, yaw)`` at entries 0, 1, 5 of ROS's 6-vector).
+
 Canonical (GTSAM) is ``right, rot_first, se3, exp``. ``local(X, retract(X, d)) == d`` within the
 chart's domain (``‖ω‖ < π``; ``‖r‖ < 1`` for ``quat_vec``), and the first-order maps
 :meth:`Convention.to_canonical` / :meth:`Convention.from_canonical` are closed form.
@@ -33,6 +44,7 @@ import numpy as np
 from .. import _validate as v
 from .._validate import FloatArray
 from ..lie import unchecked as U
+from . import groups as G
 from .rotation_coords import (
     FIRST_ORDER_SCALE,
     ROTATION_COORDS,
@@ -42,9 +54,51 @@ from .rotation_coords import (
 )
 from .tangent_maps import canonical_tangent_map
 
+GROUP_NAMES = ("so2", "se2", "so3", "se3", "sim3", "se23")
+#: Charts of each group: coupled (the group's exponential) first, then the split ones.
+GROUP_CHARTS: dict[str, tuple[str, ...]] = {
+    "so2": ("so2",),
+    "se2": ("se2", "split_body", "split_world"),
+    "so3": ("se3", "so3xr3_body", "so3xr3_world"),
+    "se3": ("se3", "so3xr3_body", "so3xr3_world"),
+    "sim3": ("sim3", "split_body", "split_world"),
+    "se23": ("se23", "split_body", "split_world"),
+}
+#: Tangent dimension and matrix size of each group.
+GROUP_DIMS: dict[str, tuple[int, int]] = {
+    "so2": (1, 2),
+    "se2": (3, 3),
+    "so3": (3, 3),
+    "se3": (6, 4),
+    "sim3": (7, 4),
+    "se23": (9, 5),
+}
+_SE3_SPLIT_ALIASES = {"split_body": "so3xr3_body", "split_world": "so3xr3_world"}
+
+
+@dataclass(frozen=True)
+class Embed:
+    """A group tangent stored inside a longer vector.
+
+    ``index[k]`` is where the convention's ``k``-th coordinate (in its ``order``) sits in a vector
+    of length ``size``; the other entries are not coordinates of the group: ``retract`` ignores
+    them and ``local`` returns 0 there (a planar pose cannot leave its plane).
+    """
+
+    index: tuple[int, ...]
+    size: int
+
+    def __post_init__(self) -> None:
+        idx = self.index
+        if len(set(idx)) != len(idx) or not all(0 <= i < self.size for i in idx):
+            raise ValueError(f"Embed: index {idx} must be distinct entries of range({self.size})")
+
+
 Side = Literal["right", "left"]
 Order = Literal["rot_first", "trans_first"]
-Chart = Literal["se3", "so3xr3_body", "so3xr3_world"]
+Chart = Literal[
+    "se3", "so3xr3_body", "so3xr3_world", "so2", "se2", "sim3", "se23", "split_body", "split_world"
+]
 SIDES = ("right", "left")
 ORDERS = ("rot_first", "trans_first")
 CHARTS = ("se3", "so3xr3_body", "so3xr3_world")
@@ -107,14 +161,35 @@ class Convention:
     quat_order: str
     source: str = ""
     notes: str = field(default="", compare=False, repr=False)
+    group: str = "se3"
+    embed: Embed | None = None
     _key: tuple[str, str, str, str] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
+        _check_field("group", self.group, GROUP_NAMES)
         _check_field("side", self.side, SIDES)
         _check_field("order", self.order, ORDERS)
-        _check_field("chart", self.chart, CHARTS)
+        if self.group in ("se3", "so3") and self.chart in _SE3_SPLIT_ALIASES:
+            object.__setattr__(self, "chart", _SE3_SPLIT_ALIASES[self.chart])
+        _check_field("chart", self.chart, GROUP_CHARTS[self.group])
         _check_field("rotation", self.rotation, ROTATION_COORDS)
         _check_field("quat_order", self.quat_order, QUAT_ORDERS)
+        if self.group in ("so2", "se2") and self.rotation != "exp":
+            raise ValueError(
+                f"Convention {self.name!r}: a planar rotation has one coordinate, the angle: "
+                f"rotation must be 'exp', not {self.rotation!r}"
+            )
+        if self.embed is not None:
+            if self.group in ("se3", "so3"):
+                raise ValueError(f"Convention {self.name!r}: embed is for the other groups")
+            if len(self.embed.index) != GROUP_DIMS[self.group][0]:
+                raise ValueError(
+                    f"Convention {self.name!r}: embed.index has {len(self.embed.index)} entries, "
+                    f"the {self.group} tangent {GROUP_DIMS[self.group][0]}"
+                )
+        if self.group not in ("se3", "so3"):
+            object.__setattr__(self, "_key", (self.side, self.order, self.chart, self.rotation))
+            return
         if self.chart == "se3" and self.rotation != "exp":
             raise ValueError(
                 f"Convention {self.name!r}: chart 'se3' is the SE(3) exponential of a twist whose "
@@ -132,21 +207,63 @@ class Convention:
         return self._key
 
     @property
+    def generic(self) -> bool:
+        """Whether this convention runs on the group-generic engine (not SE(3)/SO(3))."""
+        return self.group not in ("se3", "so3")
+
+    def dim(self, X: FloatArray | None = None) -> int:
+        """Length of this convention's tangent (at ``X``, for an SE(3) one given a rotation: 3)."""
+        if self.embed is not None:
+            return self.embed.size
+        if self.group == "se3" and X is not None and X.shape[-2:] == (3, 3):
+            return 3
+        return GROUP_DIMS[self.group][0]
+
+    def element(self, X: Any, name: str = "X") -> FloatArray:
+        """Validate ``X`` as an element of this convention's group (see ``_validate``)."""
+        if self.group == "se3":
+            return group_input(X, name)
+        if self.group == "so3":
+            return v.rotation(X, name)
+        check = {
+            "so2": v.rotation2,
+            "se2": v.pose2,
+            "sim3": v.similarity,
+            "se23": v.extended_pose,
+        }[self.group]
+        return check(X, name)
+
+    @property
     def rotation_scale(self) -> float:
         """First-order ``dω/dr`` of the rotation coordinates (2 for half angles, else 1)."""
         return FIRST_ORDER_SCALE[self.rotation]
 
     def describe(self) -> str:
         """One line: name and fields."""
+        head = f"{self.name}: " if self.group == "se3" else f"{self.name} ({self.group}): "
+        tail = f", embed={self.embed.index} in {self.embed.size}" if self.embed else ""
         return (
-            f"{self.name}: side={self.side}, order={self.order}, chart={self.chart}, "
-            f"rotation={self.rotation}, quat_order={self.quat_order}"
+            f"{head}side={self.side}, order={self.order}, chart={self.chart}, "
+            f"rotation={self.rotation}, quat_order={self.quat_order}{tail}"
         )
+
+    def _pair(self, X: Any, Y: Any) -> tuple[FloatArray, FloatArray]:
+        if self.group == "se3":
+            return _group_pair(X, Y)
+        A, B = self.element(X), self.element(Y, "Y")
+        v.batch_shape(("X", A.shape[:-2]), ("Y", B.shape[:-2]))
+        return A, B
 
     # ----------------------------------------------------------------- retraction
     def _increment(self, d: Any, so3: bool, name: str = "d") -> FloatArray:
         """Validate an increment in this convention (rotation part bounded, see ``v.tangent``)."""
-        if so3:
+        if self.generic:
+            arr = v.vector(d, name, self.dim())
+            v.tangent(
+                G.to_internal(self, arr), name, GROUP_DIMS[self.group][0], G.GROUPS[self.group].rot
+            )
+            return arr
+        if so3 or self.group == "so3":
             return v.tangent(d, name, 3)
         return v.tangent(d, name, 6, slice(0, 3) if self.order == "rot_first" else slice(3, 6))
 
@@ -160,6 +277,8 @@ class Convention:
         return np.concatenate(np.broadcast_arrays(*parts), axis=-1)
 
     def _retract(self, X: FloatArray, d: FloatArray) -> FloatArray:
+        if self.generic:
+            return G.retract(self, X, d)
         if _is_so3(X):
             dR = to_rotation(d, self.rotation)
             return np.asarray(X @ dR if self.side == "right" else dR @ X, dtype=np.float64)
@@ -178,6 +297,8 @@ class Convention:
         return out
 
     def _local(self, X: FloatArray, Y: FloatArray) -> FloatArray:
+        if self.generic:
+            return G.local(self, X, Y)
         if _is_so3(X):
             Xt = np.swapaxes(X, -1, -2)
             dR = Xt @ Y if self.side == "right" else Y @ Xt
@@ -210,17 +331,19 @@ class Convention:
         -------
         ndarray, same kind as ``X``
         """
-        X = group_input(X)
+        X = self.element(X)
         d = self._increment(d, _is_so3(X))
         v.batch_shape(("X", X.shape[:-2]), ("d", d.shape[:-1]))
         return v.finite_output(self._retract(X, d), f"{self.name}.retract")
 
     def local(self, X: Any, Y: Any) -> FloatArray:
         """Inverse of :meth:`retract`: the ``d`` with ``retract(X, d) == Y`` (principal branch)."""
-        X, Y = _group_pair(X, Y)
+        X, Y = self._pair(X, Y)
         return v.finite_output(self._local(X, Y), f"{self.name}.local")
 
     def _local_jacobian(self, X: FloatArray, Y: FloatArray) -> FloatArray:
+        if self.generic:
+            return G.local_jacobian(self, X, Y)
         s = self.rotation_scale
         if _is_so3(X):
             Xt = np.swapaxes(X, -1, -2)
@@ -254,14 +377,18 @@ class Convention:
         to GTSAM's perturbation of ``Y`` instead, multiply by ``tangent_map(Y, "gtsam", self)``.
         False: ``J = I`` (true only at ``Y = X``: the textbook approximation that moves optima).
         """
-        X, Y = _group_pair(X, Y)
+        X, Y = self._pair(X, Y)
         return v.finite_output(self._local_jacobian(X, Y), f"{self.name}.local_jacobian")
 
     # ----------------------------------------------------------------- first-order maps
     def _to_canonical(self, X: FloatArray) -> FloatArray:
+        if self.generic:
+            return G.to_canonical(self, X)
         return canonical_tangent_map(self, "to", X.shape[-1] == 3)(X)
 
     def _from_canonical(self, X: FloatArray) -> FloatArray:
+        if self.generic:
+            return G.from_canonical(self, X)
         return canonical_tangent_map(self, "from", X.shape[-1] == 3)(X)
 
     def to_canonical(self, X: Any) -> FloatArray:
@@ -269,11 +396,11 @@ class Convention:
 
         It is the derivative at ``d = 0`` of ``GTSAM.local(X, self.retract(X, d))``.
         """
-        return v.finite_output(self._to_canonical(group_input(X)), f"{self.name}.to_canonical")
+        return v.finite_output(self._to_canonical(self.element(X)), f"{self.name}.to_canonical")
 
     def from_canonical(self, X: Any) -> FloatArray:
         """Inverse of :meth:`to_canonical` (closed form, no matrix inversion)."""
-        out = self._from_canonical(group_input(X))
+        out = self._from_canonical(self.element(X))
         return v.finite_output(out, f"{self.name}.from_canonical")
 
 

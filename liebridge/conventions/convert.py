@@ -24,7 +24,8 @@ import numpy as np
 
 from .. import _validate as v
 from .._validate import FloatArray
-from .convention import Convention, group_input
+from .bundle import Bundle
+from .convention import Convention
 from .cubature import cubature_rule_5, sqrt_psd
 from .registry import ConventionLike, get
 from .unchecked import tangent_map as unchecked_map
@@ -39,10 +40,25 @@ __all__ = [
 ]
 
 _LINEAR_ROTATIONS = {"exp", "half_exp"}
+_COUPLED = {"so2", "se2", "se3", "sim3", "se23"}
 
 
 def _chart_family(c: Convention) -> str:
-    return "se3" if c.chart == "se3" else "so3xr3"
+    return "coupled" if c.chart in _COUPLED else "split"
+
+
+def _check_groups(a: Convention, b: Convention) -> None:
+    if a.group != b.group and not {a.group, b.group} <= {"se3", "so3"}:
+        raise ValueError(
+            f"src {a.name!r} is a {a.group} convention and dst {b.name!r} a {b.group} one: "
+            "tangents of different groups cannot be converted into each other"
+        )
+
+
+def _element(a: Convention, b: Convention, X: Any, name: str = "X") -> FloatArray:
+    """Validate ``X`` as an element of the (common) group of ``a`` and ``b``."""
+    _check_groups(a, b)
+    return (b if a.group == "se3" else a).element(X, name)
 
 
 def is_exactly_linear(src: ConventionLike, dst: ConventionLike) -> bool:
@@ -54,6 +70,9 @@ def is_exactly_linear(src: ConventionLike, dst: ConventionLike) -> bool:
     Exactness holds within the charts' common domain (rotation angle below π).
     """
     a, b = get(src), get(dst)
+    _check_groups(a, b)
+    if isinstance(a, Bundle) and isinstance(b, Bundle):
+        return a.exactly_linear_to(b, is_exactly_linear)
     if _chart_family(a) != _chart_family(b):
         return False
     return a.rotation == b.rotation or {a.rotation, b.rotation} <= _LINEAR_ROTATIONS
@@ -74,7 +93,8 @@ def tangent_map(X: Any, src: ConventionLike, dst: ConventionLike) -> FloatArray:
     ndarray, shape (..., 6, 6) or (..., 3, 3)
         ``M = ∂/∂d dst.local(X, src.retract(X, d)) |_{d=0}``, closed form.
     """
-    return v.finite_output(unchecked_map(group_input(X), get(src), get(dst)), "tangent_map")
+    a, b = get(src), get(dst)
+    return v.finite_output(unchecked_map(_element(a, b, X), a, b), "tangent_map")
 
 
 def convert_tangent(
@@ -87,7 +107,7 @@ def convert_tangent(
     whenever :func:`is_exactly_linear` holds.
     """
     a, b = get(src), get(dst)
-    Xa = group_input(X)
+    Xa = _element(a, b, X)
     d = a._increment(d, Xa.shape[-1] == 3)
     v.batch_shape(("d", d.shape[:-1]), ("X", Xa.shape[:-2]))
     if exact:
@@ -117,7 +137,7 @@ def convert_covariance(
     src, dst : Convention or str
     method : {"linear", "unscented"}
         ``"linear"``: ``M Σ Mᵀ`` (exact when :func:`is_exactly_linear`). ``"unscented"``: sigma
-        points of a fifth-degree Gaussian cubature (``2n² + 1`` points, see :func:`_sigma5`)
+        points of a fifth-degree Gaussian cubature (``2n² + 1`` points, ``cubature_rule_5``)
         scaled by ``S`` (``S Sᵀ = Σ``) and pushed through ``dst.local(X, src.retract(X, ·))``;
         the covariance about the transformed mean is returned (the mean shift, second order,
         is dropped: it belongs to the pose). Exact for maps quadratic in the perturbation.
@@ -129,9 +149,9 @@ def convert_covariance(
     if method != "linear" and method != "unscented":  # "Linear", " unscented": as all options
         method = v.option(method, "method", ("linear", "unscented"))
     a, b = get(src), get(dst)
-    Xa = group_input(X)
+    Xa = _element(a, b, X)
     so3 = Xa.shape[-1] == 3
-    n = 3 if so3 else 6
+    n = a.dim(Xa)
     cov = v.covariance(cov, "cov", n)
     if cov.shape[:-2] != Xa.shape[:-2]:
         v.batch_shape(("cov", cov.shape[:-2]), ("X", Xa.shape[:-2]))
@@ -162,8 +182,8 @@ def convert_information(info: Any, X: Any, src: ConventionLike, dst: ConventionL
     Works for singular (rank-deficient) information: nothing is inverted.
     """
     a, b = get(src), get(dst)
-    Xa = group_input(X)
-    n = 3 if Xa.shape[-2:] == (3, 3) else 6
+    Xa = _element(a, b, X)
+    n = a.dim(Xa)
     info = v.covariance(info, "info", n)
     v.batch_shape(("info", info.shape[:-2]), ("X", Xa.shape[:-2]))
     Mi = unchecked_map(Xa, b, a)
@@ -204,14 +224,14 @@ def convert_jacobian(
     if at_input is None and at_output is None:
         return np.array(Jm, dtype=np.float64, copy=True)  # nothing to convert; never an alias
     if at_input is not None:
-        X = group_input(at_input, "at_input")
+        X = _element(a, b, at_input, "at_input")
         v.batch_shape(("J", Jm.shape[:-2]), ("at_input", X.shape[:-2]))
         Mi = unchecked_map(X, b, a)
-        if Jm.shape[-1] != Mi.shape[-1]:
-            raise ValueError(f"J: {Jm.shape[-1]} columns, but the input tangent has {Mi.shape[-1]}")
+        if Jm.shape[-1] != Mi.shape[-2]:
+            raise ValueError(f"J: {Jm.shape[-1]} columns, but the input tangent has {Mi.shape[-2]}")
         Jm = Jm @ Mi
     if at_output is not None:
-        Y = group_input(at_output, "at_output")
+        Y = _element(a, b, at_output, "at_output")
         v.batch_shape(("J", Jm.shape[:-2]), ("at_output", Y.shape[:-2]))
         Mo = unchecked_map(Y, a, b)
         if Jm.shape[-2] != Mo.shape[-1]:

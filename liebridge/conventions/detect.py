@@ -21,7 +21,8 @@ from .. import _validate as v
 from .._validate import FloatArray
 from ..lie import unchecked as U
 from ..lie.numdiff import numerical_jacobian
-from .convention import CANONICAL, CHARTS, ORDERS, SIDES, Convention
+from . import groups as G
+from .convention import CANONICAL, CHARTS, GROUP_CHARTS, GROUP_DIMS, ORDERS, SIDES, Convention
 from .registry import get, matching_presets
 from .rotation_coords import ROTATION_COORDS
 
@@ -30,7 +31,32 @@ class ConventionNotDetected(ValueError):
     """The retraction matches no convention of the model; the message says what was measured."""
 
 
+#: Probe tangent (canonical order) of each other group: a generic element ``Exp(ξ)``.
+_PROBES: dict[str, list[float]] = {
+    "so2": [0.9],
+    "se2": [1.5, -2.0, 0.8],
+    "sim3": [0.4, -0.7, 0.5, 1.5, -2.0, 0.8, 0.3],
+    "se23": [0.4, -0.7, 0.5, 1.5, -2.0, 0.8, -0.6, 1.1, 0.7],
+}
+
+
 def _candidates(group: str) -> list[Convention]:
+    if group in G.GROUPS:
+        rots = ("exp",) if group in ("so2", "se2") else ROTATION_COORDS
+        charts = GROUP_CHARTS[group]
+        return [
+            Convention(
+                "detected:" + "/".join(c),
+                c[0],  # type: ignore[arg-type]
+                c[1],  # type: ignore[arg-type]
+                c[2],  # type: ignore[arg-type]
+                c[3],
+                "wxyz",
+                group=group,
+            )
+            for c in itertools.product(SIDES, ORDERS, charts, rots)
+            if c[2] != group or c[3] == "exp"
+        ]
     if group == "so3":  # only side and rotation coordinates act on a rotation
         combos = [(s, "rot_first", "so3xr3_body", r) for s in SIDES for r in ROTATION_COORDS]
     else:
@@ -45,19 +71,26 @@ def _candidates(group: str) -> list[Convention]:
     ]
 
 
-def _as_matrix(y: Any, what: str = "retract(X, d)") -> FloatArray:
-    """Validate what a retraction returned (an array, or an object with ``.matrix()``)."""
-    if hasattr(y, "matrix"):
+def _as_matrix(y: Any, what: str = "retract(X, d)", group: str = "se3") -> FloatArray:
+    """Validate what a retraction returned (an array, or an object with ``.matrix()``).
+
+    For Sim(3), an object's ``.matrix()`` of GTSAM's form ``[R t; 0 1/s]`` is normalised to
+    ``[sR t'; 0 1]`` (divided by its ``[3, 3]`` entry); an array is taken as it is.
+    """
+    obj = hasattr(y, "matrix")
+    if obj:
         y = y.matrix()
     arr = v.as_float_array(y, what)
     v.check_finite(arr, what)
+    if obj and group == "sim3" and arr.shape == (4, 4) and arr[3, 3] > 0:
+        arr = arr / arr[3, 3]
     return arr
 
 
 def detect_convention(
     retract: Callable[[FloatArray, FloatArray], Any],
     *,
-    group: Literal["se3", "so3"] = "se3",
+    group: Literal["se3", "so3", "so2", "se2", "sim3", "se23"] = "se3",
     prefer: str | None = None,
     tol: float = 1e-7,
     rng: np.random.Generator | None = None,
@@ -69,8 +102,11 @@ def detect_convention(
     retract : callable
         ``retract(X, d)`` taking a ``(4, 4)`` pose (``(3, 3)`` rotation for ``group="so3"``) and a
         ``(6,)`` (``(3,)``) increment, returning a matrix (or an object with ``.matrix()``).
-    group : {"se3", "so3"}
-        What ``X`` is.
+    group : {"se3", "so3", "so2", "se2", "sim3", "se23"}
+        What ``X`` is: a ``(4, 4)`` pose, ``(3, 3)`` rotation, ``(2, 2)`` rotation, ``(3, 3)``
+        SE(2) pose, ``(4, 4)`` similarity ``[sR t; 0 1]`` or ``(5, 5)`` extended pose; the
+        increment has the group's dimension (1, 3, 6, 3, 7, 9). The candidates are every
+        side × order × chart × rotation coordinates of the group.
     prefer : str, optional
         Among presets with the same retraction (Sophus, manif, Pinocchio, jaxlie and Theseus are
         all right/(v, ω)/SE(3) exp), return this one if it matches; else the first in registry
@@ -96,14 +132,17 @@ def detect_convention(
     if not callable(retract):
         raise TypeError(f"retract: expected a callable retract(X, d), got {type(retract).__name__}")
     rng = rng or np.random.default_rng(20261122)
-    group = v.option(group, "group", ("se3", "so3"))  # type: ignore[assignment]
-    n = 6 if group == "se3" else 3
-    X = U.se3_exp(np.array([0.4, -0.7, 0.5, 1.5, -2.0, 0.8]))
+    group = v.option(group, "group", tuple(GROUP_DIMS))  # type: ignore[assignment]
+    n = GROUP_DIMS[group][0]
+    if group in G.GROUPS:
+        X = G.GROUPS[group].exp(np.array(_PROBES[group]))
+    else:
+        X = U.se3_exp(np.array([0.4, -0.7, 0.5, 1.5, -2.0, 0.8]))
     if group == "so3":
         X = X[:3, :3].copy()
     D = rng.uniform(-0.3, 0.3, size=(8, n))
     results = [
-        _as_matrix(retract(X.copy(), d.copy()), f"retract(X, d) at probe {k}")
+        _as_matrix(retract(X.copy(), d.copy()), f"retract(X, d) at probe {k}", group)
         for k, d in enumerate(D)
     ]
     for k, y in enumerate(results):
@@ -112,7 +151,7 @@ def detect_convention(
                 f"retract(X, d) at probe {k} returned shape {y.shape}, expected {X.shape}"
             )
     Y = np.stack(results)
-    Y0 = _as_matrix(retract(X.copy(), np.zeros(n)), "retract(X, 0)")
+    Y0 = _as_matrix(retract(X.copy(), np.zeros(n)), "retract(X, 0)", group)
     if Y0.shape != X.shape:
         raise ConventionNotDetected(f"retract(X, 0) returned shape {Y0.shape}, expected {X.shape}")
     if np.abs(Y0 - X).max() > tol:
@@ -129,8 +168,16 @@ def detect_convention(
             best = (err, cand)
     err, found = best
     if found is None or err > tol * max(1.0, float(np.abs(Y).max())):
+        canon = CANONICAL
+        if group in G.GROUPS:  # the group's canonical tangent: right, GTSAM's order, its exp
+            order = "trans_first" if group == "se2" else "rot_first"
+            canon = Convention("canonical", "right", order, group, "exp", "wxyz", group=group)  # type: ignore[arg-type]
         M = numerical_jacobian(
-            lambda Z: Z, X, retract=lambda A, d: _as_matrix(retract(A, d)), local=CANONICAL._local
+            lambda Z: Z,
+            X,
+            retract=lambda A, d: _as_matrix(retract(A, d), group=group),
+            local=canon._local,
+            dim=n,
         )
         raise ConventionNotDetected(
             "no convention in the model reproduces this retraction. Measured first-order map "
@@ -153,6 +200,7 @@ def detect_convention(
         cand.rotation,
         "wxyz",
         source="measured by liebridge.detect_convention",
+        group=cand.group,
     )
 
 

@@ -10,7 +10,9 @@ said in its notes.
 
 from __future__ import annotations
 
-from .convention import Convention
+from dataclasses import dataclass
+
+from .convention import Convention, Embed
 
 GTSAM = Convention(
     name="gtsam",
@@ -349,3 +351,305 @@ PRESETS: tuple[Convention, ...] = (
     MR_BODY,
     MR_SPACE,
 )
+
+
+# ============================================================================ other groups
+# Each group's canonical tangent is GTSAM's (see docs/design-groups.md): SE(2) (vx, vy, ω),
+# Sim(3) (ω, u, λ), SE₂(3) (ω, ρ_p, ρ_v). ``order`` names where the rotation block sits; the
+# Sim(3) log-scale is last in every library found.
+
+GTSAM_ROT2 = Convention(
+    name="gtsam_rot2",
+    side="right",
+    order="rot_first",
+    chart="so2",
+    rotation="exp",
+    quat_order="wxyz",
+    group="so2",
+    source="V GTSAM 4.3.0 PyPI wheel (Rot2.retract, Rot2.Expmap); tests/test_conventions_groups.py",
+    notes="Rot2.retract(θ) = R·Exp(θ) = Exp(θ)·R (SO(2) is commutative). No quaternions.",
+)
+"""GTSAM ``Rot2``: the angle."""
+
+GTSAM_POSE2 = Convention(
+    name="gtsam_pose2",
+    side="right",
+    order="trans_first",
+    chart="se2",
+    rotation="exp",
+    quat_order="wxyz",
+    group="se2",
+    source="V GTSAM 4.3.0 PyPI wheel (Pose2.retract, localCoordinates, Expmap); "
+    "S gtsam/geometry/Pose2.cpp",
+    notes=(
+        "Pose2.retract(d) = X·Exp(d), d = (vx, vy, ω), true SE(2) exponential. False: "
+        "d = (θ, x, y) (the order of the Pose2(x, y, θ) constructor is not the issue: the rotation "
+        "is last) and retract(d) = (x + vx, y + vy, θ + ω). No quaternions."
+    ),
+)
+"""GTSAM ``Pose2``: right, (vx, vy, ω), SE(2) exp."""
+
+GTSAM_SIMILARITY3 = Convention(
+    name="gtsam_similarity3",
+    side="right",
+    order="rot_first",
+    chart="sim3",
+    rotation="exp",
+    quat_order="wxyz",
+    group="sim3",
+    source="V GTSAM 4.3.0 PyPI wheel (Similarity3.retract, Expmap, AdjointMap, matrix); "
+    "S gtsam/geometry/Similarity3.cpp",
+    notes=(
+        "Similarity3.retract(d) = X·Exp(d), d = (ω, u, λ), Expmap = expm([[hat ω, u], [0, −λ]]). "
+        "Trap: Similarity3(R, t_g, s).matrix() = [R t_g; 0 1/s] and transformFrom(p) = s(Rp + t_g),"
+        " so liebridge's matrix [sR t; 0 1] has t = s·t_g: pass M / M[3, 3]. False: t_g is the "
+        "translation of the map."
+    ),
+)
+"""GTSAM ``Similarity3``: right, (ω, u, λ), Sim(3) exp; matrix [R t_g; 0 1/s] (t = s·t_g)."""
+
+GTSAM_NAVSTATE = Convention(
+    name="gtsam_navstate",
+    side="right",
+    order="rot_first",
+    chart="split_body",
+    rotation="exp",
+    quat_order="wxyz",
+    group="se23",
+    source="V GTSAM 4.3.0 PyPI wheel (NavState.retract, localCoordinates, Expmap, matrix); "
+    "S gtsam/navigation/NavState.cpp (retract)",
+    notes=(
+        "NavState.retract(d) = (R·Exp(δθ), p + R·δp, v + R·δv), d = (δθ, δp, δv): component-wise "
+        "in the body frame. False: retract(d) = X·NavState.Expmap(d) (Expmap and AdjointMap are "
+        "the coupled SE₂(3) ones; they differ from retract at second order)."
+    ),
+)
+"""GTSAM ``NavState``: right rotation, body-frame position and velocity increments (split)."""
+
+SOPHUS_SE2 = Convention(
+    name="sophus_se2",
+    side="right",
+    order="trans_first",
+    chart="se2",
+    rotation="exp",
+    quat_order="xyzw",
+    group="se2",
+    source="S Sophus sophus/se2.hpp (SE2::exp, tangent (υ, θ)), sophus/ceres_manifold.hpp "
+    "(T·exp(δ))",
+    notes="retract(d) = X·exp(d), d = (υ1, υ2, θ); SE2::params() = [Re(z), Im(z), x, y].",
+)
+"""Sophus ``SE2``: right, (υ, θ), SE(2) exp."""
+
+SOPHUS_SIM3 = Convention(
+    name="sophus_sim3",
+    side="right",
+    order="trans_first",
+    chart="sim3",
+    rotation="exp",
+    quat_order="xyzw",
+    group="sim3",
+    source="S Sophus sophus/sim3.hpp (Sim3::exp, tangent (υ, ω, σ)), sophus/ceres_manifold.hpp",
+    notes=(
+        "retract(d) = X·exp(d), d = (υ, ω, σ); Sim3::matrix() = [sR t; 0 1] (liebridge's). "
+        "False: d = (σ, ...) scale first; the scale is stored in the quaternion's norm (s = |q|²)."
+    ),
+)
+"""Sophus ``Sim3``: right, (υ, ω, σ), Sim(3) exp."""
+
+MANIF_SE2 = Convention(
+    name="manif_se2",
+    side="right",
+    order="trans_first",
+    chart="se2",
+    rotation="exp",
+    quat_order="xyzw",
+    group="se2",
+    source="S manif include/manif/impl/se2/SE2Tangent_base.h (x, y, angle), "
+    "impl/lie_group_base.h (plus = rplus)",
+    notes="X.plus(d) = X·Exp(d), d = (ρx, ρy, θ); coeffs = [x, y, cos θ, sin θ]. "
+    "False: X.minus(Y) = Log(X⁻¹Y) (it is Log(Y⁻¹X)).",
+)
+"""manif ``SE2``: right, (ρ, θ), SE(2) exp."""
+
+MANIF_SE23 = Convention(
+    name="manif_se23",
+    side="right",
+    order="trans_first",
+    chart="se23",
+    rotation="exp",
+    quat_order="xyzw",
+    group="se23",
+    source="S manif include/manif/impl/se_2_3/SE_2_3Tangent_base.h (ρ, ν, θ), "
+    "impl/lie_group_base.h (plus = rplus)",
+    notes=(
+        "X.plus(d) = X·Exp(d), d = (ρ, ν, θ) = (position, velocity, rotation) parts, coupled "
+        "SE₂(3) exponential. False: manif's plus equals GTSAM's NavState.retract (that one is "
+        "component-wise)."
+    ),
+)
+"""manif ``SE_2_3``: right, (ρ, ν, θ), coupled SE₂(3) exp."""
+
+JAXLIE_SE2 = Convention(
+    name="jaxlie_se2",
+    side="right",
+    order="trans_first",
+    chart="se2",
+    rotation="exp",
+    quat_order="wxyz",
+    group="se2",
+    source="S jaxlie/_se2.py (tangent (vx, vy, omega)), jaxlie/manifold/_manifold_helpers.py "
+    "(rplus = X @ exp(d))",
+    notes="rplus(X, d) = X·exp(d), d = (vx, vy, ω); SE2.unit_complex_xy = [cos, sin, x, y].",
+)
+"""jaxlie ``SE2``: right, (vx, vy, ω), SE(2) exp."""
+
+SYMFORCE_POSE2 = Convention(
+    name="symforce_pose2",
+    side="right",
+    order="rot_first",
+    chart="split_world",
+    rotation="exp",
+    quat_order="xyzw",
+    group="se2",
+    source="V symforce-sym 0.12 (sym.Pose2.retract); S sym/ops/pose2/lie_group_ops.py",
+    notes=(
+        "Pose2.retract(d) = (R·Exp(θ), t + (x, y)), d = (θ, x, y): rotation first, translation "
+        "added in the world frame. False: retract(d) = X·Exp(d). Storage [cos, sin, x, y]."
+    ),
+)
+"""symforce ``Pose2``: (θ, x, y), world-frame translation increment (split)."""
+
+THESEUS_SE2 = Convention(
+    name="theseus_se2",
+    side="right",
+    order="trans_first",
+    chart="se2",
+    rotation="exp",
+    quat_order="wxyz",
+    group="se2",
+    source="S theseus/geometry/se2.py (exp_map of (ux, uy, θ), retract = compose with exp_map)",
+    notes="retract(X, d) = X·exp(d), d = (ux, uy, θ); storage [x, y, cos, sin].",
+)
+"""Theseus ``SE2``: right, (u, θ), SE(2) exp."""
+
+G2O_SE2 = Convention(
+    name="g2o_se2",
+    side="right",
+    order="trans_first",
+    chart="split_body",
+    rotation="exp",
+    quat_order="xyzw",
+    group="se2",
+    source="S g2o/types/slam2d/vertex_se2.h (oplusImpl: estimate * SE2(update)), "
+    "types/slam2d/se2.h (operator*)",
+    notes=(
+        "oplus(d) = X·SE2(dx, dy, dθ) = (R·Rot(dθ), t + R·(dx, dy)): the pose product with an "
+        "SE2 built from (x, y, θ) directly, not the exponential. False: X·Exp(d) (equal to first "
+        "order only)."
+    ),
+)
+"""g2o ``VertexSE2``: (dx, dy, dθ), body-frame translation increment (split)."""
+
+G2O_SIM3 = Convention(
+    name="g2o_sim3",
+    side="left",
+    order="rot_first",
+    chart="sim3",
+    rotation="exp",
+    quat_order="xyzw",
+    group="sim3",
+    source="S g2o/types/sim3/types_seven_dof_expmap.h (VertexSim3Expmap::oplusImpl: "
+    "Sim3(update)·estimate), types/sim3/sim3.h (Sim3(const Vector7&): ω, υ, σ)",
+    notes=(
+        "oplus(d) = Exp(d)·X (left), d = (ω, υ, σ). False: X·Exp(d) (g2o's SE3Expmap vertex is "
+        "also left; ORB-SLAM's Sim3 graph uses this vertex)."
+    ),
+)
+"""g2o ``VertexSim3Expmap``: left, (ω, υ, σ), Sim(3) exp."""
+
+PYPOSE_SIM3 = Convention(
+    name="pypose_sim3",
+    side="left",
+    order="trans_first",
+    chart="sim3",
+    rotation="exp",
+    quat_order="xyzw",
+    group="sim3",
+    source="S pypose/lietensor/lietensor.py (Retr = Exp(d)·X), storage [tx, ty, tz, qx, qy, qz, "
+    "qw, s]",
+    notes="X.Retr(d) = Exp(d)·X (left), d = (τ, φ, σ). False: X·Exp(d).",
+)
+"""PyPose ``Sim3``: left, (τ, φ, σ), Sim(3) exp."""
+
+ROS_POSE2 = Convention(
+    name="ros_pose2",
+    side="left",
+    order="trans_first",
+    chart="split_world",
+    rotation="exp",
+    quat_order="xyzw",
+    group="se2",
+    embed=Embed(index=(0, 1, 5), size=6),
+    source="D REP 103/105, geometry_msgs/PoseWithCovariance.msg (6×6 row-major, (x, y, z, "
+    "rot X, rot Y, rot Z), parent frame)",
+    notes=(
+        "A planar pose inside the 6×6 PoseWithCovariance: (x, y, yaw) at rows/columns (0, 1, 5), "
+        "x, y in the parent frame, yaw variance at flat index 35; z, roll, pitch rows/columns are "
+        "0 (the planar model does not move them; set a large variance there yourself if your "
+        "consumer wants 'unknown'). False: yaw at index 2 (the 3×3 (x, y, θ) layout pasted into "
+        "the 6×6 puts yaw on z)."
+    ),
+)
+"""ROS planar pose in ``PoseWithCovariance``: (x, y, yaw) at entries (0, 1, 5) of the 6-vector."""
+
+#: The presets of the groups other than SE(3)/SO(3), in registry order, per group.
+GROUP_PRESETS: tuple[Convention, ...] = (
+    GTSAM_ROT2,
+    GTSAM_POSE2,
+    SOPHUS_SE2,
+    MANIF_SE2,
+    JAXLIE_SE2,
+    SYMFORCE_POSE2,
+    THESEUS_SE2,
+    G2O_SE2,
+    ROS_POSE2,
+    GTSAM_SIMILARITY3,
+    SOPHUS_SIM3,
+    G2O_SIM3,
+    PYPOSE_SIM3,
+    GTSAM_NAVSTATE,
+    MANIF_SE23,
+)
+
+#: Every preset of every group (``PRESETS`` keeps the SE(3)/SO(3) ones, as before groups).
+ALL_PRESETS: tuple[Convention, ...] = PRESETS + GROUP_PRESETS
+
+
+@dataclass(frozen=True)
+class StorageLayout:
+    """A storage layout without a retraction (not a convention: nothing is perturbed).
+
+    ``fields`` names the stored numbers in order; ``to_matrix`` says how they make liebridge's
+    matrix.
+    """
+
+    name: str
+    group: str
+    fields: tuple[str, ...]
+    to_matrix: str
+    source: str
+    notes: str = ""
+
+
+COLMAP_SIM3 = StorageLayout(
+    name="colmap_sim3",
+    group="sim3",
+    fields=("scale", "qx", "qy", "qz", "qw", "tx", "ty", "tz"),
+    to_matrix="[s·R(q) t; 0 1], p ↦ s·R(q)·p + t (liebridge's Sim(3) matrix as it is)",
+    source="S colmap src/colmap/geometry/sim3.h (struct Sim3d: scale, Eigen::Quaterniond "
+    "rotation, Vector3d translation; ToMatrix = [scale·R t])",
+    notes="COLMAP optimises Sim3d through Ceres with its own parameterisation; it is a layout.",
+)
+"""COLMAP ``Sim3d``: a storage layout (scale, quaternion xyzw in Eigen's coeffs, translation)."""
+
+LAYOUTS: dict[str, StorageLayout] = {COLMAP_SIM3.name: COLMAP_SIM3}

@@ -5,16 +5,16 @@ from __future__ import annotations
 import difflib
 
 from .convention import Convention
-from .presets import PRESETS
+from .presets import ALL_PRESETS
 
-_REGISTRY: dict[str, Convention] = {c.name: c for c in PRESETS}
+_REGISTRY: dict[str, Convention] = {c.name: c for c in ALL_PRESETS}
 
 ConventionLike = Convention | str
 
 
-def names() -> list[str]:
-    """Registry names of all presets, in registry order."""
-    return list(_REGISTRY)
+def names(group: str | None = None) -> list[str]:
+    """Registry names of all presets (of ``group`` only, if given), in registry order."""
+    return [n for n, c in _REGISTRY.items() if group is None or c.group == group]
 
 
 def get(name: ConventionLike) -> Convention:
@@ -36,11 +36,20 @@ def get(name: ConventionLike) -> Convention:
     key = name.strip().lower().replace("-", "_")
     if key in _REGISTRY:
         return _REGISTRY[key]
-    close = difflib.get_close_matches(key, _REGISTRY, n=3, cutoff=0.5)
+    # near misses first (a typo), then looser ones
+    close = difflib.get_close_matches(key, _REGISTRY, n=3, cutoff=0.75)
+    close = close or difflib.get_close_matches(key, _REGISTRY, n=3, cutoff=0.5)
     hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
     raise ValueError(f"convention: unknown name {name!r}{hint} (known: {', '.join(_REGISTRY)})")
 
 
 def matching_presets(conv: Convention) -> list[Convention]:
-    """Presets whose ``(side, order, chart, rotation)`` equal ``conv``'s (retraction-equivalent)."""
-    return [c for c in PRESETS if c.fields == conv.fields]
+    """Presets of ``conv``'s group with its ``(side, order, chart, rotation)`` and embedding.
+
+    They are retraction-equivalent to ``conv``.
+    """
+    return [
+        c
+        for c in ALL_PRESETS
+        if c.group == conv.group and c.fields == conv.fields and c.embed == conv.embed
+    ]

@@ -17,6 +17,8 @@ given as objects.
 
 from __future__ import annotations
 
+import numpy as np
+
 from .._validate import FloatArray
 from .convention import Convention
 from .tangent_maps import pair_tangent_map
@@ -49,6 +51,8 @@ def from_canonical(conv: Convention, X: FloatArray) -> FloatArray:
 
 def tangent_map(X: FloatArray, src: Convention, dst: Convention) -> FloatArray:
     """``tangent_map(X, src, dst)`` without validation: ``δ_dst = M δ_src`` at ``X``."""
+    if src.generic:  # the group-generic engine: closed-form maps to and from GTSAM's tangent
+        return np.asarray(dst._from_canonical(X) @ src._to_canonical(X), dtype=np.float64)
     return pair_tangent_map(src, dst, X.shape[-1] == 3)(X)
 
 

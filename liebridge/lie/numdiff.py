@@ -23,14 +23,16 @@ def _euclidean_local(y0: Any, y: Any) -> FloatArray:
     return np.asarray(y, dtype=np.float64) - np.asarray(y0, dtype=np.float64)
 
 
-#: Default tangent dimension of a square group element by its size: SO(2), SO(3) or SE(2), SE(3),
-#: SE₂(3). A Sim(3) element is 4×4 too: pass ``dim=7``.
-_SQUARE_DIMS = {2: 1, 3: 3, 4: 6, 5: 9}
+#: Matrix shapes read as group elements when a retraction is given, and their default tangent
+#: dimension: SO(2) 1; SO(3) 3 (an SE(2) pose is 3×3 too: pass ``dim=3``, same number); SE(3) 6
+#: (Sim(3) is 4×4 too: pass ``dim=7``); SE₂(3) 9.
+_GROUP_SHAPES = ((2, 2), (3, 3), (4, 4), (5, 5))
+_DEFAULT_DIM = {2: 1, 3: 3, 4: 6, 5: 9}
 
 
 def _tangent_dim(x: FloatArray) -> int:
-    if x.ndim >= 2 and x.shape[-1] == x.shape[-2] and x.shape[-1] in _SQUARE_DIMS:
-        return _SQUARE_DIMS[x.shape[-1]]
+    if x.ndim >= 2 and x.shape[-2:] in _GROUP_SHAPES:
+        return _DEFAULT_DIM[x.shape[-1]]
     return int(x.shape[-1])
 
 
@@ -70,7 +72,10 @@ def numerical_jacobian(
             raise ValueError(f"dim: {dim} does not match the vector length {n} of x")
     else:
         n = dim if dim is not None else _tangent_dim(x_arr)
-        group = x_arr.ndim >= 2 and x_arr.shape[-1] == x_arr.shape[-2]
+        square = x_arr.ndim >= 2 and x_arr.shape[-2] == x_arr.shape[-1]
+        # a square matrix is a group element when its size is a group's, or when the tangent
+        # size differs from its last axis (then it cannot be a batch of vectors: a bundle)
+        group = square and (x_arr.shape[-2:] in _GROUP_SHAPES or n != x_arr.shape[-1])
         batch = x_arr.shape[:-2] if group else x_arr.shape[:-1]
     ret: Retract = retract if retract is not None else (lambda a, d: np.asarray(a) + d)
     if out_local is None:

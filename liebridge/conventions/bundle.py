@@ -1,0 +1,290 @@
+"""Product states (bundles): an ordered list of blocks, each with its own convention.
+
+A :class:`Bundle` is a :class:`~liebridge.conventions.Convention` of a product group: each block is
+a convention of one group (e.g. ``gtsam_navstate`` for (R, p, v), ``gtsam`` for a pose, a rotation
+convention) or a plain vector (:class:`Vector`, e.g. an IMU bias, perturbed additively). The
+tangent is the concatenation of the blocks' tangents, optionally reordered by ``order`` (a
+permutation: entry ``k`` of the bundle's tangent is entry ``order[k]`` of the concatenation).
+
+An element is one block-diagonal matrix ``(..., N, N)``: each group block as its own matrix, a
+vector ``b`` as ``[[I, b], [0, 1]]`` (the translation group); :meth:`Bundle.assemble` and
+:meth:`Bundle.split` build and read it. So a bundle goes through every conversion
+(``tangent_map``, ``convert_covariance`` linear and unscented, ``convert_information``,
+``convert_jacobian``, ``check.monte_carlo_covariance``) on the same code path as a single group.
+Two bundles convert into each other when their blocks are of the same groups in the same order.
+The canonical tangent of a bundle is the concatenation of its blocks' canonical (GTSAM) tangents.
+
+>>> from liebridge.conventions import get
+>>> nav15 = Bundle.of("gtsam_combined_like", [("nav", get("gtsam_navstate")),
+...                   ("b_a", Vector(3)), ("b_g", Vector(3))])
+>>> nav15.dim()
+15
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .. import _validate as v
+from .._validate import FloatArray
+from .convention import GROUP_DIMS, Convention
+
+
+@dataclass(frozen=True)
+class Vector:
+    """A plain vector block (biases, ...): ``b + d``, stored as ``[[I, b], [0, 1]]``."""
+
+    n: int
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.n, int) and self.n >= 1):
+            raise ValueError(f"Vector: n must be a positive int, got {self.n!r}")
+
+    @property
+    def group(self) -> str:
+        """``r<n>``: the translation group of ℝⁿ."""
+        return f"r{self.n}"
+
+
+Block = Convention | Vector
+
+
+def _tdim(b: Block) -> int:
+    return b.n if isinstance(b, Vector) else b.dim()
+
+
+def _mdim(b: Block) -> int:
+    return b.n + 1 if isinstance(b, Vector) else GROUP_DIMS[b.group][1]
+
+
+@dataclass(frozen=True)
+class Bundle(Convention):
+    """A product-state convention; build it with :meth:`Bundle.of`. See the module docstring."""
+
+    blocks: tuple[tuple[str, Block], ...] = ()
+    perm: tuple[int, ...] | None = None
+    _tslices: tuple[slice, ...] = field(init=False, repr=False, compare=False, default=())
+    _mslices: tuple[slice, ...] = field(init=False, repr=False, compare=False, default=())
+
+    @classmethod
+    def of(
+        cls,
+        name: str,
+        blocks: list[tuple[str, Block]],
+        order: list[int] | None = None,
+        source: str = "",
+        notes: str = "",
+    ) -> Bundle:
+        """Build a bundle from named blocks (and an optional tangent permutation ``order``)."""
+        sig = ",".join(b.group for _, b in blocks)
+        return cls(
+            name=name,
+            side="right",
+            order="rot_first",
+            chart="se3",
+            rotation="exp",
+            quat_order="wxyz",
+            source=source,
+            notes=notes,
+            group=f"bundle[{sig}]",
+            blocks=tuple(blocks),
+            perm=tuple(order) if order is not None else None,
+        )
+
+    def __post_init__(self) -> None:
+        if not self.blocks:
+            raise ValueError(f"Bundle {self.name!r}: needs at least one block")
+        names = [n for n, _ in self.blocks]
+        if len(set(names)) != len(names):
+            raise ValueError(f"Bundle {self.name!r}: block names must be distinct, got {names}")
+        for n, b in self.blocks:
+            if isinstance(b, Bundle) or not isinstance(b, Convention | Vector):
+                raise TypeError(f"Bundle {self.name!r}: block {n!r} must be a Convention or Vector")
+            if isinstance(b, Convention) and b.embed is not None:
+                raise ValueError(f"Bundle {self.name!r}: block {n!r} has an embedding")
+        t = m = 0
+        ts, ms = [], []
+        for _, b in self.blocks:
+            ts.append(slice(t, t + _tdim(b)))
+            ms.append(slice(m, m + _mdim(b)))
+            t, m = t + _tdim(b), m + _mdim(b)
+        if self.perm is not None and sorted(self.perm) != list(range(t)):
+            raise ValueError(f"Bundle {self.name!r}: order must be a permutation of range({t})")
+        object.__setattr__(self, "_tslices", tuple(ts))
+        object.__setattr__(self, "_mslices", tuple(ms))
+        object.__setattr__(self, "_key", (self.name, self.group, "bundle", str(self.perm)))
+
+    # ----------------------------------------------------------------- layout
+    @property
+    def generic(self) -> bool:
+        """Bundles run on the generic path (maps from their blocks)."""
+        return True
+
+    @property
+    def matrix_size(self) -> int:
+        """Size ``N`` of the block-diagonal element."""
+        return self._mslices[-1].stop
+
+    def dim(self, X: FloatArray | None = None) -> int:
+        """Length of the bundle's tangent."""
+        return self._tslices[-1].stop
+
+    def describe(self) -> str:
+        """One line: name and blocks."""
+        parts = ", ".join(
+            f"{n}: {b.name if isinstance(b, Convention) else b.group}" for n, b in self.blocks
+        )
+        return f"{self.name} (bundle): {parts}" + (f", order={self.perm}" if self.perm else "")
+
+    def _P(self) -> FloatArray:
+        """``P`` with ``d_concatenated = P d``."""
+        n = self.dim()
+        P = np.eye(n)
+        return P if self.perm is None else np.ascontiguousarray(P[:, list(self.perm)])
+
+    def _to_concat(self, d: FloatArray) -> FloatArray:
+        if self.perm is None:
+            return d
+        out = np.empty(d.shape)
+        out[..., list(self.perm)] = d
+        return out
+
+    def _from_concat(self, c: FloatArray) -> FloatArray:
+        return c if self.perm is None else np.asarray(c[..., list(self.perm)], dtype=np.float64)
+
+    # ----------------------------------------------------------------- elements
+    def assemble(self, **parts: Any) -> FloatArray:
+        """Build the block-diagonal element from its parts by block name (vectors ``(..., n)``)."""
+        missing = [n for n, _ in self.blocks if n not in parts]
+        extra = sorted(set(parts) - {n for n, _ in self.blocks})
+        if missing or extra:
+            raise ValueError(f"{self.name}.assemble: missing {missing}, unknown {extra}")
+        arrs = {n: v.as_float_array(parts[n], n) for n, _ in self.blocks}
+        batch = v.batch_shape(
+            *(
+                (n, a.shape[:-1] if isinstance(b, Vector) else a.shape[:-2])
+                for (n, b), a in zip(self.blocks, arrs.values(), strict=True)
+            )
+        )
+        N = self.matrix_size
+        X = np.zeros((*batch, N, N))
+        for (n, b), ms in zip(self.blocks, self._mslices, strict=True):
+            if isinstance(b, Vector):
+                X[..., ms.start : ms.start + b.n, ms.start : ms.start + b.n] = np.eye(b.n)
+                X[..., ms.start : ms.start + b.n, ms.stop - 1] = v.vector(arrs[n], n, b.n)
+                X[..., ms.stop - 1, ms.stop - 1] = 1.0
+            else:
+                X[..., ms, ms] = b.element(arrs[n], n)
+        return X
+
+    def split(self, X: Any) -> dict[str, FloatArray]:
+        """Return the parts of an element by block name (inverse of :meth:`assemble`)."""
+        X = self.element(X)
+        out = {}
+        for (n, b), ms in zip(self.blocks, self._mslices, strict=True):
+            blk = X[..., ms, ms]
+            out[n] = np.array(blk[..., :-1, -1] if isinstance(b, Vector) else blk)
+        return out
+
+    def element(self, X: Any, name: str = "X") -> FloatArray:
+        """Validate a block-diagonal element: zero off the blocks, each block in its group."""
+        N = self.matrix_size
+        arr = v.square(X, name, N)
+        mask = np.ones((N, N), dtype=bool)
+        for ms in self._mslices:
+            mask[ms, ms] = False
+        off = arr[..., mask] != 0
+        if off.any():
+            i = tuple(int(k) for k in np.argwhere(off.any(axis=-1))[0]) if off.ndim > 1 else ()
+            raise ValueError(
+                f"{name}: not a {self.name} element at batch index {i}: nonzero entries off its "
+                "diagonal blocks (a bundle element is block diagonal; build it with .assemble)"
+            )
+        for (n, b), ms in zip(self.blocks, self._mslices, strict=True):
+            sub = arr[..., ms, ms]
+            what = f"{name} (block {n!r})"
+            if isinstance(b, Vector):
+                k = b.n
+                ok = (sub[..., :k, :k] == np.eye(k)).all(axis=(-1, -2)) & (
+                    sub[..., k, :] == np.eye(k + 1)[k]
+                ).all(axis=-1)
+                if not ok.all():
+                    i = tuple(int(j) for j in np.argwhere(~ok)[0]) if ok.ndim else ()
+                    raise ValueError(
+                        f"{what}: not a vector block [[I, b], [0, 1]] at batch index {i}"
+                    )
+            else:
+                b.element(sub, what)
+        return arr
+
+    # ----------------------------------------------------------------- retraction
+    def _increment(self, d: Any, so3: bool, name: str = "d") -> FloatArray:
+        arr = v.vector(d, name, self.dim())
+        c = self._to_concat(arr)
+        for (n, b), ts in zip(self.blocks, self._tslices, strict=True):
+            if isinstance(b, Convention):
+                b._increment(c[..., ts], False, f"{name} (block {n!r})")
+        return arr
+
+    def _retract(self, X: FloatArray, d: FloatArray) -> FloatArray:
+        c = self._to_concat(d)
+        N = self.matrix_size
+        out = np.zeros((*np.broadcast_shapes(X.shape[:-2], d.shape[:-1]), N, N))
+        for (_, b), ts, ms in zip(self.blocks, self._tslices, self._mslices, strict=True):
+            sub = X[..., ms, ms]
+            if isinstance(b, Vector):
+                out[..., ms, ms] = sub
+                out[..., ms.start : ms.stop - 1, ms.stop - 1] = sub[..., :-1, -1] + c[..., ts]
+            else:
+                out[..., ms, ms] = b._retract(sub, c[..., ts])
+        return out
+
+    def _local(self, X: FloatArray, Y: FloatArray) -> FloatArray:
+        parts = []
+        for (_, b), ms in zip(self.blocks, self._mslices, strict=True):
+            A, B = X[..., ms, ms], Y[..., ms, ms]
+            if isinstance(b, Vector):
+                parts.append(B[..., :-1, -1] - A[..., :-1, -1])
+            else:
+                parts.append(b._local(A, B))
+        batch = np.broadcast_shapes(*(p.shape[:-1] for p in parts))
+        parts = [np.broadcast_to(p, (*batch, p.shape[-1])) for p in parts]
+        return self._from_concat(np.concatenate(parts, axis=-1))
+
+    def _blockdiag(self, X: FloatArray, f: str, Y: FloatArray | None = None) -> FloatArray:
+        n = self.dim()
+        batch = X.shape[:-2] if Y is None else np.broadcast_shapes(X.shape[:-2], Y.shape[:-2])
+        out = np.zeros((*batch, n, n))
+        for (_, b), ts, ms in zip(self.blocks, self._tslices, self._mslices, strict=True):
+            if isinstance(b, Vector):
+                out[..., ts, ts] = np.eye(b.n)
+            elif Y is None:
+                out[..., ts, ts] = getattr(b, f)(X[..., ms, ms])
+            else:
+                out[..., ts, ts] = b._local_jacobian(X[..., ms, ms], Y[..., ms, ms])
+        return out
+
+    def _to_canonical(self, X: FloatArray) -> FloatArray:
+        return np.asarray(self._blockdiag(X, "_to_canonical") @ self._P(), dtype=np.float64)
+
+    def _from_canonical(self, X: FloatArray) -> FloatArray:
+        return np.asarray(self._P().T @ self._blockdiag(X, "_from_canonical"), dtype=np.float64)
+
+    def _local_jacobian(self, X: FloatArray, Y: FloatArray) -> FloatArray:
+        P = self._P()
+        return np.asarray(P.T @ self._blockdiag(X, "", Y) @ P, dtype=np.float64)
+
+    def _pair(self, X: Any, Y: Any) -> tuple[FloatArray, FloatArray]:
+        A, B = self.element(X), self.element(Y, "Y")
+        v.batch_shape(("X", A.shape[:-2]), ("Y", B.shape[:-2]))
+        return A, B
+
+    def exactly_linear_to(self, other: Bundle, linear: Any) -> bool:
+        """Whether every block pair is exactly linear (``linear(a, b)`` per convention pair)."""
+        return all(
+            isinstance(a, Vector) or linear(a, b)
+            for (_, a), (_, b) in zip(self.blocks, other.blocks, strict=True)
+        )
