@@ -97,6 +97,8 @@ POSE_FUNCS: dict[str, Callable[[Any], Any]] = {
     "se3.act": lambda X: se3.act(X, np.array([1.0, 2.0, 3.0])),
     "se3.interpolate": lambda X: se3.interpolate(X, T1, 0.3),
     "tangent_map": lambda X: lb.tangent_map(X, "gtsam", "sophus"),
+    "Convention.element": lambda X: lb.conventions.get("sophus").element(X),
+    "Convention.dim": lambda X: np.array(lb.conventions.get("sophus").dim(X)),
     "convert_tangent": lambda X: lb.convert_tangent(np.full(6, 0.1), X, "gtsam", "g2o"),
     "convert_covariance": lambda X: lb.convert_covariance(COV, X, "gtsam", "barfoot"),
     "convert_covariance_unscented": lambda X: lb.convert_covariance(
@@ -200,6 +202,9 @@ NOT_A_POSE = {
     "io.poses.to_matrix": "x is a row in a layout (the matrix layout reads arrays)",
     "imu.imu": "pose_i, pose_j are GTSAM keys",
     "interop.to_library": "T is liebridge's output; `like` is the library object",
+    "Bundle.dim": "X is a block-diagonal bundle element (no library has a bundle object)",
+    "Bundle.element": "X is a block-diagonal bundle element (no library has a bundle object)",
+    "Bundle.split": "X is a block-diagonal bundle element (no library has a bundle object)",
 }
 PUBLIC = [
     ("se3", "liebridge.lie.se3"),

@@ -67,7 +67,7 @@ def numerical_jacobian(
             retract = retract if retract is not None else cin.retract
             local = local if local is not None else cin.local
             if dim is None:  # the convention knows its tangent (Sim(3) is 4×4 with 7 dof)
-                dim = cin.dim(np.asarray(x, dtype=np.float64))
+                dim = cin.dim(x)  # (a library pose object too)
         if out_convention is not None:
             out_local = out_local if out_local is not None else get(out_convention).local
     return numdiff.numerical_jacobian(

@@ -211,11 +211,11 @@ class Convention:
         """Whether this convention runs on the group-generic engine (not SE(3)/SO(3))."""
         return self.group not in ("se3", "so3")
 
-    def dim(self, X: FloatArray | None = None) -> int:
+    def dim(self, X: Any = None) -> int:
         """Length of this convention's tangent (at ``X``, for an SE(3) one given a rotation: 3)."""
         if self.embed is not None:
             return self.embed.size
-        if self.group == "se3" and X is not None and X.shape[-2:] == (3, 3):
+        if self.group == "se3" and X is not None and v.as_float_array(X, "X").shape[-2:] == (3, 3):
             return 3
         return GROUP_DIMS[self.group][0]
 
