@@ -5,7 +5,7 @@ The code lives in :mod:`liebridge.gtsam` (``between``, ``prior``, ``optimize``) 
 re-exports it under the import path of earlier releases.
 """
 
-from ..gtsam import OptimizeResult, between, optimize, prior
+from ..gtsam import ISAM2, OptimizeResult, between, optimize, prior
 from ..imu import (
     ImuDelta,
     ImuPreintegrator,
@@ -19,6 +19,7 @@ from ..imu import (
 __all__ = [
     "ImuDelta",
     "ImuPreintegrator",
+    "ISAM2",
     "OptimizeResult",
     "PreintegratedImu",
     "between",

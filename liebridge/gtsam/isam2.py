@@ -117,6 +117,9 @@ class ISAM2:
         # mirror of GTSAM's linearization point θ for the Pose3 variables (sorted keys)
         self._pose_keys: IntArray = np.zeros(0, dtype=np.int64)
         self._theta: FloatArray = np.zeros((0, 4, 4))
+        # the same θ as gtsam.Values (retracted by GTSAM's own Pose3::retract): the containers'
+        # linearization point, equal to GTSAM's θ bit for bit
+        self._point = gtsam.Values()
         # liebridge factors: spec, keys (j = -1 for a prior), slot in GTSAM's factor graph
         self._specs: list[PoseFactorSpec] = []
         self._fi: IntArray = np.zeros(0, dtype=np.int64)
@@ -185,10 +188,8 @@ class ISAM2:
         stale_idx = np.flatnonzero(stale)
         todo = [self._specs[int(s)] for s in stale_idx] + new_specs
         constrained = self._observed_keys(rest, new_specs) if stale_idx.size else None
-        containers = self._linearize(todo)
-        for c in containers:
-            rest.add(c)
-        n_native = rest.size() - len(containers)
+        n_native = rest.size()
+        rest.push_back(self._linearize(todo))
         removed = [int(s) for s in self._slot[stale_idx]]
         result = self._isam.update(rest, values, removed, constrained)
 
@@ -254,6 +255,7 @@ class ISAM2:
         order = np.argsort(all_keys, kind="stable")
         self._var_keys = all_keys[order]
         self._var_dims = np.concatenate([self._var_dims, dims])[order]
+        self._point.insert(values)
         pk, T = poses_of(values)
         if pk.size:
             all_pk = np.concatenate([self._pose_keys, pk])
@@ -280,12 +282,16 @@ class ISAM2:
             at = starts[np.searchsorted(self._var_keys, self._pose_keys[rows])]
             delta = vec[at[:, None] + np.arange(6)]
             self._theta[rows] = unchecked.retract(self._hub, self._theta[rows], delta)
+            moved = gtsam.VectorValues()
+            for k, d in zip(self._pose_keys[rows], delta, strict=True):
+                moved.insert(int(k), d)
+            self._point = self._point.retract(moved)  # ISAM2::update step 6, for our poses
         return relin
 
-    def _linearize(self, specs: list[PoseFactorSpec]) -> list[Any]:
+    def _linearize(self, specs: list[PoseFactorSpec]) -> Any:
         """``LinearContainerFactor``s of ``specs`` at the mirrored θ, in the order of ``specs``."""
         if not specs:
-            return []
+            return gtsam.NonlinearFactorGraph()
         groups: dict[tuple[bool, Convention], list[int]] = {}
         for n, s in enumerate(specs):
             groups.setdefault((s.j is not None, s.conv), []).append(n)
@@ -294,10 +300,7 @@ class ISAM2:
             jfs = PoseFactorGroup([specs[n] for n in idx]).linearize(self._pose_keys, self._theta)
             for n, jf in zip(idx, jfs, strict=True):
                 out[n] = jf
-        used = np.unique(
-            np.concatenate([[s.i for s in specs], [s.j for s in specs if s.j is not None]])
-        ).astype(np.int64)
-        point = gtsam.Values()
-        for k, T in zip(used, self._theta[np.searchsorted(self._pose_keys, used)], strict=True):
-            point.insert(int(k), gtsam.Pose3(T))
-        return [gtsam.LinearContainerFactor(jf, point) for jf in out]
+        linear = gtsam.GaussianFactorGraph()
+        for jf in out:
+            linear.push_back(jf)
+        return gtsam.LinearContainerFactor.ConvertLinearGraph(linear, self._point)
