@@ -146,10 +146,11 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     ap.add_argument("--nonlinear-convention", default="g2o")
     ap.add_argument("--poses", type=int, default=2500)
     ap.add_argument("--custom-poses", type=int, default=500)
-    ap.add_argument("--quick", action="store_true", help="300 poses, custom prefix 100")
+    ap.add_argument("--repeats", type=int, default=3, help="interleaved repeats of a, c, d")
+    ap.add_argument("--quick", action="store_true", help="300 poses, custom prefix 100, 1 repeat")
     args = ap.parse_args(argv)
     if args.quick:
-        args.poses, args.custom_poses = 300, 100
+        args.poses, args.custom_poses, args.repeats = 300, 100, 1
     conv = args.convention
     edges = load(args.poses)
     info = machine()
@@ -176,12 +177,26 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             flush=True,
         )
 
-    ref, t_ref = run(edges, args.poses, gtsam.ISAM2, "gtsam", conv)
-    row("gtsam.ISAM2, GTSAM BetweenFactorPose3", "a", t_ref, args.poses, 0.0)
-    est, t_c = run(edges, args.poses, ISAM2, "custom", conv)
-    row(f"liebridge.gtsam.ISAM2, native=False ({conv})", "c", t_c, args.poses, max_diff(est, ref, args.poses))
-    est, t_d = run(edges, args.poses, gtsam.ISAM2, "native", conv)
-    row(f"gtsam.ISAM2, native=True ({conv}, converted noise)", "d", t_d, args.poses, max_diff(est, ref, args.poses))
+    # (a), (c), (d) interleaved, --repeats times; each row keeps its fastest repeat
+    designs = {
+        "a": ("gtsam.ISAM2, GTSAM BetweenFactorPose3", gtsam.ISAM2, "gtsam"),
+        "c": (f"liebridge.gtsam.ISAM2, native=False ({conv})", ISAM2, "custom"),
+        "d": (f"gtsam.ISAM2, native=True ({conv}, converted noise)", gtsam.ISAM2, "native"),
+    }
+    best: dict[str, list[float]] = {}
+    estimates: dict[str, Any] = {}
+    per_repeat: dict[str, list[float]] = {d: [] for d in designs}
+    for _ in range(args.repeats):
+        for d, (_, make, kind) in designs.items():
+            est, times = run(edges, args.poses, make, kind, conv)
+            estimates.setdefault(d, est)
+            per_repeat[d].append(float(np.sum(times)))
+            if d not in best or np.sum(times) < np.sum(best[d]):
+                best[d] = times
+    ref = estimates["a"]
+    for d, (name, _, _) in designs.items():
+        row(name, d, best[d], args.poses, max_diff(estimates[d], ref, args.poses))
+    t_ref, t_c, t_d = best["a"], best["c"], best["d"]
     nl = args.nonlinear_convention
     est, t_e = run(edges, args.poses, ISAM2, "custom", nl)
     row(f"liebridge.gtsam.ISAM2, native=False ({nl}: another objective)", "e", t_e, args.poses, max_diff(est, ref, args.poses))
@@ -204,8 +219,10 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     print(f"iSAM2's own wildfire approximation (a, 0 vs 0.001): {wildfire['a_wildfire0_vs_a_default']:.2e}")
     print(f"(c) vs (a), both wildfireThreshold 0:               {wildfire['c_vs_a_both_wildfire0']:.2e}")
 
-    ratios = {
+    ratios: dict[str, Any] = {
         "c_over_a": float(np.sum(t_c) / np.sum(t_ref)),
+        "c_over_a_each_repeat": [c / a for c, a in zip(per_repeat["c"], per_repeat["a"], strict=True)],
+        "d_over_a_each_repeat": [c / a for c, a in zip(per_repeat["d"], per_repeat["a"], strict=True)],
         "d_over_a": float(np.sum(t_d) / np.sum(t_ref)),
         "e_over_a": float(np.sum(t_e) / np.sum(t_ref)),
         "b_over_a_prefix": float(np.sum(t_b) / np.sum(t_pa)),
@@ -213,7 +230,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         "b_over_c_prefix": float(np.sum(t_b) / np.sum(t_pc)),
     }
     for k, v in ratios.items():
-        print(f"ratio {k:18s} {v:7.2f}")
+        print(f"ratio {k:22s} {np.round(v, 2)}")
     out = {
         "benchmark": "sphere2500, 25 poses per iSAM2 update",
         "command": " ".join([Path(sys.argv[0]).name, *(argv if argv is not None else sys.argv[1:])]),
@@ -222,6 +239,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             "quick": args.quick,
             "poses": args.poses,
             "custom_poses": m,
+            "repeats": args.repeats,
+            "timing": "only ISAM2.update calls; each of a, c, d: the fastest of the interleaved repeats",
             "convention": conv,
             "nonlinear_convention": nl,
             "params": "gtsam.ISAM2Params() defaults (relinearizeThreshold 0.1, skip 10, wildfire 0.001)",
