@@ -17,9 +17,9 @@ from ..imu import (
 )
 
 __all__ = [
+    "ISAM2",
     "ImuDelta",
     "ImuPreintegrator",
-    "ISAM2",
     "OptimizeResult",
     "PreintegratedImu",
     "between",

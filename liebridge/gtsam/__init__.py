@@ -19,8 +19,8 @@ from .optimize import OptimizeResult, optimize
 from .pose_factors import between, prior
 
 __all__ = [
-    "ConventionGraph",
     "ISAM2",
+    "ConventionGraph",
     "OptimizeResult",
     "between",
     "from_pose3",

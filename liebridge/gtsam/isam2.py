@@ -129,7 +129,7 @@ class ISAM2:
     # ------------------------------------------------------------------ public
     @property
     def isam2(self) -> Any:
-        """The wrapped ``gtsam.ISAM2`` (read from it; calling its ``update`` bypasses this class)."""
+        """The wrapped ``gtsam.ISAM2``, to read from (its own ``update`` would bypass liebridge)."""
         return self._isam
 
     @property
@@ -138,7 +138,7 @@ class ISAM2:
         return self._threshold
 
     def calculate_estimate(self) -> Any:
-        """Current estimate ``θ ⊕ Δ`` of every variable, as ``gtsam.Values``."""
+        """Return the current estimate ``θ ⊕ Δ`` of every variable, as ``gtsam.Values``."""
         return self._isam.calculateEstimate()
 
     def update(self, graph: Any = None, values: Any = None) -> Any:
@@ -160,7 +160,9 @@ class ISAM2:
         graph = gtsam.NonlinearFactorGraph() if graph is None else graph
         values = gtsam.Values() if values is None else values
         if not isinstance(graph, gtsam.NonlinearFactorGraph):
-            raise TypeError(f"graph: expected gtsam.NonlinearFactorGraph, got {type(graph).__name__}")
+            raise TypeError(
+                f"graph: expected gtsam.NonlinearFactorGraph, got {type(graph).__name__}"
+            )
         if not isinstance(values, gtsam.Values):
             raise TypeError(f"values: expected gtsam.Values, got {type(values).__name__}")
 
@@ -229,7 +231,7 @@ class ISAM2:
 
     @staticmethod
     def _observed_keys(rest: Any, new_specs: list[PoseFactorSpec]) -> Any:
-        """The ordering constraint native iSAM2 would use: keys of the *new* factors last.
+        """Return the ordering constraint native iSAM2 would use: keys of *new* factors last.
 
         GTSAM constrains the keys of new factors and of removed factors to the end of the
         ordering (``ISAM2::recalculate``, ``result.observedKeys``); a refreshed factor is neither
