@@ -44,7 +44,7 @@ import gtsam
 import numpy as np
 
 from liebridge.conventions import convert_covariance
-from liebridge.factors import ISAM2, between, prior
+from liebridge.factors import ISAM2, between, optimize, prior
 from liebridge.gtsam.batch import group_specs, poses_of
 from liebridge.gtsam.custom import identify, query_values
 
@@ -165,6 +165,34 @@ def max_diff(a: Any, b: Any, n_poses: int) -> float:
     )
 
 
+def drift(edges: list[Any], n: int, conv: str) -> dict[str, Any]:
+    """For a non-linear chart: iSAM2 (b, c) against (a), and both objectives' LM optima."""
+    a, _ = run(edges, n, gtsam.ISAM2, "gtsam", conv)
+    b, _ = run(edges, n, gtsam.ISAM2, "custom", conv)
+    c, _ = run(edges, n, ISAM2, "custom", conv)
+
+    def graph(kind: str) -> Any:
+        first, edge = factories(kind, conv)
+        g = gtsam.NonlinearFactorGraph()
+        g.add(first)
+        for f in edges:
+            g.add(edge(f))
+        return g
+
+    lm_a = optimize(graph("gtsam"), a, progress=False).values
+    lm_c = optimize(graph("custom"), a, progress=False).values
+    res = {
+        "poses": n,
+        "convention": conv,
+        "b_vs_c": max_diff(b, c, n),
+        "c_vs_a": max_diff(c, a, n),
+        "a_vs_its_LM_optimum": max_diff(a, lm_a, n),
+        "LM_optimum_conv_vs_gtsam": max_diff(lm_c, lm_a, n),
+    }
+    print("drift", res, flush=True)
+    return res
+
+
 def isam_params(wildfire: float | None = None) -> Any:
     p = gtsam.ISAM2Params()
     if wildfire is not None:
@@ -181,6 +209,11 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     ap.add_argument("--nonlinear-convention", default="g2o")
     ap.add_argument("--poses", type=int, default=2500)
     ap.add_argument("--custom-poses", type=int, default=500)
+    ap.add_argument(
+        "--drift",
+        default="",
+        help="pose counts, e.g. 150,300: (b), (c), (a) and LM optima for the non-linear chart",
+    )
     ap.add_argument("--repeats", type=int, default=3, help="interleaved repeats of a, c, d")
     ap.add_argument("--quick", action="store_true", help="300 poses, custom prefix 100, 1 repeat")
     args = ap.parse_args(argv)
@@ -321,6 +354,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         "met": ratios["c_over_a"] <= 1.5,
         "wildfire": wildfire,
     }
+    if args.drift:
+        out["drift"] = [drift(load(int(n)), int(n), nl) for n in args.drift.split(",")]
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Path(args.out).write_text(json.dumps(out, indent=2))
     return out
