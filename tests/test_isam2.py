@@ -204,6 +204,21 @@ def test_facade_and_params_threshold_read():
     assert isinstance(ISAM2().calculate_estimate(), gtsam.Values)
 
 
+@pytest.mark.parametrize("threshold", [0.1, 0.05, 1e-3, 0.0123456789, 1 / 3, 2.5e-7, 7.0, 0.0])
+def test_relinearize_threshold_is_read_exactly(threshold):
+    """GTSAM prints 6 digits; the probe pins the double GTSAM compares against."""
+    assert ISAM2(params(threshold=threshold)).relinearize_threshold == threshold
+
+
+def test_many_digit_threshold_gives_native_decisions(sphere):
+    """A threshold that printing would round: the same estimates as native iSAM2."""
+    n = 200
+    kw = {"threshold": 0.0123456789, "skip": 1}
+    ref = feed(sphere, n, gtsam.ISAM2(params(**kw)), None)
+    est = feed(sphere, n, ISAM2(params(**kw)), "barfoot")
+    assert max_diff(est, ref, n) < 1e-8
+
+
 def test_bad_params_are_refused():
     with pytest.raises(TypeError, match=r"params: expected gtsam\.ISAM2Params"):
         ISAM2(gtsam.LevenbergMarquardtParams())

@@ -30,8 +30,9 @@ its right-hand side (``b' = b − A·Local(x₀, x)``, ``LinearContainerFactor::
 order, never used by this class unless GTSAM relinearizes a variable it did not predict (it then
 resynchronises at the next update).
 
-Limitations (GTSAM's Python API exposes no getter for ``relinearizeThreshold``): the threshold is
-read from the printed ``ISAM2Params`` (6 significant digits); per-type threshold maps and
+GTSAM's Python API has no getter for ``relinearizeThreshold``: it is read from the printed
+``ISAM2Params`` (6 significant digits), then pinned to the exact double by probing a one-variable
+iSAM2 built with the same params. Limitations: per-type threshold maps and
 ``enablePartialRelinearizationCheck`` are refused; ``error``-style nonlinear quantities of
 ``ISAM2`` (``evaluateNonlinearError``) see liebridge's factors as their quadratic models.
 """
@@ -53,8 +54,8 @@ from .custom import identify, query_values
 __all__ = ["ISAM2"]
 
 
-def _relinearize_threshold(params: Any) -> float:
-    """Read ``relinearizeThreshold`` from the printed params (no getter in the Python API)."""
+def _printed_threshold(params: Any) -> float:
+    """``relinearizeThreshold`` as ``ISAM2Params`` prints it (6 significant digits)."""
     m = re.search(r"relinearizeThreshold:\s*(\S+)", repr(params))
     if m is None or m.group(1) == "{mapped}":
         raise ValueError(
@@ -63,6 +64,50 @@ def _relinearize_threshold(params: Any) -> float:
             "readable from GTSAM's Python API"
         )
     return float(m.group(1))
+
+
+def _relinearizes(params: Any, delta: float) -> bool:
+    """Return whether iSAM2 with ``params`` relinearizes a variable whose ``Δ`` is ``delta``.
+
+    A one-variable problem (prior at ``delta``, start 0: the first update solves ``Δ = delta``
+    exactly), then an update with ``force_relinearize``: the linearization point moves iff
+    ``|Δ| ≥ relinearizeThreshold`` (``CheckRelinearizationFull``).
+    """
+    isam = gtsam.ISAM2(params)
+    graph = gtsam.NonlinearFactorGraph()
+    graph.add(gtsam.PriorFactorVector(0, np.array([delta]), gtsam.noiseModel.Unit.Create(1)))
+    values = gtsam.Values()
+    values.insert(0, np.zeros(1))
+    isam.update(graph, values)
+    force = gtsam.ISAM2UpdateParams()
+    force.force_relinearize = True
+    isam.update(gtsam.NonlinearFactorGraph(), gtsam.Values(), force)
+    return bool(isam.getLinearizationPoint().atVector(0)[0] != 0.0)
+
+
+def _relinearize_threshold(params: Any) -> float:
+    """``relinearizeThreshold`` of ``params``, exactly (GTSAM's Python API has no getter).
+
+    The printed value (6 significant digits) brackets it; bisection over the doubles of that
+    bracket with :func:`_relinearizes` pins the exact value (≈40 probes, a few ms). If the
+    probes disagree with the printed value (e.g. a Dogleg trust region clips the probe's step),
+    the printed value is returned.
+    """
+    printed = _printed_threshold(params)
+    if not np.isfinite(printed) or printed <= 0.0:
+        return printed
+    lo, hi = printed * (1.0 - 1e-5), printed * (1.0 + 1e-5)
+    if _relinearizes(params, lo) or not _relinearizes(params, hi):
+        return printed
+    a = int(np.float64(lo).view(np.int64))  # positive doubles order like their bit patterns
+    b = int(np.float64(hi).view(np.int64))
+    while b - a > 1:
+        mid = (a + b) // 2
+        if _relinearizes(params, float(np.int64(mid).view(np.float64))):
+            b = mid
+        else:
+            a = mid
+    return float(np.int64(b).view(np.float64))
 
 
 class ISAM2:
