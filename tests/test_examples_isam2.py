@@ -7,6 +7,9 @@ import re
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
+
+import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -31,3 +34,13 @@ def test_incremental_isam2_example_runs_and_agrees_with_gtsam() -> None:
     m = re.search(r"max pose difference ([0-9.e+-]+)", proc.stdout)
     assert m, proc.stdout
     assert float(m.group(1)) < 1e-8
+
+
+def test_docs_worked_example_runs() -> None:
+    text = (ROOT / "docs" / "isam2.md").read_text()
+    code = re.search(r"```python\n(.*?)```", text, re.S)
+    assert code, "no python block in docs/isam2.md"
+    ns: dict[str, object] = {}
+    exec(compile(code.group(1), "docs/isam2.md", "exec"), ns)
+    est: Any = ns["estimate"]
+    np.testing.assert_allclose(est.atPose3(2).translation(), [2.0, 0.0, 0.0], atol=1e-3)
