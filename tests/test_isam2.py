@@ -294,7 +294,7 @@ def test_bench_isam2_quick_writes_the_expected_json(tmp_path: Path) -> None:
     assert {"machine", "config", "rows", "ratios", "wildfire", "met"} <= set(res)
     assert res["config"]["quick"] is True
     designs = {r["design"]: r for r in res["rows"]}
-    assert set(designs) == {"a", "b", "c", "d", "e", "f", "a'", "c'"}
+    assert set(designs) == {"a", "b", "c", "d", "e", "f", "g", "a'", "c'"}
     for d in ("c", "d", "b", "c'"):
         assert designs[d]["max_abs_diff_vs_a"] < 1e-8
     assert {"c_over_a", "b_over_a_prefix", "b_over_c_prefix"} <= set(res["ratios"])
