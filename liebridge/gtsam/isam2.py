@@ -232,7 +232,8 @@ class ISAM2:
         # What GTSAM's update is about to relinearize, and θ after it (ISAM2::update steps 4–6).
         self._count += 1
         stale = np.zeros(len(self._specs), dtype=bool)
-        if self._relinearize and self._count % self._skip == 0 and len(self._specs):
+        if self._relinearize and self._count % self._skip == 0 and self._var_keys.size:
+            # also without liebridge factors yet: the θ mirror must follow GTSAM's θ
             relin = self._predict_relinearized()
             if relin.size:
                 stale = np.isin(self._fi, relin) | np.isin(self._fj, relin)
