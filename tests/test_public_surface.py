@@ -15,7 +15,16 @@ import pytest
 
 import liebridge as lb
 
-FACTORS = ("between", "prior", "optimize", "preintegrate", "ImuPreintegrator", "imu", "imu_kernel")
+FACTORS = (
+    "between",
+    "prior",
+    "optimize",
+    "preintegrate",
+    "ImuPreintegrator",
+    "imu",
+    "imu_kernel",
+    "ISAM2",
+)
 TOP = (
     "g2o",
     "trajectory_io",

@@ -5,7 +5,7 @@ The code lives in :mod:`liebridge.gtsam` (``between``, ``prior``, ``optimize``) 
 re-exports it under the import path of earlier releases.
 """
 
-from ..gtsam import OptimizeResult, between, optimize, prior
+from ..gtsam import ISAM2, OptimizeResult, between, optimize, prior
 from ..imu import (
     ImuDelta,
     ImuPreintegrator,
@@ -17,6 +17,7 @@ from ..imu import (
 )
 
 __all__ = [
+    "ISAM2",
     "ImuDelta",
     "ImuPreintegrator",
     "OptimizeResult",

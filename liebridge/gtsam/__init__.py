@@ -6,17 +6,20 @@ Layer above :mod:`liebridge.conventions`, :mod:`liebridge.check` and :mod:`liebr
 ``gtsam.Marginals`` to any convention; ``pose_factors`` builds between/prior factors in any
 convention, whose residual maths lives once in ``factor_math``; ``optimize`` runs
 Levenberg–Marquardt from Python and evaluates liebridge's factors batched; ``graph`` is
-:class:`ConventionGraph`, a factor graph whose measurements carry their convention.
+:class:`ConventionGraph`, a factor graph whose measurements carry their convention; ``isam2``
+is :class:`ISAM2`, GTSAM's iSAM2 with liebridge's factors linearized batched.
 """
 
 from .build import gtsam_convention
 from .glue import from_pose3, from_values, to_pose3, to_values
 from .graph import ConventionGraph
+from .isam2 import ISAM2
 from .marginals import marginals
 from .optimize import OptimizeResult, optimize
 from .pose_factors import between, prior
 
 __all__ = [
+    "ISAM2",
     "ConventionGraph",
     "OptimizeResult",
     "between",
