@@ -311,3 +311,29 @@ def test_bench_isam2_quick_writes_the_expected_json(tmp_path: Path) -> None:
     for d in ("c", "d", "b", "c'"):
         assert designs[d]["max_abs_diff_vs_a"] < 1e-8
     assert {"c_over_a", "b_over_a_prefix", "b_over_c_prefix"} <= set(res["ratios"])
+
+
+def test_keys_at_or_above_2_63_work_like_the_optimizers() -> None:
+    """Issue 21's class 2 for the incremental path: GTSAM keys are uint64, 2**63 and above too."""
+    import gtsam
+    import numpy as np
+
+    from liebridge.gtsam import ISAM2, between, prior
+    from liebridge.lie import se3
+
+    T1 = se3.exp(np.array([0.1, -0.2, 0.3, 1.0, 2.0, 3.0]))
+
+    def run(k0: int, k1: int) -> np.ndarray:
+        g = gtsam.NonlinearFactorGraph()
+        g.add(prior(k0, np.eye(4), np.eye(6) * 1e-4, "g2o", native=False))
+        g.add(between(k0, k1, T1, np.eye(6) * 1e-2, "g2o", native=False))
+        v = gtsam.Values()
+        v.insert(k0, gtsam.Pose3())
+        v.insert(k1, gtsam.Pose3(se3.exp(np.array([0.2, 0, 0, 1.5, 2, 3]))))
+        isam = ISAM2()
+        isam.update(g, v)
+        for _ in range(3):
+            isam.update(gtsam.NonlinearFactorGraph(), gtsam.Values())
+        return np.asarray(isam.calculate_estimate().atPose3(k1).matrix())
+
+    np.testing.assert_allclose(run(2**63 + 5, 2**64 - 2), run(0, 1), rtol=0, atol=1e-12)

@@ -52,9 +52,9 @@ import numpy as np
 
 from .._validate import FloatArray
 from ..conventions import Convention, unchecked
-from .batch import IntArray, PoseFactorGroup, PoseFactorSpec, poses_of
+from .batch import IntArray, KeyArray, PoseFactorGroup, PoseFactorSpec, poses_of
 from .build import gtsam_convention
-from .custom import identify, query_values
+from .custom import QUERY_KEY, identify, query_values
 
 __all__ = ["ISAM2"]
 
@@ -162,18 +162,18 @@ class ISAM2:
         self._query = query_values()
         self._hub: Convention = gtsam_convention()
         # every variable in the system, sorted, with its tangent dimension (slices getDelta())
-        self._var_keys: IntArray = np.zeros(0, dtype=np.int64)
+        self._var_keys: KeyArray = np.zeros(0, dtype=np.uint64)
         self._var_dims: IntArray = np.zeros(0, dtype=np.int64)
         # mirror of GTSAM's linearization point θ for the Pose3 variables (sorted keys)
-        self._pose_keys: IntArray = np.zeros(0, dtype=np.int64)
+        self._pose_keys: KeyArray = np.zeros(0, dtype=np.uint64)
         self._theta: FloatArray = np.zeros((0, 4, 4))
         # the same θ as gtsam.Values (retracted by GTSAM's own Pose3::retract): the containers'
         # linearization point, equal to GTSAM's θ bit for bit
         self._point = gtsam.Values()
         # liebridge factors: spec, keys (j = -1 for a prior), slot in GTSAM's factor graph
         self._specs: list[PoseFactorSpec] = []
-        self._fi: IntArray = np.zeros(0, dtype=np.int64)
-        self._fj: IntArray = np.zeros(0, dtype=np.int64)
+        self._fi: KeyArray = np.zeros(0, dtype=np.uint64)
+        self._fj: KeyArray = np.zeros(0, dtype=np.uint64)  # QUERY_KEY for a prior
         self._slot: IntArray = np.zeros(0, dtype=np.int64)
 
     # ------------------------------------------------------------------ public
@@ -250,17 +250,18 @@ class ISAM2:
         self._slot[stale_idx] = slots[: len(stale_idx)]
         if new_specs:
             self._specs.extend(new_specs)
-            self._fi = np.concatenate([self._fi, [s.i for s in new_specs]]).astype(np.int64)
-            self._fj = np.concatenate(
-                [self._fj, [s.j if s.j is not None else -1 for s in new_specs]]
-            ).astype(np.int64)
+            self._fi = np.concatenate(
+                [self._fi, np.array([s.i for s in new_specs], dtype=np.uint64)]
+            )
+            j = [s.j if s.j is not None else QUERY_KEY for s in new_specs]  # never a real key
+            self._fj = np.concatenate([self._fj, np.array(j, dtype=np.uint64)])
             self._slot = np.concatenate([self._slot, slots[len(stale_idx) :]])
         return result
 
     # ------------------------------------------------------------------ internals
     def _check_keys(self, values: Any, new_specs: list[PoseFactorSpec]) -> None:
         """Refuse, before any state changes, what would corrupt the mirror of GTSAM's state."""
-        keys = np.asarray(list(values.keys()), dtype=np.int64)
+        keys = np.asarray(list(values.keys()), dtype=np.uint64)
         old = np.isin(keys, self._var_keys)
         if old.any():
             raise ValueError(
@@ -271,7 +272,7 @@ class ISAM2:
             return
         pk, _ = poses_of(values)
         known = np.concatenate([self._pose_keys, pk])
-        used = np.array([[s.i, s.i if s.j is None else s.j] for s in new_specs], dtype=np.int64)
+        used = np.array([[s.i, s.i if s.j is None else s.j] for s in new_specs], dtype=np.uint64)
         missing = ~np.isin(used, known)
         if missing.any():
             n, c = np.argwhere(missing)[0]
@@ -299,7 +300,7 @@ class ISAM2:
         return groups
 
     def _add_variables(self, values: Any) -> None:
-        keys = np.asarray(list(values.keys()), dtype=np.int64)
+        keys = np.asarray(list(values.keys()), dtype=np.uint64)
         if keys.size == 0:
             return
         zero = values.zeroVectors()
@@ -316,7 +317,7 @@ class ISAM2:
             self._pose_keys = all_pk[order]
             self._theta = np.concatenate([self._theta, T])[order]
 
-    def _predict_relinearized(self) -> IntArray:
+    def _predict_relinearized(self) -> KeyArray:
         """Keys with ``‖Δ_k‖_∞ ≥ threshold``; retracts the θ mirror of those that are poses."""
         vec = np.asarray(self._isam.getDelta().vector(), dtype=np.float64)
         if vec.size != int(self._var_dims.sum()):
