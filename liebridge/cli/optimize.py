@@ -233,6 +233,17 @@ def _run(args: argparse.Namespace) -> int:
     path = resolve_dataset(args.file)
 
     from ..io import g2o as g2o_io
+    from ..io import g2o2d
+
+    if g2o2d.is_2d(path):  # VERTEX_SE2 / EDGE_SE2 / VERTEX2 / EDGE2
+        from . import optimize_2d
+
+        return optimize_2d.run(args, path, _params(args.max_iterations), plt, t_start)
+    if getattr(conv, "group", "se3") != "se3":
+        raise CLIError(
+            f"--convention: {conv.name!r} is a convention of {conv.group}, and {path.name} is a "
+            "3D graph: give an SE(3) one ('liebridge conventions' lists them)"
+        )
 
     t0 = time.perf_counter()
     g = g2o_io.read(path, information=args.information, edge3=args.edge3)
@@ -314,13 +325,15 @@ def add_parser(sub: Any) -> None:
     """Register ``liebridge optimize``."""
     p = sub.add_parser(
         "optimize",
-        help="optimize a g2o / EDGE3 pose graph (default: sphere2500.txt from GTSAM's data)",
+        help="optimize a 3D or 2D g2o / TORO pose graph (default: sphere2500.txt, GTSAM's data)",
         description="Read a 3D g2o (VERTEX_SE3:QUAT / EDGE_SE3:QUAT) or TORO/iSAM (EDGE3) pose "
         "graph, optimize it with Levenberg–Marquardt (liebridge.gtsam.optimize) and print the "
         "initial and final error, the iterations and the timings. With --convention NAME the "
         "graph is built in NAME's convention (information converted from GTSAM's tangent at "
         "each measurement; native factors where exact, liebridge's custom factors otherwise) "
-        "and --marginals are written in NAME's tangent. Progress goes to stderr.",
+        "and --marginals are written in NAME's tangent. A 2D file (VERTEX_SE2 / EDGE_SE2, TORO's "
+        "VERTEX2 / EDGE2) is detected and optimized as Pose2 factors; its --convention is an SE(2) "
+        "one (default gtsam_pose2) and its plot is planar. Progress goes to stderr.",
     )
     p.add_argument(
         "file",
@@ -347,10 +360,19 @@ def add_parser(sub: Any) -> None:
         "(default; what sphere2500.txt holds) or g2o EdgeSE3Euler's information",
     )
     p.add_argument(
+        "--edge2",
+        choices=("auto", "g2o", "toro"),
+        default="auto",
+        help="2D files: the order of EDGE2's six information numbers, g2o's (I11 I12 I13 I22 I23 "
+        "I33) or TORO's (Ixx Ixy Iyy Itt Ixt Iyt); auto (default) takes the one that gives "
+        "positive-definite matrices",
+    )
+    p.add_argument(
         "--convention",
         default="gtsam",
         metavar="NAME",
-        help="build the graph in this convention (see 'liebridge conventions'; default gtsam)",
+        help="build the graph in this convention (see 'liebridge conventions'; default gtsam, "
+        "for a 2D file gtsam_pose2: an SE(2) convention, used for the marginals)",
     )
     p.add_argument(
         "--plot",

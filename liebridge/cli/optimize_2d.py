@@ -1,0 +1,185 @@
+"""``liebridge optimize FILE`` on a 2-D graph (``VERTEX_SE2``/``EDGE_SE2``/``EDGE2``).
+
+The graph is read by :func:`liebridge.io.g2o2d.read` (information over GTSAM's Pose2 tangent
+``(vx, vy, ω)``, ``EDGE2`` number order detected), built as ``gtsam.BetweenFactorPose2`` factors
+with a prior on the first vertex, optimized by :func:`liebridge.gtsam.optimize`, and its
+marginals (``gtsam.Marginals``, over GTSAM's Pose2 tangent) are converted to the SE(2)
+convention given with ``--convention`` (default ``gtsam_pose2``). The plot shows the initial and
+optimized trajectories with the 2σ position ellipses of the marginals.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .._validate import FloatArray
+from ._common import CLIError, need_matplotlib, say
+
+#: σ of the gauge prior on the first vertex, in each of (vx, vy, ω).
+PRIOR_SIGMA = 1e-4
+#: Above this many poses the plot shows no ellipses unless --marginals were computed anyway.
+PLOT_ELLIPSES_MAX = 3000
+
+
+def _se2_convention(name: str) -> Any:
+    from ..conventions import get
+
+    try:
+        conv = get(name)
+    except ValueError as exc:
+        raise CLIError(f"--convention: {exc}") from None
+    group = getattr(conv, "group", "se3")
+    if group != "se2":
+        raise CLIError(
+            f"--convention: {conv.name!r} is a convention of {group}, and this is a 2D graph: "
+            "give an SE(2) one (e.g. gtsam_pose2, ros_pose2; 'liebridge conventions' lists them)"
+        )
+    return conv
+
+
+def _marginals(graph: Any, values: Any, keys: list[int]) -> FloatArray:
+    import gtsam
+
+    m = gtsam.Marginals(graph, values)
+    return np.stack([np.asarray(m.marginalCovariance(k), dtype=np.float64) for k in keys])
+
+
+def plot_2d(
+    initial: FloatArray,
+    optimized: FloatArray,
+    cov_xy: FloatArray | None,
+    path: Path,
+    title: str,
+    *,
+    plt: Any,
+) -> None:
+    """Plot initial and optimized (x, y) in metres, with 2σ position ellipses of the marginals."""
+    fig, axes = plt.subplots(1, 2, figsize=(13, 6.2))
+    for ax, P, label, color in (
+        (axes[0], initial, "initial", "tab:red"),
+        (axes[1], optimized, "optimized", "tab:blue"),
+    ):
+        marker = "o" if P.shape[0] <= 100 else None
+        ax.plot(P[:, 0], P[:, 1], color=color, linewidth=0.6, marker=marker, markersize=3)
+        ax.scatter(P[:1, 0], P[:1, 1], color="k", s=20, label="first vertex", zorder=3)
+        ax.set_title(f"{label} ({P.shape[0]} poses)")
+        ax.set_xlabel("x [m]")
+        ax.set_ylabel("y [m]")
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.legend(loc="best")
+    if cov_xy is not None:
+        t = np.linspace(0.0, 2.0 * np.pi, 48)
+        circle = np.stack([np.cos(t), np.sin(t)])
+        step = max(1, optimized.shape[0] // 400)
+        for k in range(0, optimized.shape[0], step):
+            w, V = np.linalg.eigh(cov_xy[k])
+            e = optimized[k, :2, None] + 2.0 * (V * np.sqrt(np.maximum(w, 0.0))) @ circle
+            axes[1].plot(e[0], e[1], color="tab:orange", linewidth=0.5)
+        axes[1].plot([], [], color="tab:orange", label="2σ position (marginals)")
+        axes[1].legend(loc="best")
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def run(args: argparse.Namespace, path: Path, params: Any, plt: Any, t_start: float) -> int:
+    """Read, optimize and report a 2-D graph (the 3-D path's output lines, for SE(2))."""
+    import gtsam
+
+    from ..conventions import convert_covariance
+    from ..gtsam import optimize
+    from ..io import g2o2d
+
+    conv_name = "gtsam_pose2" if args.convention in (None, "gtsam") else args.convention
+    conv = _se2_convention(conv_name)
+    t0 = time.perf_counter()
+    try:
+        g = g2o2d.read(path, edge2=args.edge2)
+    except ValueError as exc:
+        raise CLIError(str(exc)) from None
+    t_read = time.perf_counter() - t0
+    n, m = g.vertex_ids.shape[0], g.edges.shape[0]
+    if n == 0 or m == 0:
+        raise CLIError(f"{path}: no 2D pose graph in it ({n} vertices, {m} edges)")
+    origin = "chained from the odometry edges" if g.vertices_from_odometry else "from the file"
+    print(f"file: {path}")
+    print(f"graph: 2D, {n} poses, {m} edges; initial values {origin}")
+    skipped = ", ".join(f"{c} {t} lines" for t, c in g.skipped)
+    if skipped:
+        print(f"skipped: {skipped} (TORO vertex equivalences; gtsam.readG2o skips them too)")
+    order = {
+        "none": "",
+        "g2o": "; EDGE2 numbers in g2o's order",
+        "toro": "; EDGE2 numbers in TORO's order (gtsam.readG2o refuses this file)",
+    }[g.edge2_order]
+    print(
+        "information: over (x, y, θ) of Z⁻¹·Ti⁻¹·Tj — the same matrix in g2o's and GTSAM's "
+        f"readings (they agree to first order at zero error){order}"
+    )
+    print(
+        f"convention: {conv.name} — native BetweenFactorPose2; marginals in {conv.name}'s tangent"
+    )
+    print(f"gauge: prior on vertex {int(g.vertex_ids[0])} (σ = {PRIOR_SIGMA:g})")
+    if args.dry_run:
+        print("dry run: nothing optimized")
+        return 0
+    graph, values = g.to_gtsam()
+    graph.add(
+        gtsam.PriorFactorPose2(
+            int(g.vertex_ids[0]),
+            values.atPose2(int(g.vertex_ids[0])),
+            gtsam.noiseModel.Isotropic.Sigma(3, PRIOR_SIGMA),
+        )
+    )
+
+    def progress(line: str) -> None:
+        say("  " + line.removeprefix("liebridge.optimize: "))
+
+    say(f"optimizing {n} poses, {m} edges (Levenberg–Marquardt) ...")
+    try:
+        result = optimize(graph, values, params, progress=progress)
+    except RuntimeError as exc:
+        raise CLIError(f"GTSAM failed during the optimization: {exc}") from None
+    print(f"initial error: {result.initial_error:.6f}")
+    print(f"final error: {result.final_error:.6f}")
+    print(f"iterations: {result.iterations} (converged: {'yes' if result.converged else 'no'})")
+    timings = [f"read {t_read:.2f} s", f"optimize {result.seconds:.2f} s"]
+    keys = [int(k) for k in g.vertex_ids]
+    X = np.stack([np.asarray(result.values.atPose2(k).matrix()) for k in keys])
+    cov = None
+    if args.marginals is not None or (args.plot is not None and n <= PLOT_ELLIPSES_MAX):
+        t0 = time.perf_counter()
+        say(f"marginal covariances of {n} poses (gtsam.Marginals) ...")
+        try:
+            cov_gtsam = _marginals(graph, result.values, keys)
+        except RuntimeError as exc:
+            raise CLIError(f"GTSAM failed during the marginal covariances: {exc}") from None
+        cov = convert_covariance(cov_gtsam, X, "gtsam_pose2", conv)
+        timings.append(f"marginals {time.perf_counter() - t0:.2f} s")
+        if args.marginals is not None:
+            np.save(args.marginals, cov)
+            print(f"marginals: {args.marginals} (shape {cov.shape}, {conv.name}'s tangent)")
+    if args.plot is not None:
+        t0 = time.perf_counter()
+        cov_xy = None
+        if cov is not None:  # positions in the world frame: from GTSAM's body-frame (vx, vy)
+            R = X[:, :2, :2]
+            cov_xy = R @ cov_gtsam[:, :2, :2] @ np.swapaxes(R, -1, -2)
+        title = (
+            f"{path.name}: error {result.initial_error:.6g} → {result.final_error:.6g} in "
+            f"{result.iterations} iterations"
+        )
+        P0 = np.c_[g.vertex_xytheta[:, :2]]
+        P1 = X[:, :2, 2]
+        plot_2d(P0, P1, cov_xy, Path(args.plot), title, plt=plt or need_matplotlib())
+        timings.append(f"plot {time.perf_counter() - t0:.2f} s")
+        print(f"plot: {args.plot}")
+    timings.append(f"total {time.perf_counter() - t_start:.2f} s")
+    print("timings: " + ", ".join(timings))
+    return 0
