@@ -38,7 +38,7 @@ from typing import Any
 
 import numpy as np
 
-from . import _validate as v
+from . import _validate as validate
 
 __all__ = ["SUPPORTED", "from_library", "library_key", "to_library"]
 
@@ -67,7 +67,7 @@ _BUILD: dict[tuple[str, str], tuple[str, str, bool]] = {
 
 #: The accepted classes, ``(module root, class name)``: the keys of
 #: :data:`liebridge._validate.LIBRARY_OBJECTS` (``_core_pybinds`` is projectaria_tools').
-SUPPORTED: tuple[tuple[str, str], ...] = tuple(v.LIBRARY_OBJECTS)
+SUPPORTED: tuple[tuple[str, str], ...] = tuple(validate.LIBRARY_OBJECTS)
 
 _E3 = np.array([0.0, 0.0, 1.0])
 
@@ -80,11 +80,11 @@ def library_key(obj: Any) -> tuple[str, str] | None:
     if isinstance(obj, type):
         root = obj.__module__.partition(".")[0]
         key = (root, obj.__name__)
-        return key if key in v.LIBRARY_OBJECTS else None
-    return v.library_key(obj)
+        return key if key in validate.LIBRARY_OBJECTS else None
+    return validate.library_key(obj)
 
 
-def from_library(obj: Any, name: str = "obj") -> v.FloatArray:
+def from_library(obj: Any, name: str = "obj") -> validate.FloatArray:
     """Return the homogeneous matrix (batch) of a library's pose or rotation object (or list).
 
     Parameters
@@ -109,17 +109,17 @@ def from_library(obj: Any, name: str = "obj") -> v.FloatArray:
     >>> interop.from_library(gtsam.Pose3()).shape
     (4, 4)
     """
-    return v.as_float_array(obj, name)
+    return validate.as_float_array(obj, name)
 
 
-def _check_planar(M: v.FloatArray, name: str, group: str) -> v.FloatArray:
+def _check_planar(M: validate.FloatArray, name: str, group: str) -> validate.FloatArray:
     """Validate SE(2) ``(..., 3, 3)`` or SO(2) ``(..., 2, 2)`` matrices (ground floor has 3D)."""
     n = 3 if group == "SE2" else 2
-    arr = v.square(M, name, n)
+    arr = validate.square(M, name, n)
     R = arr[..., :2, :2]
     err = np.abs(np.swapaxes(R, -1, -2) @ R - np.eye(2)).max(axis=(-1, -2))
     det = R[..., 0, 0] * R[..., 1, 1] - R[..., 0, 1] * R[..., 1, 0]
-    bad = ~(err <= v.ROTATION_TOL) | (det <= 0)
+    bad = ~(err <= validate.ROTATION_TOL) | (det <= 0)
     if bad.any():
         i = tuple(int(k) for k in np.argwhere(np.asarray(bad))[0]) if bad.ndim else ()
         raise ValueError(
@@ -132,7 +132,7 @@ def _check_planar(M: v.FloatArray, name: str, group: str) -> v.FloatArray:
     return arr
 
 
-def _build_one(cls: Any, M: v.FloatArray, how: str) -> Any:
+def _build_one(cls: Any, M: validate.FloatArray, how: str) -> Any:
     if how == "call" or how == "list":
         return cls(M)
     if how == "from_matrix":
@@ -143,7 +143,7 @@ def _build_one(cls: Any, M: v.FloatArray, how: str) -> Any:
     return cls(theta)  # rot2
 
 
-def _build_nested(cls: Any, M: v.FloatArray, how: str, core: int) -> Any:
+def _build_nested(cls: Any, M: validate.FloatArray, how: str, core: int) -> Any:
     if M.ndim == core:
         return _build_one(cls, M, how)
     return [_build_nested(cls, m, how, core) for m in M]
@@ -198,11 +198,11 @@ def to_library(T: Any, like: Any, name: str = "T") -> Any:
         )
     group, how, vectorized = build
     if group == "SE3":
-        M = v.pose(T, name)
+        M = validate.pose(T, name)
     elif group == "SO3":
-        M = v.rotation(T, name)
+        M = validate.rotation(T, name)
     else:
-        M = _check_planar(v.as_float_array(T, name), name, group)
+        M = _check_planar(validate.as_float_array(T, name), name, group)
     core = 2
     if vectorized and M.ndim > core:
         flat = M.reshape(-1, *M.shape[-2:])

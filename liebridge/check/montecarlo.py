@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from ..conventions import ConventionLike, get, unchecked
 
@@ -57,7 +57,7 @@ def monte_carlo_covariance(
     if Xa.ndim != 2:
         raise ValueError(f"X: expected one pose or rotation, got shape {Xa.shape}")
     dim = a.dim(Xa)
-    C = v.covariance(cov, "cov", dim)
+    C = validate.covariance(cov, "cov", dim)
     if n < 2:
         raise ValueError(f"n: need at least 2 samples, got {n}")
     rng = rng if rng is not None else np.random.default_rng(0)

@@ -18,7 +18,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from ..conventions import Convention, group_input
 from ..uncertain import UncertainPoint, UncertainPose
@@ -58,15 +58,15 @@ def _cov(y: FloatArray) -> FloatArray:
 
 def _joint(A: UncertainPose, B: UncertainPose, cross: Any) -> FloatArray:
     n = A.dim
-    shape = v.batch_shape(("A", A.batch_shape), ("B", B.batch_shape))
-    X = np.zeros((n, n)) if cross is None else v.as_float_array(cross, "cross")
-    shape = v.batch_shape(("A and B", shape), ("cross", X.shape[:-2]))
+    shape = validate.batch_shape(("A", A.batch_shape), ("B", B.batch_shape))
+    X = np.zeros((n, n)) if cross is None else validate.as_float_array(cross, "cross")
+    shape = validate.batch_shape(("A and B", shape), ("cross", X.shape[:-2]))
     J = np.zeros((*shape, 2 * n, 2 * n))
     J[..., :n, :n] = A.cov
     J[..., n:, n:] = B.cov
     J[..., :n, n:] = X
     J[..., n:, :n] = np.swapaxes(X, -1, -2)
-    return v.covariance(J, "cross (the joint covariance)", 2 * n)
+    return validate.covariance(J, "cross (the joint covariance)", 2 * n)
 
 
 def _same(A: UncertainPose, B: UncertainPose) -> Convention:
@@ -159,8 +159,8 @@ def monte_carlo_act(
     """Monte Carlo of ``act(A, p, cov_p)``: points ``R_k p_k + t_k`` (``R_k p_k`` for rotations)."""
     _check_n(n)
     g = _rng(rng)
-    pa = v.vector(p, "p", 3)
-    Cp = np.zeros((3, 3)) if cov_p is None else v.covariance(cov_p, "cov_p", 3)
+    pa = validate.vector(p, "p", 3)
+    Cp = np.zeros((3, 3)) if cov_p is None else validate.covariance(cov_p, "cov_p", 3)
     dA = _draw(np.asarray(A.cov), n, g)
     pk = pa[..., None, :] + _draw(np.broadcast_to(Cp, (*pa.shape[:-1], 3, 3)), n, g)
     S = _samples(A.convention, A.T, dA)

@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from .convention import GROUP_DIMS, Convention
 
@@ -162,8 +162,8 @@ class Bundle(Convention):
         extra = sorted(set(parts) - {n for n, _ in self.blocks})
         if missing or extra:
             raise ValueError(f"{self.name}.assemble: missing {missing}, unknown {extra}")
-        arrs = {n: v.as_float_array(parts[n], n) for n, _ in self.blocks}
-        batch = v.batch_shape(
+        arrs = {n: validate.as_float_array(parts[n], n) for n, _ in self.blocks}
+        batch = validate.batch_shape(
             *(
                 (n, a.shape[:-1] if isinstance(b, Vector) else a.shape[:-2])
                 for (n, b), a in zip(self.blocks, arrs.values(), strict=True)
@@ -174,7 +174,7 @@ class Bundle(Convention):
         for (n, b), ms in zip(self.blocks, self._mslices, strict=True):
             if isinstance(b, Vector):
                 X[..., ms.start : ms.start + b.n, ms.start : ms.start + b.n] = np.eye(b.n)
-                X[..., ms.start : ms.start + b.n, ms.stop - 1] = v.vector(arrs[n], n, b.n)
+                X[..., ms.start : ms.start + b.n, ms.stop - 1] = validate.vector(arrs[n], n, b.n)
                 X[..., ms.stop - 1, ms.stop - 1] = 1.0
             else:
                 X[..., ms, ms] = b.element(arrs[n], n)
@@ -192,7 +192,7 @@ class Bundle(Convention):
     def element(self, X: Any, name: str = "X") -> FloatArray:
         """Validate a block-diagonal element: zero off the blocks, each block in its group."""
         N = self.matrix_size
-        arr = v.square(X, name, N)
+        arr = validate.square(X, name, N)
         mask = np.ones((N, N), dtype=bool)
         for ms in self._mslices:
             mask[ms, ms] = False
@@ -222,7 +222,7 @@ class Bundle(Convention):
 
     # ----------------------------------------------------------------- retraction
     def _increment(self, d: Any, so3: bool, name: str = "d") -> FloatArray:
-        arr = v.vector(d, name, self.dim())
+        arr = validate.vector(d, name, self.dim())
         c = self._to_concat(arr)
         for (n, b), ts in zip(self.blocks, self._tslices, strict=True):
             if isinstance(b, Convention):
@@ -279,7 +279,7 @@ class Bundle(Convention):
 
     def _pair(self, X: Any, Y: Any) -> tuple[FloatArray, FloatArray]:
         A, B = self.element(X), self.element(Y, "Y")
-        v.batch_shape(("X", A.shape[:-2]), ("Y", B.shape[:-2]))
+        validate.batch_shape(("X", A.shape[:-2]), ("Y", B.shape[:-2]))
         return A, B
 
     def exactly_linear_to(self, other: Bundle, linear: Any) -> bool:

@@ -41,7 +41,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from ..lie import unchecked as U
 from . import groups as G
@@ -116,12 +116,12 @@ def _is_so3(X: FloatArray) -> bool:
 
 def group_input(X: Any, name: str = "X") -> FloatArray:
     """Validate ``X`` as a pose ``(..., 4, 4)`` or a rotation ``(..., 3, 3)``."""
-    arr = v.as_float_array(X, name)
+    arr = validate.as_float_array(X, name)
     shape = arr.shape[-2:]
     if shape == (4, 4):
-        return v.checked_pose(arr, name)
+        return validate.checked_pose(arr, name)
     if shape == (3, 3):
-        return v.checked_rotation(arr, name)
+        return validate.checked_rotation(arr, name)
     raise ValueError(
         f"{name}: expected a pose (..., 4, 4) or a rotation (..., 3, 3), got {arr.shape}"
     )
@@ -133,7 +133,7 @@ def _group_pair(X: Any, Y: Any) -> tuple[FloatArray, FloatArray]:
     Y = group_input(Y, "Y")
     if X.shape[-2:] != Y.shape[-2:]:
         raise ValueError(f"Y: shape {Y.shape} does not match X {X.shape}")
-    v.batch_shape(("X", X.shape[:-2]), ("Y", Y.shape[:-2]))
+    validate.batch_shape(("X", X.shape[:-2]), ("Y", Y.shape[:-2]))
     return X, Y
 
 
@@ -215,7 +215,11 @@ class Convention:
         """Length of this convention's tangent (at ``X``, for an SE(3) one given a rotation: 3)."""
         if self.embed is not None:
             return self.embed.size
-        if self.group == "se3" and X is not None and v.as_float_array(X, "X").shape[-2:] == (3, 3):
+        if (
+            self.group == "se3"
+            and X is not None
+            and validate.as_float_array(X, "X").shape[-2:] == (3, 3)
+        ):
             return 3
         return GROUP_DIMS[self.group][0]
 
@@ -224,12 +228,12 @@ class Convention:
         if self.group == "se3":
             return group_input(X, name)
         if self.group == "so3":
-            return v.rotation(X, name)
+            return validate.rotation(X, name)
         check = {
-            "so2": v.rotation2,
-            "se2": v.pose2,
-            "sim3": v.similarity,
-            "se23": v.extended_pose,
+            "so2": validate.rotation2,
+            "se2": validate.pose2,
+            "sim3": validate.similarity,
+            "se23": validate.extended_pose,
         }[self.group]
         return check(X, name)
 
@@ -251,21 +255,23 @@ class Convention:
         if self.group == "se3":
             return _group_pair(X, Y)
         A, B = self.element(X), self.element(Y, "Y")
-        v.batch_shape(("X", A.shape[:-2]), ("Y", B.shape[:-2]))
+        validate.batch_shape(("X", A.shape[:-2]), ("Y", B.shape[:-2]))
         return A, B
 
     # ----------------------------------------------------------------- retraction
     def _increment(self, d: Any, so3: bool, name: str = "d") -> FloatArray:
-        """Validate an increment in this convention (rotation part bounded, see ``v.tangent``)."""
+        """Validate an increment in this convention (rotation part bounded)."""
         if self.generic:
-            arr = v.vector(d, name, self.dim())
-            v.tangent(
+            arr = validate.vector(d, name, self.dim())
+            validate.tangent(
                 G.to_internal(self, arr), name, GROUP_DIMS[self.group][0], G.GROUPS[self.group].rot
             )
             return arr
         if so3 or self.group == "so3":
-            return v.tangent(d, name, 3)
-        return v.tangent(d, name, 6, slice(0, 3) if self.order == "rot_first" else slice(3, 6))
+            return validate.tangent(d, name, 3)
+        return validate.tangent(
+            d, name, 6, slice(0, 3) if self.order == "rot_first" else slice(3, 6)
+        )
 
     def _split(self, d: FloatArray) -> tuple[FloatArray, FloatArray]:
         if self.order == "rot_first":
@@ -333,13 +339,13 @@ class Convention:
         """
         X = self.element(X)
         d = self._increment(d, _is_so3(X))
-        v.batch_shape(("X", X.shape[:-2]), ("d", d.shape[:-1]))
-        return v.finite_output(self._retract(X, d), f"{self.name}.retract")
+        validate.batch_shape(("X", X.shape[:-2]), ("d", d.shape[:-1]))
+        return validate.finite_output(self._retract(X, d), f"{self.name}.retract")
 
     def local(self, X: Any, Y: Any) -> FloatArray:
         """Inverse of :meth:`retract`: the ``d`` with ``retract(X, d) == Y`` (principal branch)."""
         X, Y = self._pair(X, Y)
-        return v.finite_output(self._local(X, Y), f"{self.name}.local")
+        return validate.finite_output(self._local(X, Y), f"{self.name}.local")
 
     def _local_jacobian(self, X: FloatArray, Y: FloatArray) -> FloatArray:
         if self.generic:
@@ -378,7 +384,7 @@ class Convention:
         False: ``J = I`` (true only at ``Y = X``: the textbook approximation that moves optima).
         """
         X, Y = self._pair(X, Y)
-        return v.finite_output(self._local_jacobian(X, Y), f"{self.name}.local_jacobian")
+        return validate.finite_output(self._local_jacobian(X, Y), f"{self.name}.local_jacobian")
 
     # ----------------------------------------------------------------- first-order maps
     def _to_canonical(self, X: FloatArray) -> FloatArray:
@@ -396,12 +402,14 @@ class Convention:
 
         It is the derivative at ``d = 0`` of ``GTSAM.local(X, self.retract(X, d))``.
         """
-        return v.finite_output(self._to_canonical(self.element(X)), f"{self.name}.to_canonical")
+        return validate.finite_output(
+            self._to_canonical(self.element(X)), f"{self.name}.to_canonical"
+        )
 
     def from_canonical(self, X: Any) -> FloatArray:
         """Inverse of :meth:`to_canonical` (closed form, no matrix inversion)."""
         out = self._from_canonical(self.element(X))
-        return v.finite_output(out, f"{self.name}.from_canonical")
+        return validate.finite_output(out, f"{self.name}.from_canonical")
 
 
 #: The canonical tangent (GTSAM's): right, rotation first, SE(3) exponential.

@@ -22,7 +22,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from .bundle import Bundle
 from .convention import Convention
@@ -94,7 +94,7 @@ def tangent_map(X: Any, src: ConventionLike, dst: ConventionLike) -> FloatArray:
         ``M = ∂/∂d dst.local(X, src.retract(X, d)) |_{d=0}``, closed form.
     """
     a, b = get(src), get(dst)
-    return v.finite_output(unchecked_map(_element(a, b, X), a, b), "tangent_map")
+    return validate.finite_output(unchecked_map(_element(a, b, X), a, b), "tangent_map")
 
 
 def convert_tangent(
@@ -109,12 +109,12 @@ def convert_tangent(
     a, b = get(src), get(dst)
     Xa = _element(a, b, X)
     d = a._increment(d, Xa.shape[-1] == 3)
-    v.batch_shape(("d", d.shape[:-1]), ("X", Xa.shape[:-2]))
+    validate.batch_shape(("d", d.shape[:-1]), ("X", Xa.shape[:-2]))
     if exact:
         out = b._local(Xa, a._retract(Xa, d))
     else:
         out = np.einsum("...ij,...j->...i", unchecked_map(Xa, a, b), d)
-    return v.finite_output(np.asarray(out, dtype=np.float64), "convert_tangent")
+    return validate.finite_output(np.asarray(out, dtype=np.float64), "convert_tangent")
 
 
 def convert_covariance(
@@ -147,19 +147,19 @@ def convert_covariance(
     ndarray, shape (..., n, n)
     """
     if method != "linear" and method != "unscented":  # "Linear", " unscented": as all options
-        method = v.option(method, "method", ("linear", "unscented"))
+        method = validate.option(method, "method", ("linear", "unscented"))
     a, b = get(src), get(dst)
     Xa = _element(a, b, X)
     so3 = Xa.shape[-1] == 3
     n = a.dim(Xa)
-    cov = v.covariance(cov, "cov", n)
+    cov = validate.covariance(cov, "cov", n)
     if cov.shape[:-2] != Xa.shape[:-2]:
-        v.batch_shape(("cov", cov.shape[:-2]), ("X", Xa.shape[:-2]))
+        validate.batch_shape(("cov", cov.shape[:-2]), ("X", Xa.shape[:-2]))
     if method == "linear":
         M = unchecked_map(Xa, a, b)
         # a batch: numpy multiplies stacks of small matrices fast only when they are contiguous
         Mt = M.T if M.ndim == 2 else np.ascontiguousarray(M.swapaxes(-1, -2))
-        return v.finite_output(M @ cov @ Mt, "convert_covariance")
+        return validate.finite_output(M @ cov @ Mt, "convert_covariance")
     if method != "unscented":
         raise ValueError(f"method: expected 'linear' or 'unscented', got {method!r}")
     pts, w = cubature_rule_5(n)
@@ -172,7 +172,7 @@ def convert_covariance(
     dy = y - mean[..., None, :]
     out = np.einsum("k,...ki,...kj->...ij", w, dy, dy)
     out = np.asarray(0.5 * (out + np.swapaxes(out, -1, -2)), dtype=np.float64)
-    return v.finite_output(out, "convert_covariance")
+    return validate.finite_output(out, "convert_covariance")
 
 
 def convert_information(info: Any, X: Any, src: ConventionLike, dst: ConventionLike) -> FloatArray:
@@ -184,11 +184,11 @@ def convert_information(info: Any, X: Any, src: ConventionLike, dst: ConventionL
     a, b = get(src), get(dst)
     Xa = _element(a, b, X)
     n = a.dim(Xa)
-    info = v.covariance(info, "info", n)
-    v.batch_shape(("info", info.shape[:-2]), ("X", Xa.shape[:-2]))
+    info = validate.covariance(info, "info", n)
+    validate.batch_shape(("info", info.shape[:-2]), ("X", Xa.shape[:-2]))
     Mi = unchecked_map(Xa, b, a)
     out = np.asarray(np.swapaxes(Mi, -1, -2) @ info @ Mi, dtype=np.float64)
-    return v.finite_output(out, "convert_information")
+    return validate.finite_output(out, "convert_information")
 
 
 def convert_jacobian(
@@ -217,24 +217,24 @@ def convert_jacobian(
     ndarray, shape (..., m, n)
     """
     a, b = get(src), get(dst)
-    Jm = v.as_float_array(J, "J")
+    Jm = validate.as_float_array(J, "J")
     if Jm.ndim < 2:
         raise ValueError(f"J: expected shape (..., m, n), got {Jm.shape}")
-    v.check_finite(Jm, "J", core_ndim=2)
+    validate.check_finite(Jm, "J", core_ndim=2)
     if at_input is None and at_output is None:
         return np.array(Jm, dtype=np.float64, copy=True)  # nothing to convert; never an alias
     if at_input is not None:
         X = _element(a, b, at_input, "at_input")
-        v.batch_shape(("J", Jm.shape[:-2]), ("at_input", X.shape[:-2]))
+        validate.batch_shape(("J", Jm.shape[:-2]), ("at_input", X.shape[:-2]))
         Mi = unchecked_map(X, b, a)
         if Jm.shape[-1] != Mi.shape[-2]:
             raise ValueError(f"J: {Jm.shape[-1]} columns, but the input tangent has {Mi.shape[-2]}")
         Jm = Jm @ Mi
     if at_output is not None:
         Y = _element(a, b, at_output, "at_output")
-        v.batch_shape(("J", Jm.shape[:-2]), ("at_output", Y.shape[:-2]))
+        validate.batch_shape(("J", Jm.shape[:-2]), ("at_output", Y.shape[:-2]))
         Mo = unchecked_map(Y, a, b)
         if Jm.shape[-2] != Mo.shape[-1]:
             raise ValueError(f"J: {Jm.shape[-2]} rows, but the output tangent has {Mo.shape[-1]}")
         Jm = Mo @ Jm
-    return v.finite_output(np.asarray(Jm, dtype=np.float64), "convert_jacobian")
+    return validate.finite_output(np.asarray(Jm, dtype=np.float64), "convert_jacobian")

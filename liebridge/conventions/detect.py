@@ -17,7 +17,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from ..lie import unchecked as U
 from ..lie.numdiff import numerical_jacobian
@@ -80,8 +80,8 @@ def _as_matrix(y: Any, what: str = "retract(X, d)", group: str = "se3") -> Float
     obj = hasattr(y, "matrix")
     if obj:
         y = y.matrix()
-    arr = v.as_float_array(y, what)
-    v.check_finite(arr, what)
+    arr = validate.as_float_array(y, what)
+    validate.check_finite(arr, what)
     if obj and group == "sim3" and arr.shape == (4, 4) and arr[3, 3] > 0:
         arr = arr / arr[3, 3]
     return arr
@@ -132,7 +132,7 @@ def detect_convention(
     if not callable(retract):
         raise TypeError(f"retract: expected a callable retract(X, d), got {type(retract).__name__}")
     rng = rng or np.random.default_rng(20261122)
-    group = v.option(group, "group", tuple(GROUP_DIMS))  # type: ignore[assignment]
+    group = validate.option(group, "group", tuple(GROUP_DIMS))  # type: ignore[assignment]
     n = GROUP_DIMS[group][0]
     if group in G.GROUPS:
         X = G.GROUPS[group].exp(np.array(_PROBES[group]))

@@ -68,7 +68,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from ..io import poses as pose_io
 from ..lie import unchecked as U
@@ -355,9 +355,9 @@ def from_rvec_tvec(
     vector ``rvec`` (OpenCV ``solvePnP`` returns the pose of the world in the camera). GTSAM
     prefers the camera's pose in the world, ``T_world_camera``: take :meth:`Transform.inverse`.
     """
-    r = v.tangent(rvec, "rvec", 3)
-    tv = v.vector(tvec, "tvec", 3)
-    shape = v.batch_shape(("rvec", r.shape[:-1]), ("tvec", tv.shape[:-1]))
+    r = validate.tangent(rvec, "rvec", 3)
+    tv = validate.vector(tvec, "tvec", 3)
+    shape = validate.batch_shape(("rvec", r.shape[:-1]), ("tvec", tv.shape[:-1]))
     R = U.so3_exp(np.broadcast_to(r, (*shape, 3)))
     return Transform(
         U.se3_assemble(R, np.broadcast_to(tv, (*shape, 3))), target_frame, source_frame
@@ -399,7 +399,7 @@ def to_liosam(T_lidar_imu: Transform, R_imu_orient: Any = None) -> dict[str, lis
     if not isinstance(T_lidar_imu, Transform):
         raise TypeError(f"T_lidar_imu: expected a Transform, got {type(T_lidar_imu).__name__}")
     R_li = np.asarray(T_lidar_imu.R)
-    R_io = np.eye(3) if R_imu_orient is None else v.rotation(R_imu_orient, "R_imu_orient")
+    R_io = np.eye(3) if R_imu_orient is None else validate.rotation(R_imu_orient, "R_imu_orient")
     return {
         "extrinsicRot": R_li.ravel().tolist(),
         "extrinsicRPY": (R_li @ R_io).ravel().tolist(),
@@ -420,9 +420,13 @@ def from_liosam(
     Each argument is LIO-SAM's list (9, 9 and 3 numbers, row-major); a non-rotation raises
     naming the parameter.
     """
-    R = v.rotation(np.reshape(v.vector(extrinsicRot, "extrinsicRot", 9), (3, 3)), "extrinsicRot")
-    Rp = v.rotation(np.reshape(v.vector(extrinsicRPY, "extrinsicRPY", 9), (3, 3)), "extrinsicRPY")
-    t = v.vector(extrinsicTrans, "extrinsicTrans", 3)
+    R = validate.rotation(
+        np.reshape(validate.vector(extrinsicRot, "extrinsicRot", 9), (3, 3)), "extrinsicRot"
+    )
+    Rp = validate.rotation(
+        np.reshape(validate.vector(extrinsicRPY, "extrinsicRPY", 9), (3, 3)), "extrinsicRPY"
+    )
+    t = validate.vector(extrinsicTrans, "extrinsicTrans", 3)
     return Transform(U.se3_assemble(R, t), lidar_frame, imu_frame), np.asarray(R.T @ Rp)
 
 
@@ -497,14 +501,14 @@ def _matrix(value: Any, where: str, shape: tuple[int, ...]) -> FloatArray:
             raise ValueError(f"{where}: !!opencv-matrix {rows}x{cols} with {n} data values")
         value = [data[i * cols : (i + 1) * cols] for i in range(rows)]
     try:
-        arr = v.as_float_array(value, where)
+        arr = validate.as_float_array(value, where)
     except TypeError as exc:
         raise ValueError(str(exc)) from None
     if arr.size == int(np.prod(shape)) and arr.ndim <= 2:
         arr = arr.reshape(shape)
     if arr.shape != shape:
         raise ValueError(f"{where}: expected {'x'.join(map(str, shape))} numbers, got {arr.shape}")
-    v.check_finite(arr, where)
+    validate.check_finite(arr, where)
     return arr
 
 
@@ -514,7 +518,7 @@ def _pose(value: Any, where: str) -> FloatArray:
     fields = [repr(float(x)) for x in T[:3, :3].ravel()]
     tol = pose_io.text_rotation_tol(fields)
     try:
-        return v.pose(T, where, tol)
+        return validate.pose(T, where, tol)
     except ValueError as exc:
         raise ValueError(f"{exc} (a rigid transform is required)") from None
 

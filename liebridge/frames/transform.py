@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from ..conventions import CANONICAL, Convention, ConventionLike, convert_covariance, get
 from ..lie import unchecked as U
@@ -88,16 +88,16 @@ class Transform:
     source_frame: str
     cov: FloatArray | None = None
     convention: Convention = field(default=CANONICAL)
-    tol: float = field(default=v.ROTATION_TOL, repr=False)
+    tol: float = field(default=validate.ROTATION_TOL, repr=False)
 
     def __post_init__(self) -> None:
         frame_name(self.target_frame, "target_frame")
         frame_name(self.source_frame, "source_frame")
-        T = v.pose(self.T, f"T ({self.name})", self.tol)
+        T = validate.pose(self.T, f"T ({self.name})", self.tol)
         object.__setattr__(self, "T", _readonly(T))
         object.__setattr__(self, "convention", get(self.convention))
         if self.cov is not None:
-            cov = v.covariance(self.cov, f"cov ({self.name})", 6)
+            cov = validate.covariance(self.cov, f"cov ({self.name})", 6)
             if cov.shape[:-2] != T.shape[:-2]:
                 cov = np.broadcast_to(cov, (*T.shape[:-2], 6, 6))
             object.__setattr__(self, "cov", _readonly(cov))
@@ -187,8 +187,8 @@ class Transform:
                 f"{self.source_frame!r} of the first is not target frame {other.target_frame!r} "
                 f"of the second (T_a_b ∘ T_b_c needs the inner frames to match; invert one?)"
             )
-        v.batch_shape((self.name, self.batch_shape), (other.name, other.batch_shape))
-        T = v.finite_output(np.asarray(self.T @ other.T, dtype=np.float64), "compose")
+        validate.batch_shape((self.name, self.batch_shape), (other.name, other.batch_shape))
+        T = validate.finite_output(np.asarray(self.T @ other.T, dtype=np.float64), "compose")
         c1, c2 = self.canonical_cov(), other.canonical_cov()
         cov = None
         if c1 is not None or c2 is not None:
@@ -210,10 +210,10 @@ class Transform:
 
     def apply(self, p_source: Any) -> FloatArray:
         """Map points ``(..., 3)`` from ``source_frame`` to ``target_frame``: ``R p + t``."""
-        p = v.vector(p_source, f"p_{self.source_frame}", 3)
-        v.batch_shape((self.name, self.batch_shape), ("p", p.shape[:-1]))
+        p = validate.vector(p_source, f"p_{self.source_frame}", 3)
+        validate.batch_shape((self.name, self.batch_shape), ("p", p.shape[:-1]))
         out = np.einsum("...ij,...j->...i", self.R, p) + self.t
-        return v.finite_output(np.asarray(out, dtype=np.float64), "apply")
+        return validate.finite_output(np.asarray(out, dtype=np.float64), "apply")
 
     def rename(self, target_frame: str | None = None, source_frame: str | None = None) -> Transform:
         """Return the same numbers under other frame names (e.g. a system's own names)."""

@@ -30,7 +30,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from ..lie import quaternion as quat
 from ..lie import unchecked as U
@@ -60,8 +60,8 @@ class StampedTransform:
         tf = self.transform
         if not isinstance(tf, Transform):
             raise TypeError(f"transform: expected a Transform, got {type(tf).__name__}")
-        s = v.as_float_array(self.stamps, f"stamps ({tf.name})")
-        v.check_finite(s, f"stamps ({tf.name})")
+        s = validate.as_float_array(self.stamps, f"stamps ({tf.name})")
+        validate.check_finite(s, f"stamps ({tf.name})")
         if s.ndim != 1 or tf.batch_shape != s.shape or s.size == 0:
             raise ValueError(
                 f"stamps ({tf.name}): expected shape (N,) matching the transforms' batch "
@@ -263,8 +263,8 @@ class TransformTree:
             raise self._disconnected(target_frame, source_frame)
         tt: FloatArray | None = None
         if t is not None:
-            tt = v.as_float_array(t, "t")
-            v.check_finite(tt, "t")
+            tt = validate.as_float_array(t, "t")
+            validate.check_finite(tt, "t")
         shape: tuple[int, ...] = () if tt is None else tuple(tt.shape)
         result: Transform | None = None
         for _, k, fwd in path:

@@ -20,7 +20,7 @@ from typing import Any
 import gtsam
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 
 Evaluate = Callable[[Any, bool], tuple[FloatArray, "list[FloatArray] | None"]]
@@ -120,7 +120,7 @@ def make_custom_factor(
     -------
     gtsam.CustomFactor
     """
-    keys = [v.key(k, f"{name}: key {n}") for n, k in enumerate(keys)]
+    keys = [validate.key(k, f"{name}: key {n}") for n, k in enumerate(keys)]
     if len(set(keys)) != len(keys):
         dup = next(k for k in keys if keys.count(k) > 1)
         raise ValueError(f"{name}: key {dup} appears twice in keys {keys}")

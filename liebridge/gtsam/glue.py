@@ -26,7 +26,7 @@ from typing import Any
 import gtsam
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 
 __all__ = [
@@ -41,7 +41,7 @@ __all__ = [
 
 
 def _poses_2d_or_3d(T: Any, name: str) -> FloatArray:
-    arr = v.pose(T, name)
+    arr = validate.pose(T, name)
     if arr.ndim not in (2, 3):
         raise ValueError(
             f"{name}: expected shape (4, 4) or (N, 4, 4), got {arr.shape}; "
@@ -147,7 +147,7 @@ def _to_values_pose3(T: Any, keys: Any, values: Any = None) -> Any:
     -------
     gtsam.Values
     """
-    arr = v.pose(T, "T")
+    arr = validate.pose(T, "T")
     if arr.ndim != 3:
         raise ValueError(f"T: expected shape (N, 4, 4), got {arr.shape}")
     ks = _keys(keys, arr.shape[0])
@@ -254,24 +254,24 @@ def _matrix_of(obj: Any) -> FloatArray:
 
 
 GROUPS: dict[str, tuple[Any, int, str, Any, Any]] = {
-    "se3": (v.pose, 4, "Pose3", _pose3, _matrix_of),
-    "so3": (v.rotation, 3, "Rot3", lambda X: gtsam.Rot3(X), _matrix_of),
+    "se3": (validate.pose, 4, "Pose3", _pose3, _matrix_of),
+    "so3": (validate.rotation, 3, "Rot3", lambda X: gtsam.Rot3(X), _matrix_of),
     "se2": (
-        v.pose2,
+        validate.pose2,
         3,
         "Pose2",
         lambda X: gtsam.Pose2(gtsam.Rot2.atan2(X[1, 0], X[0, 0]), X[:2, 2]),
         _matrix_of,
     ),
     "so2": (
-        v.rotation2,
+        validate.rotation2,
         2,
         "Rot2",
         lambda X: gtsam.Rot2.atan2(X[1, 0], X[0, 0]),
         _matrix_of,
     ),
-    "sim3": (v.similarity, 4, "Similarity3", _sim3_to, _sim3_from),
-    "se23": (v.extended_pose, 5, "NavState", _navstate_to, _matrix_of),
+    "sim3": (validate.similarity, 4, "Similarity3", _sim3_to, _sim3_from),
+    "se23": (validate.extended_pose, 5, "NavState", _navstate_to, _matrix_of),
 }
 """The GTSAM class of each group's elements and the matrix conventions at the boundary.
 

@@ -16,7 +16,7 @@ from typing import Any
 
 import gtsam
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from ..conventions import Convention, ConventionLike, get
 from ..conventions.convert import is_exactly_linear
@@ -64,7 +64,7 @@ class ConventionGraph:
 
     def insert(self, key: int, pose: Any) -> None:
         """Insert (or update) the initial estimate of ``T_world_key`` (a ``(4, 4)`` matrix)."""
-        p = to_pose3(v.pose(pose, "pose"))
+        p = to_pose3(validate.pose(pose, "pose"))
         if self.values.exists(key):
             self.values.update(key, p)
         else:

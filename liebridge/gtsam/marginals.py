@@ -15,7 +15,7 @@ from typing import Any, Literal
 import gtsam
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from ..conventions import ConventionLike, get
 from ..conventions.convert import convert_covariance
@@ -54,7 +54,7 @@ def marginals(
     -------
     ndarray, shape (N, 6, 6)
     """
-    keys = [v.key(k, f"keys[{n}]") for n, k in enumerate(keys)]
+    keys = [validate.key(k, f"keys[{n}]") for n, k in enumerate(keys)]
     graph_keys = graph.keys()  # held: iterating a temporary KeySet reads freed memory
     used = {int(k) for k in graph_keys}
     for n, k in enumerate(keys):

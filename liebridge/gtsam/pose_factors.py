@@ -26,7 +26,7 @@ from typing import Any
 import gtsam
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from ..conventions import Convention, ConventionLike, get
 from ..conventions.convert import convert_covariance, is_exactly_linear
@@ -93,11 +93,11 @@ def between(
     gtsam.BetweenFactorPose3 or gtsam.CustomFactor
     """
     conv = get(convention)
-    Z = v.pose(measured, "measured")
+    Z = validate.pose(measured, "measured")
     if Z.shape != (4, 4):
         raise ValueError(f"measured: expected one pose (4, 4), got {Z.shape}")
-    cov = v.positive_definite(cov, "cov", 6)
-    i, j = v.key(i, "i"), v.key(j, "j")
+    cov = validate.positive_definite(cov, "cov", 6)
+    i, j = validate.key(i, "i"), validate.key(j, "j")
     if i == j:
         raise ValueError(f"j: the same key as i ({i}); a between factor relates two variables")
     if native:
@@ -139,11 +139,11 @@ def prior(
     gtsam.PriorFactorPose3 or gtsam.CustomFactor
     """
     conv = get(convention)
-    Z = v.pose(pose, "pose")
+    Z = validate.pose(pose, "pose")
     if Z.shape != (4, 4):
         raise ValueError(f"pose: expected one pose (4, 4), got {Z.shape}")
-    cov = v.positive_definite(cov, "cov", 6)
-    i = v.key(i, "i")
+    cov = validate.positive_definite(cov, "cov", 6)
+    i = validate.key(i, "i")
     if native:
         return gtsam.PriorFactorPose3(i, gtsam.Pose3(Z), _native_noise(conv, Z, cov))
     Zc = Z.copy()

@@ -26,7 +26,7 @@ from typing import Any
 import gtsam
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from ..gtsam.custom import make_custom_factor
 from ..lie import so3
@@ -166,15 +166,15 @@ def imu_residual(
         raise TypeError(
             f"preintegrated: expected a PreintegratedImu, got {type(preintegrated).__name__}"
         )
-    T_i = v.pose(pose_i, "pose_i")
-    T_j = v.pose(pose_j, "pose_j")
+    T_i = validate.pose(pose_i, "pose_i")
+    T_j = validate.pose(pose_j, "pose_j")
     return _residual(
         T_i[..., :3, :3],
         T_i[..., :3, 3],
-        v.vector(vel_i, "vel_i", 3),
+        validate.vector(vel_i, "vel_i", 3),
         T_j[..., :3, :3],
         T_j[..., :3, 3],
-        v.vector(vel_j, "vel_j", 3),
+        validate.vector(vel_j, "vel_j", 3),
         read_bias(bias),
         preintegrated,
         jacobians,
@@ -216,13 +216,14 @@ def imu(
         )
     names = ("pose_i", "vel_i", "pose_j", "vel_j", "bias_key")
     keys = [
-        v.key(k, n) for k, n in zip((pose_i, vel_i, pose_j, vel_j, bias_key), names, strict=True)
+        validate.key(k, n)
+        for k, n in zip((pose_i, vel_i, pose_j, vel_j, bias_key), names, strict=True)
     ]
     for a in range(5):
         for b in range(a):
             if keys[a] == keys[b]:
                 raise ValueError(f"{names[a]}: the same key as {names[b]} ({keys[a]})")
-    cov = v.positive_definite(preintegrated.covariance, "preintegrated.covariance", 9)
+    cov = validate.positive_definite(preintegrated.covariance, "preintegrated.covariance", 9)
     noise = gtsam.noiseModel.Gaussian.Covariance(np.array(cov))
     k_pi, k_vi, k_pj, k_vj, k_b = keys
 

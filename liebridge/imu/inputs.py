@@ -14,7 +14,7 @@ from typing import Any
 import gtsam
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 
 __all__ = ["Params", "is_isotropic", "read_bias", "read_params", "read_samples"]
@@ -98,12 +98,12 @@ def _read_params(params: Any, body_P_sensor: Any, coriolis: Any) -> Params:
             f"params: omegaCoriolis = {np.asarray(coriolis).tolist()} is not supported "
             "(GTSAM then predicts in a rotating frame); set it to None or zero"
         )
-    gravity = v.vector(np.array(params.n_gravity, dtype=np.float64), "params.n_gravity", 3)
+    gravity = validate.vector(np.array(params.n_gravity, dtype=np.float64), "params.n_gravity", 3)
     if gravity.shape != (3,):
         raise ValueError(f"params.n_gravity: expected shape (3,), got {gravity.shape}")
 
     def cov(x: Any, name: str) -> FloatArray:
-        c = v.covariance(np.array(x, dtype=np.float64), name, 3)
+        c = validate.covariance(np.array(x, dtype=np.float64), name, 3)
         if c.shape != (3, 3):
             raise ValueError(f"{name}: expected shape (3, 3), got {c.shape}")
         return np.asarray(0.5 * (c + c.T))
@@ -113,7 +113,7 @@ def _read_params(params: Any, body_P_sensor: Any, coriolis: Any) -> Params:
     int_cov = cov(params.getIntegrationCovariance(), "params.integrationCovariance")
     bRs = lever = None
     if body_P_sensor is not None:
-        bRs = v.rotation(np.array(body_P_sensor.rotation().matrix()), "params.body_P_sensor")
+        bRs = validate.rotation(np.array(body_P_sensor.rotation().matrix()), "params.body_P_sensor")
         t = np.array(body_P_sensor.translation(), dtype=np.float64)
         lever = t if np.any(t != 0.0) else None
         if not is_isotropic(acc_cov):
@@ -142,17 +142,17 @@ def read_bias(bias: Any, name: str = "bias") -> FloatArray:
     if isinstance(bias, gtsam.imuBias.ConstantBias):
         return np.array(bias.vector(), dtype=np.float64)
     if isinstance(bias, (tuple, list)) and len(bias) == 2:
-        acc = v.vector(bias[0], f"{name}[0] (accelerometer)", 3)
-        gyro = v.vector(bias[1], f"{name}[1] (gyroscope)", 3)
+        acc = validate.vector(bias[0], f"{name}[0] (accelerometer)", 3)
+        gyro = validate.vector(bias[1], f"{name}[1] (gyroscope)", 3)
         acc, gyro = np.broadcast_arrays(acc, gyro)
         return np.concatenate([acc, gyro], axis=-1)
-    return v.vector(bias, f"{name} (acc, gyro)", 6)
+    return validate.vector(bias, f"{name} (acc, gyro)", 6)
 
 
 def read_samples(acc: Any, gyro: Any, dt: Any) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Check samples (N, 3), (N, 3) and a scalar or (N,) ``dt > 0``; return float64 arrays."""
-    acc_ = v.as_float_array(acc, "acc")
-    gyro_ = v.as_float_array(gyro, "gyro")
+    acc_ = validate.as_float_array(acc, "acc")
+    gyro_ = validate.as_float_array(gyro, "gyro")
     for arr, name in ((acc_, "acc"), (gyro_, "gyro")):
         if arr.ndim != 2 or arr.shape[1] != 3:
             raise ValueError(f"{name}: expected shape (N, 3), got {arr.shape}")
@@ -161,14 +161,14 @@ def read_samples(acc: Any, gyro: Any, dt: Any) -> tuple[FloatArray, FloatArray, 
         raise ValueError(f"gyro: {gyro_.shape[0]} samples but acc has {n}")
     if n == 0:
         raise ValueError("acc: no samples (N = 0)")
-    v.check_finite(acc_, "acc", core_ndim=1)
-    v.check_finite(gyro_, "gyro", core_ndim=1)
-    dt_ = v.as_float_array(dt, "dt")
+    validate.check_finite(acc_, "acc", core_ndim=1)
+    validate.check_finite(gyro_, "gyro", core_ndim=1)
+    dt_ = validate.as_float_array(dt, "dt")
     if dt_.ndim == 0:
         dt_ = np.full(n, float(dt_))
     elif dt_.shape != (n,):
         raise ValueError(f"dt: expected a scalar or shape ({n},) to match acc, got {dt_.shape}")
-    v.check_finite(dt_, "dt")
+    validate.check_finite(dt_, "dt")
     bad = dt_ <= 0.0
     if bad.any():
         i = int(np.argmax(bad))

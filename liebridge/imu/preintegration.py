@@ -70,7 +70,7 @@ from typing import Any, Literal, NamedTuple
 import gtsam
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from ..lie import so3
 from .inputs import read_bias, read_params, read_samples
@@ -253,8 +253,8 @@ class PreintegratedImu:
         pose_j : ndarray, shape (..., 4, 4)
         vel_j : ndarray, shape (..., 3)
         """
-        T_i = v.pose(pose_i, "pose_i")
-        v_i = v.vector(vel_i, "vel_i", 3)
+        T_i = validate.pose(pose_i, "pose_i")
+        v_i = validate.vector(vel_i, "vel_i", 3)
         dR, dp, dv = self.bias_corrected(bias)
         R_i, p_i = T_i[..., :3, :3], T_i[..., :3, 3]
         t, g = self.delta_t, self.gravity

@@ -85,7 +85,7 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from ..conventions.convert import tangent_map
 from ..lie import quaternion as quat
@@ -207,7 +207,7 @@ def _ids(x: Any, name: str) -> KeyArray:
     elif not np.issubdtype(a.dtype, np.integer):
         raise ValueError(f"{name}: expected integer ids, got dtype {a.dtype}")
     flat = [int(k) for k in a.reshape(-1).tolist()]
-    bad = [k for k in flat if not 0 <= k <= v.MAX_KEY]
+    bad = [k for k in flat if not 0 <= k <= validate.MAX_KEY]
     if bad:
         raise ValueError(f"{name}: id {bad[0]} is outside [0, 2**64 - 2] (GTSAM keys are uint64)")
     return np.array(flat, dtype=np.uint64).reshape(a.shape)
@@ -272,21 +272,21 @@ class G2OGraph:
         if ids.ndim != 1:
             raise ValueError(f"vertex_ids: expected a 1-D integer array, got {ids.shape}")
         n = ids.shape[0]
-        vx = v.vector(self.vertex_xyz_qxyzw, "vertex_xyz_qxyzw", 7)
+        vx = validate.vector(self.vertex_xyz_qxyzw, "vertex_xyz_qxyzw", 7)
         if vx.shape != (n, 7):
             raise ValueError(f"vertex_xyz_qxyzw: expected shape ({n}, 7), got {vx.shape}")
-        v.quaternion(vx[:, 3:], "vertex_xyz_qxyzw quaternion")
+        validate.quaternion(vx[:, 3:], "vertex_xyz_qxyzw quaternion")
         vx = _unit_rows(vx)
         e = _ids(self.edges, "edges")
         if e.ndim != 2 or e.shape[1] != 2:
             raise ValueError(f"edges: expected an (M, 2) integer array, got {e.shape}")
         m = e.shape[0]
-        mx = v.vector(self.measured_xyz_qxyzw, "measured_xyz_qxyzw", 7)
+        mx = validate.vector(self.measured_xyz_qxyzw, "measured_xyz_qxyzw", 7)
         if mx.shape != (m, 7):
             raise ValueError(f"measured_xyz_qxyzw: expected shape ({m}, 7), got {mx.shape}")
-        v.quaternion(mx[:, 3:], "measured_xyz_qxyzw quaternion")
+        validate.quaternion(mx[:, 3:], "measured_xyz_qxyzw quaternion")
         mx = _unit_rows(mx)
-        info = v.covariance(self.information, "information", 6)
+        info = validate.covariance(self.information, "information", 6)
         if info.shape != (m, 6, 6):
             raise ValueError(f"information: expected shape ({m}, 6, 6), got {info.shape}")
         if self.information_reading not in ("g2o", "gtsam"):
@@ -417,7 +417,7 @@ class _Parser:
             k = int(f)
         except ValueError:
             raise self.fail(lineno, f"vertex id {f!r} is not an integer") from None
-        if not 0 <= k <= v.MAX_KEY:
+        if not 0 <= k <= validate.MAX_KEY:
             raise self.fail(
                 lineno, f"vertex id {k} is outside [0, 2**64 - 2] (GTSAM keys are uint64)"
             )
@@ -486,8 +486,8 @@ def read(
         On a malformed or unsupported line (naming the file and line number), an edge to a
         missing vertex, or a file without vertices whose odometry chain has a gap.
     """
-    information = v.option(information, "information", ("g2o", "gtsam"))  # type: ignore[assignment]
-    edge3 = v.option(edge3, "edge3", ("sqrt_information", "information"))  # type: ignore[assignment]
+    information = validate.option(information, "information", ("g2o", "gtsam"))  # type: ignore[assignment]
+    edge3 = validate.option(edge3, "edge3", ("sqrt_information", "information"))  # type: ignore[assignment]
     P = _Parser(path)
     v_ids: list[int] = []
     v_line: dict[int, int] = {}
@@ -583,11 +583,11 @@ def read(
             f"(largest |entry| {float(np.abs(nums[k]).max()):.3g})",
         )
     try:
-        v.covariance(info, "information", 6)
+        validate.covariance(info, "information", 6)
     except ValueError:
         for k, lam_k in enumerate(info):  # name the line
             try:
-                v.covariance(lam_k, "information", 6)
+                validate.covariance(lam_k, "information", 6)
             except ValueError as exc:
                 raise P.fail(e_lines[k], f"{exc} (after conversion to GTSAM's (ω, v))") from None
         raise

@@ -51,7 +51,7 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from .g2o import _Parser
 from .trajectory import text_lines
@@ -311,11 +311,11 @@ def read(path: PathLike, *, edge2: Edge2Order = "auto") -> G2OGraph2D:
         if order == "toro":
             info[toro_tag] = _sym(nums[toro_tag], _TORO_ORDER)
     try:
-        v.covariance(info, "information", 3)
+        validate.covariance(info, "information", 3)
     except ValueError:
         for k, lam_k in enumerate(info):  # name the line
             try:
-                v.covariance(lam_k, "information", 3)
+                validate.covariance(lam_k, "information", 3)
             except ValueError as exc:
                 raise P.fail(e_lines[k], f"{exc} (over (x, y, theta))") from None
         raise

@@ -38,7 +38,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import QUATERNION_TOL, ROTATION_TOL, FloatArray
 from ..lie import quaternion as quat
 
@@ -179,18 +179,20 @@ def to_matrix(x: Any, *, layout: Layout | str, tol: float | None = None) -> Floa
     spec = _spec(layout)
     layout = _name(layout)
     if layout == "matrix":
-        return np.array(v.pose(x, "x", ROTATION_TOL if tol is None else tol), dtype=np.float64)
-    arr = v.as_float_array(x, "x")
+        return np.array(
+            validate.pose(x, "x", ROTATION_TOL if tol is None else tol), dtype=np.float64
+        )
+    arr = validate.as_float_array(x, "x")
     if arr.ndim < 1 or arr.shape[-1:] != spec.shape:
         raise ValueError(
             f"x: layout {layout!r} expects shape (..., {spec.shape[0]}), got {arr.shape}"
         )
-    v.check_finite(arr, "x")
+    validate.check_finite(arr, "x")
     T = np.zeros((*arr.shape[:-1], 4, 4))
     T[..., 3, 3] = 1.0
     if layout == "kitti":
         T[..., :3, :] = arr.reshape((*arr.shape[:-1], 3, 4))
-        v.check_rotation(T[..., :3, :3], "x", ROTATION_TOL if tol is None else tol)
+        validate.check_rotation(T[..., :3, :3], "x", ROTATION_TOL if tol is None else tol)
         return T
     assert spec.q_slice is not None and spec.t_slice is not None and spec.q_order is not None
     q = _normalised_quaternion(
@@ -223,7 +225,7 @@ def from_matrix(T: Any, *, layout: Layout | str) -> FloatArray:
     """
     spec = _spec(layout)
     layout = _name(layout)
-    T = v.pose(T, "T")
+    T = validate.pose(T, "T")
     if layout == "matrix":
         return np.array(T, dtype=np.float64)
     if layout == "kitti":

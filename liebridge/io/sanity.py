@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 
 __all__ = [
@@ -84,7 +84,7 @@ def hemisphere_continuous(q: Any) -> FloatArray:
     q : array_like, shape (N, 4)
         Any storage order (the sign choice does not depend on it).
     """
-    a = v.vector(q, "q", 4)
+    a = validate.vector(q, "q", 4)
     if a.ndim != 2:
         raise ValueError(f"q: expected shape (N, 4), got {a.shape}")
     if a.shape[0] < 2:
@@ -122,7 +122,7 @@ def check_quaternions(
     """
     if order not in _SCALAR_SLOT:
         raise ValueError(f"order: expected 'xyzw' or 'wxyz', got {order!r}")
-    a = v.vector(q, "q", 4)
+    a = validate.vector(q, "q", 4)
     if a.ndim != 2:
         raise ValueError(f"q: expected shape (N, 4), got {a.shape}")
     n = a.shape[0]
@@ -167,7 +167,7 @@ def check_quaternions(
         suggested = None
     ang = 2.0 * np.arccos(np.clip(np.abs(dots), 0.0, 1.0))
     if timestamps is not None and n > 1:
-        t = v.as_float_array(timestamps, "timestamps").reshape(-1)
+        t = validate.as_float_array(timestamps, "timestamps").reshape(-1)
         dt = np.diff(t) if t.size == n else np.full(n - 1, np.nan)
         with np.errstate(divide="ignore", invalid="ignore"):
             rate = np.where(dt > 0, ang / dt, 0.0)  # stamps that do not increase: not judged here

@@ -35,7 +35,7 @@ from typing import IO, Any
 
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from . import poses as _layouts
 
@@ -205,11 +205,11 @@ def write_tum(path: PathLike, timestamps: Any, poses: Any) -> None:
         ``T_world_body``; rotation blocks must be orthonormal within
         :data:`liebridge.io.poses.ROTATION_TOL`.
     """
-    t = v.as_float_array(timestamps, "timestamps")
+    t = validate.as_float_array(timestamps, "timestamps")
     if t.ndim != 1:
         raise ValueError(f"timestamps: expected shape (N,), got {t.shape}")
-    v.check_finite(t, "timestamps")
-    T = v.pose(poses, "poses")
+    validate.check_finite(t, "timestamps")
+    T = validate.pose(poses, "poses")
     if T.ndim != 3 or T.shape[0] != t.shape[0]:
         raise ValueError(
             f"poses: expected shape ({t.shape[0]}, 4, 4) to match timestamps, got {T.shape}"
@@ -269,7 +269,7 @@ def write_kitti(path: PathLike, poses: Any) -> None:
     poses : array_like, shape (N, 4, 4)
         Rotation blocks must be orthonormal within :data:`liebridge.io.poses.ROTATION_TOL`.
     """
-    T = v.pose(poses, "poses")
+    T = validate.pose(poses, "poses")
     if T.ndim != 3:
         raise ValueError(f"poses: expected shape (N, 4, 4), got {T.shape}")
     x = _layouts.from_matrix(T, layout="kitti")

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 
 Retract = Callable[[Any, FloatArray], Any]
@@ -62,7 +62,7 @@ def numerical_jacobian(
     -------
     ndarray, shape (..., m, dim)
     """
-    x_arr = v.as_float_array(x, "x")  # a library pose/rotation object too
+    x_arr = validate.as_float_array(x, "x")  # a library pose/rotation object too
     if retract is None:
         # Euclidean input: always a batch of vectors, even when shaped (..., 3, 3) or (..., 4, 4)
         if x_arr.ndim < 1:

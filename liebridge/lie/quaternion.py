@@ -16,7 +16,7 @@ from typing import Any, Literal, cast
 
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 
 QuatOrder = Literal["wxyz", "xyzw"]
@@ -35,7 +35,7 @@ __all__ = [
 
 def _check_order(order: str) -> QuatOrder:
     """Return the storage order normalised like every string option (``"XYZW"`` is ``"xyzw"``)."""
-    return cast(QuatOrder, v.option(order, "order", ("wxyz", "xyzw")))
+    return cast(QuatOrder, validate.option(order, "order", ("wxyz", "xyzw")))
 
 
 def _to_wxyz(q: FloatArray, order: str) -> FloatArray:
@@ -54,7 +54,7 @@ def to_matrix(q: Any, *, order: QuatOrder) -> FloatArray:
     :data:`liebridge._validate.QUATERNION_TOL`; normalise explicitly otherwise.
     """
     order = _check_order(order)
-    q = _to_wxyz(v.quaternion(q, "q"), order)
+    q = _to_wxyz(validate.quaternion(q, "q"), order)
     w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
     R = np.empty((*q.shape[:-1], 3, 3))
     R[..., 0, 0] = 1 - 2 * (y * y + z * z)
@@ -75,7 +75,7 @@ def from_matrix(R: Any, *, order: QuatOrder) -> FloatArray:
     Uses scipy's ``Rotation.from_matrix`` (Markley's method), which is exact at θ = π.
     """
     order = _check_order(order)
-    R = v.rotation(R, "R")
+    R = validate.rotation(R, "R")
     flat = R.reshape(-1, 3, 3)
     from scipy.spatial.transform import Rotation  # lazy: importing scipy.spatial costs ~0.8 s
 
@@ -90,9 +90,9 @@ def multiply(q1: Any, q2: Any, *, order: QuatOrder) -> FloatArray:
     ``to_matrix(q1 ⊗ q2) = to_matrix(q1) @ to_matrix(q2)``.
     """
     order = _check_order(order)
-    a = _to_wxyz(v.quaternion(q1, "q1"), order)
-    b = _to_wxyz(v.quaternion(q2, "q2"), order)
-    v.batch_shape(("q1", a.shape[:-1]), ("q2", b.shape[:-1]))
+    a = _to_wxyz(validate.quaternion(q1, "q1"), order)
+    b = _to_wxyz(validate.quaternion(q2, "q2"), order)
+    validate.batch_shape(("q1", a.shape[:-1]), ("q2", b.shape[:-1]))
     w1, x1, y1, z1 = np.moveaxis(a, -1, 0)
     w2, x2, y2, z2 = np.moveaxis(b, -1, 0)
     out = np.stack(
@@ -110,14 +110,14 @@ def multiply(q1: Any, q2: Any, *, order: QuatOrder) -> FloatArray:
 def conjugate(q: Any, *, order: QuatOrder) -> FloatArray:
     """Conjugate ``(w, −u)``: the inverse of a unit quaternion (the norm is checked)."""
     order = _check_order(order)
-    q = _to_wxyz(v.quaternion(q, "q"), order) * np.array([1.0, -1.0, -1.0, -1.0])
+    q = _to_wxyz(validate.quaternion(q, "q"), order) * np.array([1.0, -1.0, -1.0, -1.0])
     return _from_wxyz(q, order)
 
 
 def canonical(q: Any, *, order: QuatOrder) -> FloatArray:
     """Choose the sign with ``w ≥ 0`` (``q`` and ``−q`` are the same unit-quaternion rotation)."""
     order = _check_order(order)
-    q = v.quaternion(q, "q")
+    q = validate.quaternion(q, "q")
     w = q[..., 0] if order == "wxyz" else q[..., 3]
     return np.where((w < 0)[..., None], -q, q)
 
@@ -129,11 +129,11 @@ def slerp(q0: Any, q1: Any, tau: Any, *, order: QuatOrder) -> FloatArray:
     way, pitfall P4 of docs/common-formula-errors.md). ``tau`` broadcasts against the batch shape.
     """
     order = _check_order(order)
-    a = v.quaternion(q0, "q0")
-    b = v.quaternion(q1, "q1")
-    t = v.as_float_array(tau, "tau")
-    v.check_finite(t, "tau", core_ndim=0)
-    v.batch_shape(("q0", a.shape[:-1]), ("q1", b.shape[:-1]), ("tau", t.shape))
+    a = validate.quaternion(q0, "q0")
+    b = validate.quaternion(q1, "q1")
+    t = validate.as_float_array(tau, "tau")
+    validate.check_finite(t, "tau", core_ndim=0)
+    validate.batch_shape(("q0", a.shape[:-1]), ("q1", b.shape[:-1]), ("tau", t.shape))
     dot = np.einsum("...i,...i->...", a, b)
     b = np.where((dot < 0)[..., None], -b, b)
     dot = np.clip(np.abs(dot), -1.0, 1.0)
@@ -147,7 +147,7 @@ def slerp(q0: Any, q1: Any, tau: Any, *, order: QuatOrder) -> FloatArray:
     # ((1 − τ)·a + τ·b cancels to 0 for a large τ)
     out = np.where(small[..., None], a + t[..., None] * (b - a), w0 * a + w1 * b)
     out = out / np.linalg.norm(out, axis=-1, keepdims=True)
-    return v.finite_output(np.asarray(out, dtype=np.float64), "quaternion.slerp")
+    return validate.finite_output(np.asarray(out, dtype=np.float64), "quaternion.slerp")
 
 
 def jpl_to_hamilton(q_jpl: Any, *, order: QuatOrder) -> FloatArray:

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from .series import one_minus_cos_over_t2, sinc, t_minus_sin_over_t3
 
@@ -151,12 +151,12 @@ def _jr_inv(xi: FloatArray) -> FloatArray:
 
 
 def _tangent(xi: Any, name: str = "xi") -> FloatArray:
-    return v.tangent(xi, name, 3, _ROT)
+    return validate.tangent(xi, name, 3, _ROT)
 
 
 def hat(xi: Any) -> FloatArray:
     """``(vx, vy, ω)`` → ``[[0, −ω, vx], [ω, 0, vy], [0, 0, 0]]``, ``(..., 3, 3)``."""
-    xi = v.vector(xi, "xi", 3)
+    xi = validate.vector(xi, "xi", 3)
     out = np.zeros((*xi.shape[:-1], 3, 3))
     out[..., 0, 1], out[..., 1, 0] = -xi[..., 2], xi[..., 2]
     out[..., :2, 2] = xi[..., :2]
@@ -165,71 +165,71 @@ def hat(xi: Any) -> FloatArray:
 
 def vee(X: Any) -> FloatArray:
     """Inverse of :func:`hat`: ``(..., 3, 3)`` → ``(vx, vy, ω)``."""
-    X = v.square(X, "X", 3)
+    X = validate.square(X, "X", 3)
     return np.stack([X[..., 0, 2], X[..., 1, 2], 0.5 * (X[..., 1, 0] - X[..., 0, 1])], axis=-1)
 
 
 def exp(xi: Any) -> FloatArray:
     """SE(2) exponential of ``(vx, vy, ω)`` → ``(..., 3, 3)``. GTSAM ``Pose2.Expmap``."""
-    return v.finite_output(_exp(_tangent(xi)), "se2.exp")
+    return validate.finite_output(_exp(_tangent(xi)), "se2.exp")
 
 
 def log(T: Any) -> FloatArray:
     """SE(2) logarithm → ``(vx, vy, ω)``, ``ω ∈ (−π, π]``. GTSAM ``Pose2.Logmap``."""
-    return v.finite_output(_log(v.pose2(T, "T")), "se2.log")
+    return validate.finite_output(_log(validate.pose2(T, "T")), "se2.log")
 
 
 def jr(xi: Any) -> FloatArray:
     """Right Jacobian ``Exp(ξ + δ) ≈ Exp(ξ)·Exp(jr δ)``, ``(..., 3, 3)``."""
-    return v.finite_output(_jr(_tangent(xi)), "se2.jr")
+    return validate.finite_output(_jr(_tangent(xi)), "se2.jr")
 
 
 def jl(xi: Any) -> FloatArray:
     """Left Jacobian ``Exp(ξ + δ) ≈ Exp(jl δ)·Exp(ξ)``, ``(..., 3, 3)``."""
-    return v.finite_output(_jl(_tangent(xi)), "se2.jl")
+    return validate.finite_output(_jl(_tangent(xi)), "se2.jl")
 
 
 def jr_inv(xi: Any) -> FloatArray:
     """Inverse right Jacobian (closed-form block inverse); GTSAM ``Pose2.LogmapDerivative``."""
-    return v.finite_output(_jr_inv(_tangent(xi)), "se2.jr_inv")
+    return validate.finite_output(_jr_inv(_tangent(xi)), "se2.jr_inv")
 
 
 def jl_inv(xi: Any) -> FloatArray:
     """Inverse left Jacobian (closed-form block inverse), ``(..., 3, 3)``."""
-    return v.finite_output(_jl_inv(_tangent(xi)), "se2.jl_inv")
+    return validate.finite_output(_jl_inv(_tangent(xi)), "se2.jl_inv")
 
 
 def adjoint(T: Any) -> FloatArray:
     """``Ad_T = [[R, (t_y, −t_x)ᵀ], [0, 1]]`` in ``(vx, vy, ω)``: ``T·Exp(ξ)·T⁻¹ = Exp(Ad_T ξ)``."""
-    return _adjoint(v.pose2(T, "T"))
+    return _adjoint(validate.pose2(T, "T"))
 
 
 def inverse(T: Any) -> FloatArray:
     """``[[Rᵀ, −Rᵀt], [0, 1]]``: ``inverse(T_world_body) = T_body_world``."""
-    return _inverse(v.pose2(T, "T"))
+    return _inverse(validate.pose2(T, "T"))
 
 
 def compose(T1: Any, T2: Any) -> FloatArray:
     """``T1·T2`` (broadcast): ``compose(T_a_b, T_b_c) = T_a_c``."""
-    A, B = v.pose2(T1, "T1"), v.pose2(T2, "T2")
-    v.batch_shape(("T1", A.shape[:-2]), ("T2", B.shape[:-2]))
-    return v.finite_output(np.asarray(A @ B, dtype=np.float64), "se2.compose")
+    A, B = validate.pose2(T1, "T1"), validate.pose2(T2, "T2")
+    validate.batch_shape(("T1", A.shape[:-2]), ("T2", B.shape[:-2]))
+    return validate.finite_output(np.asarray(A @ B, dtype=np.float64), "se2.compose")
 
 
 def act(T: Any, p: Any) -> FloatArray:
     """``R p + t`` for 2-D points ``(..., 2)``: ``act(T_world_body, p_body) = p_world``."""
-    T = v.pose2(T, "T")
-    p = v.vector(p, "p", 2)
-    v.batch_shape(("T", T.shape[:-2]), ("p", p.shape[:-1]))
+    T = validate.pose2(T, "T")
+    p = validate.vector(p, "p", 2)
+    validate.batch_shape(("T", T.shape[:-2]), ("p", p.shape[:-1]))
     out = np.einsum("...ij,...j->...i", T[..., :2, :2], p) + T[..., :2, 2]
-    return v.finite_output(np.asarray(out, dtype=np.float64), "se2.act")
+    return validate.finite_output(np.asarray(out, dtype=np.float64), "se2.act")
 
 
 def interpolate(T0: Any, T1: Any, tau: Any) -> FloatArray:
     """Geodesic ``T0·Exp(τ·Log(T0⁻¹T1))``; ``τ`` broadcasts against the batch."""
-    T0, T1 = v.pose2(T0, "T0"), v.pose2(T1, "T1")
-    tau_ = v.as_float_array(tau, "tau")
-    v.check_finite(tau_, "tau", core_ndim=0)
-    v.batch_shape(("T0", T0.shape[:-2]), ("T1", T1.shape[:-2]), ("tau", tau_.shape))
+    T0, T1 = validate.pose2(T0, "T0"), validate.pose2(T1, "T1")
+    tau_ = validate.as_float_array(tau, "tau")
+    validate.check_finite(tau_, "tau", core_ndim=0)
+    validate.batch_shape(("T0", T0.shape[:-2]), ("T1", T1.shape[:-2]), ("tau", tau_.shape))
     xi = _tangent(tau_[..., None] * _log(_inverse(T0) @ T1), "tau·Log(T0⁻¹T1)")
-    return v.finite_output(np.asarray(T0 @ _exp(xi), dtype=np.float64), "se2.interpolate")
+    return validate.finite_output(np.asarray(T0 @ _exp(xi), dtype=np.float64), "se2.interpolate")

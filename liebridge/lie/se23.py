@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from . import se3, so3
 
@@ -118,12 +118,12 @@ def _jr_inv(xi: FloatArray) -> FloatArray:
 
 
 def _tangent(xi: Any, name: str = "xi") -> FloatArray:
-    return v.tangent(xi, name, 9, slice(0, 3))
+    return validate.tangent(xi, name, 9, slice(0, 3))
 
 
 def hat(xi: Any) -> FloatArray:
     """``(ω, ρ_p, ρ_v)`` → ``[[hat(ω), ρ_p, ρ_v], [0, 0, 0], [0, 0, 0]]``, ``(..., 5, 5)``."""
-    xi = v.vector(xi, "xi", 9)
+    xi = validate.vector(xi, "xi", 9)
     out = np.zeros((*xi.shape[:-1], 5, 5))
     out[..., :3, :3] = so3._hat(xi[..., :3])
     out[..., :3, 3] = xi[..., 3:6]
@@ -133,70 +133,70 @@ def hat(xi: Any) -> FloatArray:
 
 def vee(X: Any) -> FloatArray:
     """Inverse of :func:`hat`: ``(..., 5, 5)`` → ``(ω, ρ_p, ρ_v)``."""
-    X = v.square(X, "X", 5)
+    X = validate.square(X, "X", 5)
     return np.concatenate([so3.vee(X[..., :3, :3]), X[..., :3, 3], X[..., :3, 4]], axis=-1)
 
 
 def exp(xi: Any) -> FloatArray:
     """SE₂(3) exponential ``(..., 9)`` → ``(..., 5, 5)``. GTSAM ``NavState.Expmap``."""
-    return v.finite_output(_exp(_tangent(xi)), "se23.exp")
+    return validate.finite_output(_exp(_tangent(xi)), "se23.exp")
 
 
 def log(X: Any) -> FloatArray:
     """SE₂(3) logarithm → ``(ω, ρ_p, ρ_v)``, ``‖ω‖ ∈ [0, π]``. GTSAM ``NavState.Logmap``."""
-    return v.finite_output(_log(v.extended_pose(X, "X")), "se23.log")
+    return validate.finite_output(_log(validate.extended_pose(X, "X")), "se23.log")
 
 
 def jr(xi: Any) -> FloatArray:
     """Right Jacobian ``Exp(ξ + δ) ≈ Exp(ξ)·Exp(jr δ)``, ``(..., 9, 9)``."""
-    return v.finite_output(_jr(_tangent(xi)), "se23.jr")
+    return validate.finite_output(_jr(_tangent(xi)), "se23.jr")
 
 
 def jl(xi: Any) -> FloatArray:
     """Left Jacobian ``Exp(ξ + δ) ≈ Exp(jl δ)·Exp(ξ)``, ``(..., 9, 9)``."""
-    return v.finite_output(_jl(_tangent(xi)), "se23.jl")
+    return validate.finite_output(_jl(_tangent(xi)), "se23.jl")
 
 
 def jr_inv(xi: Any) -> FloatArray:
     """Inverse right Jacobian (closed-form block inverse), ``(..., 9, 9)``."""
-    return v.finite_output(_jr_inv(_tangent(xi)), "se23.jr_inv")
+    return validate.finite_output(_jr_inv(_tangent(xi)), "se23.jr_inv")
 
 
 def jl_inv(xi: Any) -> FloatArray:
     """Inverse left Jacobian (closed-form block inverse), ``(..., 9, 9)``."""
-    return v.finite_output(_jl_inv(_tangent(xi)), "se23.jl_inv")
+    return validate.finite_output(_jl_inv(_tangent(xi)), "se23.jl_inv")
 
 
 def adjoint(X: Any) -> FloatArray:
     """``Ad_X`` in ``(ω, ρ_p, ρ_v)``: ``X·Exp(ξ)·X⁻¹ = Exp(Ad_X ξ)``. GTSAM ``AdjointMap``."""
-    return v.finite_output(_adjoint(v.extended_pose(X, "X")), "se23.adjoint")
+    return validate.finite_output(_adjoint(validate.extended_pose(X, "X")), "se23.adjoint")
 
 
 def inverse(X: Any) -> FloatArray:
     """``[[Rᵀ, −Rᵀp, −Rᵀv], [0, I₂]]``."""
-    return v.finite_output(_inverse(v.extended_pose(X, "X")), "se23.inverse")
+    return validate.finite_output(_inverse(validate.extended_pose(X, "X")), "se23.inverse")
 
 
 def compose(X1: Any, X2: Any) -> FloatArray:
     """``X1·X2`` (broadcast): ``(R1R2, p1 + R1p2, v1 + R1v2)``."""
-    A, B = v.extended_pose(X1, "X1"), v.extended_pose(X2, "X2")
-    v.batch_shape(("X1", A.shape[:-2]), ("X2", B.shape[:-2]))
-    return v.finite_output(np.asarray(A @ B, dtype=np.float64), "se23.compose")
+    A, B = validate.extended_pose(X1, "X1"), validate.extended_pose(X2, "X2")
+    validate.batch_shape(("X1", A.shape[:-2]), ("X2", B.shape[:-2]))
+    return validate.finite_output(np.asarray(A @ B, dtype=np.float64), "se23.compose")
 
 
 def act(X: Any, x: Any) -> FloatArray:
     """Apply the pose part to points: ``R x + p``, ``(..., 3)``."""
-    X = v.extended_pose(X, "X")
-    x = v.vector(x, "x", 3)
-    v.batch_shape(("X", X.shape[:-2]), ("x", x.shape[:-1]))
-    return v.finite_output(np.asarray(_mv(X[..., :3, :3], x) + X[..., :3, 3]), "se23.act")
+    X = validate.extended_pose(X, "X")
+    x = validate.vector(x, "x", 3)
+    validate.batch_shape(("X", X.shape[:-2]), ("x", x.shape[:-1]))
+    return validate.finite_output(np.asarray(_mv(X[..., :3, :3], x) + X[..., :3, 3]), "se23.act")
 
 
 def interpolate(X0: Any, X1: Any, tau: Any) -> FloatArray:
     """Geodesic ``X0·Exp(τ·Log(X0⁻¹X1))``; ``τ`` broadcasts against the batch."""
-    X0, X1 = v.extended_pose(X0, "X0"), v.extended_pose(X1, "X1")
-    tau_ = v.as_float_array(tau, "tau")
-    v.check_finite(tau_, "tau", core_ndim=0)
-    v.batch_shape(("X0", X0.shape[:-2]), ("X1", X1.shape[:-2]), ("tau", tau_.shape))
+    X0, X1 = validate.extended_pose(X0, "X0"), validate.extended_pose(X1, "X1")
+    tau_ = validate.as_float_array(tau, "tau")
+    validate.check_finite(tau_, "tau", core_ndim=0)
+    validate.batch_shape(("X0", X0.shape[:-2]), ("X1", X1.shape[:-2]), ("tau", tau_.shape))
     xi = _tangent(tau_[..., None] * _log(_inverse(X0) @ X1), "tau·Log(X0⁻¹X1)")
-    return v.finite_output(np.asarray(X0 @ _exp(xi), dtype=np.float64), "se23.interpolate")
+    return validate.finite_output(np.asarray(X0 @ _exp(xi), dtype=np.float64), "se23.interpolate")

@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from . import so3
 from .series import (
@@ -192,7 +192,7 @@ def _jl_inv(xi: FloatArray) -> FloatArray:
 
 def hat(xi: Any) -> FloatArray:
     """Map a twist ``(ω, v)`` ``(..., 6)`` to ``[[hat(ω), v], [0, 0]]``, ``(..., 4, 4)``."""
-    xi = v.vector(xi, "xi", 6)
+    xi = validate.vector(xi, "xi", 6)
     out = np.zeros((*xi.shape[:-1], 4, 4))
     out[..., :3, :3] = so3._hat(xi[..., :3])
     out[..., :3, 3] = xi[..., 3:]
@@ -201,7 +201,7 @@ def hat(xi: Any) -> FloatArray:
 
 def vee(X: Any) -> FloatArray:
     """Inverse of :func:`hat`: ``(..., 4, 4)`` → ``(ω, v)`` ``(..., 6)``."""
-    X = v.square(X, "X", 4)
+    X = validate.square(X, "X", 4)
     return np.concatenate([so3.vee(X[..., :3, :3]), X[..., :3, 3]], axis=-1)
 
 
@@ -210,7 +210,7 @@ def exp(xi: Any) -> FloatArray:
 
     ``Exp(ξ) = [[Exp(ω), V(ω) v], [0, 1]]`` with ``V = so3.jl``. GTSAM ``Pose3.Expmap``.
     """
-    return v.finite_output(_exp(v.tangent(xi, "xi", 6)), "se3.exp")
+    return validate.finite_output(_exp(validate.tangent(xi, "xi", 6)), "se3.exp")
 
 
 def log(T: Any) -> FloatArray:
@@ -219,28 +219,28 @@ def log(T: Any) -> FloatArray:
     ``ω = so3.log(R)``, ``v = V(ω)⁻¹ t`` with ``V⁻¹ = so3.jl_inv`` (finite up to θ = π).
     GTSAM ``Pose3.Logmap``.
     """
-    return v.finite_output(_log(v.pose(T, "T")), "se3.log")
+    return validate.finite_output(_log(validate.pose(T, "T")), "se3.log")
 
 
 def inverse(T: Any) -> FloatArray:
     """Group inverse ``[[Rᵀ, −Rᵀ t], [0, 1]]``: ``inverse(T_world_body) = T_body_world``."""
-    return v.finite_output(_inverse(v.pose(T, "T")), "se3.inverse")
+    return validate.finite_output(_inverse(validate.pose(T, "T")), "se3.inverse")
 
 
 def compose(T1: Any, T2: Any) -> FloatArray:
     """Group product ``T1·T2`` (broadcast): ``compose(T_a_b, T_b_c) = T_a_c``."""
-    A, B = v.pose(T1, "T1"), v.pose(T2, "T2")
-    v.batch_shape(("T1", A.shape[:-2]), ("T2", B.shape[:-2]))
-    return v.finite_output(np.asarray(A @ B, dtype=np.float64), "se3.compose")
+    A, B = validate.pose(T1, "T1"), validate.pose(T2, "T2")
+    validate.batch_shape(("T1", A.shape[:-2]), ("T2", B.shape[:-2]))
+    return validate.finite_output(np.asarray(A @ B, dtype=np.float64), "se3.compose")
 
 
 def act(T: Any, p: Any) -> FloatArray:
     """Apply ``T`` to points: ``R p + t``; ``act(T_world_body, p_body) = p_world``, ``(..., 3)``."""
-    T = v.pose(T, "T")
-    p = v.vector(p, "p", 3)
-    v.batch_shape(("T", T.shape[:-2]), ("p", p.shape[:-1]))
+    T = validate.pose(T, "T")
+    p = validate.vector(p, "p", 3)
+    validate.batch_shape(("T", T.shape[:-2]), ("p", p.shape[:-1]))
     out = np.einsum("...ij,...j->...i", T[..., :3, :3], p) + T[..., :3, 3]
-    return v.finite_output(np.asarray(out, dtype=np.float64), "se3.act")
+    return validate.finite_output(np.asarray(out, dtype=np.float64), "se3.act")
 
 
 def adjoint(T: Any) -> FloatArray:
@@ -249,7 +249,7 @@ def adjoint(T: Any) -> FloatArray:
     Defining identity: ``T·Exp(ξ)·T⁻¹ = Exp(Ad_T ξ)``; ``Ad_{T1 T2} = Ad_{T1} Ad_{T2}``.
     GTSAM ``Pose3.AdjointMap``.
     """
-    return v.finite_output(_adjoint(v.pose(T, "T")), "se3.adjoint")
+    return validate.finite_output(_adjoint(validate.pose(T, "T")), "se3.adjoint")
 
 
 def ad(xi: Any) -> FloatArray:
@@ -257,29 +257,29 @@ def ad(xi: Any) -> FloatArray:
 
     ``ad_ξ η = [ξ, η]`` (Lie bracket); ``d/ds Ad(Exp(sξ))|₀ = ad_ξ``. GTSAM ``Pose3.adjointMap``.
     """
-    xi = v.vector(xi, "xi", 6)
+    xi = validate.vector(xi, "xi", 6)
     W = so3._hat(xi[..., :3])
     return _blocks(W, np.zeros_like(W), so3._hat(xi[..., 3:]), W)
 
 
 def jr(xi: Any) -> FloatArray:
     """Right Jacobian ``Exp(ξ + δ) ≈ Exp(ξ)·Exp(jr(ξ) δ)``, ``(..., 6, 6)``; ``jr(ξ) = jl(−ξ)``."""
-    return v.finite_output(_jl(-v.tangent(xi, "xi", 6)), "se3.jr")
+    return validate.finite_output(_jl(-validate.tangent(xi, "xi", 6)), "se3.jr")
 
 
 def jl(xi: Any) -> FloatArray:
     """Left Jacobian ``Exp(ξ + δ) ≈ Exp(jl(ξ) δ)·Exp(ξ)``, ``(..., 6, 6)``, Barfoot's Q-form."""
-    return v.finite_output(_jl(v.tangent(xi, "xi", 6)), "se3.jl")
+    return validate.finite_output(_jl(validate.tangent(xi, "xi", 6)), "se3.jl")
 
 
 def jr_inv(xi: Any) -> FloatArray:
     """Inverse right Jacobian (closed-form block inverse); GTSAM ``Pose3.LogmapDerivative``."""
-    return v.finite_output(_jl_inv(-v.tangent(xi, "xi", 6)), "se3.jr_inv")
+    return validate.finite_output(_jl_inv(-validate.tangent(xi, "xi", 6)), "se3.jr_inv")
 
 
 def jl_inv(xi: Any) -> FloatArray:
     """Inverse left Jacobian (closed-form block inverse), ``(..., 6, 6)``."""
-    return v.finite_output(_jl_inv(v.tangent(xi, "xi", 6)), "se3.jl_inv")
+    return validate.finite_output(_jl_inv(validate.tangent(xi, "xi", 6)), "se3.jl_inv")
 
 
 def interpolate(T0: Any, T1: Any, tau: Any) -> FloatArray:
@@ -288,11 +288,11 @@ def interpolate(T0: Any, T1: Any, tau: Any) -> FloatArray:
     ``tau`` broadcasts against the batch shape of ``T0``/``T1``; values outside [0, 1]
     extrapolate along the same screw.
     """
-    T0 = v.pose(T0, "T0")
-    T1 = v.pose(T1, "T1")
-    tau_ = v.as_float_array(tau, "tau")
-    v.check_finite(tau_, "tau", core_ndim=0)
-    v.batch_shape(("T0", T0.shape[:-2]), ("T1", T1.shape[:-2]), ("tau", tau_.shape))
-    xi = v.tangent(tau_[..., None] * _log(_inverse(T0) @ T1), "tau·Log(T0⁻¹T1)", 6)
+    T0 = validate.pose(T0, "T0")
+    T1 = validate.pose(T1, "T1")
+    tau_ = validate.as_float_array(tau, "tau")
+    validate.check_finite(tau_, "tau", core_ndim=0)
+    validate.batch_shape(("T0", T0.shape[:-2]), ("T1", T1.shape[:-2]), ("tau", tau_.shape))
+    xi = validate.tangent(tau_[..., None] * _log(_inverse(T0) @ T1), "tau·Log(T0⁻¹T1)", 6)
     out = np.asarray(T0 @ _exp(xi), dtype=np.float64)
-    return v.finite_output(out, "se3.interpolate")
+    return validate.finite_output(out, "se3.interpolate")

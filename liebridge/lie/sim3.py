@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from . import so3
 from .series import sim3_coeffs
@@ -147,12 +147,12 @@ def _jr_inv(xi: FloatArray) -> FloatArray:
 
 
 def _tangent(xi: Any, name: str = "xi") -> FloatArray:
-    return v.tangent(xi, name, 7, slice(0, 3))
+    return validate.tangent(xi, name, 7, slice(0, 3))
 
 
 def hat(xi: Any) -> FloatArray:
     """``(ω, u, λ)`` → ``[[hat(ω) + λI, u], [0, 0]]``, ``(..., 4, 4)``."""
-    xi = v.vector(xi, "xi", 7)
+    xi = validate.vector(xi, "xi", 7)
     out = np.zeros((*xi.shape[:-1], 4, 4))
     out[..., :3, :3] = so3._hat(xi[..., :3]) + xi[..., 6, None, None] * np.eye(3)
     out[..., :3, 3] = xi[..., 3:6]
@@ -161,71 +161,71 @@ def hat(xi: Any) -> FloatArray:
 
 def vee(X: Any) -> FloatArray:
     """Inverse of :func:`hat`: ω from the skew part, ``λ = tr/3`` of the top-left block, ``u``."""
-    X = v.square(X, "X", 4)
+    X = validate.square(X, "X", 4)
     lam = np.trace(X[..., :3, :3], axis1=-2, axis2=-1) / 3.0
     return np.concatenate([so3.vee(X[..., :3, :3]), X[..., :3, 3], lam[..., None]], axis=-1)
 
 
 def exp(xi: Any) -> FloatArray:
     """Sim(3) exponential ``(ω, u, λ)`` → ``[[e^λ Exp(ω), W u], [0, 1]]``, ``(..., 4, 4)``."""
-    return v.finite_output(_exp(_tangent(xi)), "sim3.exp")
+    return validate.finite_output(_exp(_tangent(xi)), "sim3.exp")
 
 
 def log(X: Any) -> FloatArray:
     """Sim(3) logarithm → ``(ω, u, λ)``, ``‖ω‖ ∈ [0, π]``. GTSAM ``Similarity3.Logmap``."""
-    return v.finite_output(_log(v.similarity(X, "X")), "sim3.log")
+    return validate.finite_output(_log(validate.similarity(X, "X")), "sim3.log")
 
 
 def jr(xi: Any) -> FloatArray:
     """Right Jacobian ``Exp(ξ + δ) ≈ Exp(ξ)·Exp(jr δ)``, ``(..., 7, 7)``."""
-    return v.finite_output(_jr(_tangent(xi)), "sim3.jr")
+    return validate.finite_output(_jr(_tangent(xi)), "sim3.jr")
 
 
 def jl(xi: Any) -> FloatArray:
     """Left Jacobian ``Exp(ξ + δ) ≈ Exp(jl δ)·Exp(ξ)``, ``(..., 7, 7)``."""
-    return v.finite_output(_jl(_tangent(xi)), "sim3.jl")
+    return validate.finite_output(_jl(_tangent(xi)), "sim3.jl")
 
 
 def jr_inv(xi: Any) -> FloatArray:
     """Inverse right Jacobian, ``(..., 7, 7)``."""
-    return v.finite_output(_jr_inv(_tangent(xi)), "sim3.jr_inv")
+    return validate.finite_output(_jr_inv(_tangent(xi)), "sim3.jr_inv")
 
 
 def jl_inv(xi: Any) -> FloatArray:
     """Inverse left Jacobian, ``(..., 7, 7)``."""
-    return v.finite_output(_jl_inv(_tangent(xi)), "sim3.jl_inv")
+    return validate.finite_output(_jl_inv(_tangent(xi)), "sim3.jl_inv")
 
 
 def adjoint(X: Any) -> FloatArray:
     """``Ad_X = [[R, 0, 0], [hat(t)R, sR, −t], [0, 0, 1]]`` in ``(ω, u, λ)``, ``(..., 7, 7)``."""
-    return v.finite_output(_adjoint(v.similarity(X, "X")), "sim3.adjoint")
+    return validate.finite_output(_adjoint(validate.similarity(X, "X")), "sim3.adjoint")
 
 
 def inverse(X: Any) -> FloatArray:
     """``[[Rᵀ/s, −Rᵀt/s], [0, 1]]``."""
-    return v.finite_output(_inverse(v.similarity(X, "X")), "sim3.inverse")
+    return validate.finite_output(_inverse(validate.similarity(X, "X")), "sim3.inverse")
 
 
 def compose(X1: Any, X2: Any) -> FloatArray:
     """``X1·X2`` (broadcast)."""
-    A, B = v.similarity(X1, "X1"), v.similarity(X2, "X2")
-    v.batch_shape(("X1", A.shape[:-2]), ("X2", B.shape[:-2]))
-    return v.finite_output(np.asarray(A @ B, dtype=np.float64), "sim3.compose")
+    A, B = validate.similarity(X1, "X1"), validate.similarity(X2, "X2")
+    validate.batch_shape(("X1", A.shape[:-2]), ("X2", B.shape[:-2]))
+    return validate.finite_output(np.asarray(A @ B, dtype=np.float64), "sim3.compose")
 
 
 def act(X: Any, p: Any) -> FloatArray:
     """``sRp + t`` for points ``(..., 3)`` (GTSAM ``transformFrom``)."""
-    X = v.similarity(X, "X")
-    p = v.vector(p, "p", 3)
-    v.batch_shape(("X", X.shape[:-2]), ("p", p.shape[:-1]))
-    return v.finite_output(np.asarray(_mv(X[..., :3, :3], p) + X[..., :3, 3]), "sim3.act")
+    X = validate.similarity(X, "X")
+    p = validate.vector(p, "p", 3)
+    validate.batch_shape(("X", X.shape[:-2]), ("p", p.shape[:-1]))
+    return validate.finite_output(np.asarray(_mv(X[..., :3, :3], p) + X[..., :3, 3]), "sim3.act")
 
 
 def interpolate(X0: Any, X1: Any, tau: Any) -> FloatArray:
     """Geodesic ``X0·Exp(τ·Log(X0⁻¹X1))``; ``τ`` broadcasts against the batch."""
-    X0, X1 = v.similarity(X0, "X0"), v.similarity(X1, "X1")
-    tau_ = v.as_float_array(tau, "tau")
-    v.check_finite(tau_, "tau", core_ndim=0)
-    v.batch_shape(("X0", X0.shape[:-2]), ("X1", X1.shape[:-2]), ("tau", tau_.shape))
+    X0, X1 = validate.similarity(X0, "X0"), validate.similarity(X1, "X1")
+    tau_ = validate.as_float_array(tau, "tau")
+    validate.check_finite(tau_, "tau", core_ndim=0)
+    validate.batch_shape(("X0", X0.shape[:-2]), ("X1", X1.shape[:-2]), ("tau", tau_.shape))
     xi = _tangent(tau_[..., None] * _log(_inverse(X0) @ X1), "tau·Log(X0⁻¹X1)")
-    return v.finite_output(np.asarray(X0 @ _exp(xi), dtype=np.float64), "sim3.interpolate")
+    return validate.finite_output(np.asarray(X0 @ _exp(xi), dtype=np.float64), "sim3.interpolate")

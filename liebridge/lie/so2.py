@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 
 __all__ = [
@@ -63,12 +63,12 @@ def _adjoint(R: FloatArray) -> FloatArray:
 
 
 def _tangent(w: Any) -> FloatArray:
-    return v.tangent(w, "w", 1, slice(0, 1))
+    return validate.tangent(w, "w", 1, slice(0, 1))
 
 
 def hat(w: Any) -> FloatArray:
     """``(θ,)`` → ``[[0, −θ], [θ, 0]]``, ``(..., 2, 2)``."""
-    w = v.vector(w, "w", 1)
+    w = validate.vector(w, "w", 1)
     out = np.zeros((*w.shape[:-1], 2, 2))
     out[..., 0, 1], out[..., 1, 0] = -w[..., 0], w[..., 0]
     return out
@@ -76,18 +76,18 @@ def hat(w: Any) -> FloatArray:
 
 def vee(W: Any) -> FloatArray:
     """Inverse of :func:`hat` (from the skew part), ``(..., 1)``."""
-    W = v.square(W, "W", 2)
+    W = validate.square(W, "W", 2)
     return np.asarray(0.5 * (W[..., 1, 0] - W[..., 0, 1]))[..., None]
 
 
 def exp(w: Any) -> FloatArray:
     """``Exp(θ)``, ``(..., 1)`` → ``(..., 2, 2)``. GTSAM ``Rot2.Expmap``."""
-    return v.finite_output(_exp(_tangent(w)), "so2.exp")
+    return validate.finite_output(_exp(_tangent(w)), "so2.exp")
 
 
 def log(R: Any) -> FloatArray:
     """``Log(R) = atan2(R₁₀, R₀₀) ∈ (−π, π]``, ``(..., 1)``. GTSAM ``Rot2.Logmap``."""
-    return _log(v.rotation2(R, "R"))
+    return _log(validate.rotation2(R, "R"))
 
 
 def jr(w: Any) -> FloatArray:
@@ -112,34 +112,34 @@ def jl_inv(w: Any) -> FloatArray:
 
 def adjoint(R: Any) -> FloatArray:
     """``Ad_R = [[1]]``: ``R·Exp(θ)·R⁻¹ = Exp(θ)``, ``(..., 1, 1)``."""
-    return _adjoint(v.rotation2(R, "R"))
+    return _adjoint(validate.rotation2(R, "R"))
 
 
 def inverse(R: Any) -> FloatArray:
     """``R⁻¹ = Rᵀ``."""
-    return _inverse(v.rotation2(R, "R"))
+    return _inverse(validate.rotation2(R, "R"))
 
 
 def compose(R1: Any, R2: Any) -> FloatArray:
     """``R1·R2`` (broadcast)."""
-    A, B = v.rotation2(R1, "R1"), v.rotation2(R2, "R2")
-    v.batch_shape(("R1", A.shape[:-2]), ("R2", B.shape[:-2]))
+    A, B = validate.rotation2(R1, "R1"), validate.rotation2(R2, "R2")
+    validate.batch_shape(("R1", A.shape[:-2]), ("R2", B.shape[:-2]))
     return np.asarray(A @ B, dtype=np.float64)
 
 
 def act(R: Any, p: Any) -> FloatArray:
     """``R p`` for 2-D points ``(..., 2)``."""
-    R = v.rotation2(R, "R")
-    p = v.vector(p, "p", 2)
-    v.batch_shape(("R", R.shape[:-2]), ("p", p.shape[:-1]))
-    return v.finite_output(np.einsum("...ij,...j->...i", R, p), "so2.act")
+    R = validate.rotation2(R, "R")
+    p = validate.vector(p, "p", 2)
+    validate.batch_shape(("R", R.shape[:-2]), ("p", p.shape[:-1]))
+    return validate.finite_output(np.einsum("...ij,...j->...i", R, p), "so2.act")
 
 
 def interpolate(R0: Any, R1: Any, tau: Any) -> FloatArray:
     """``R0·Exp(τ·Log(R0⁻¹R1))`` (the shorter arc; τ broadcasts)."""
-    R0, R1 = v.rotation2(R0, "R0"), v.rotation2(R1, "R1")
-    tau_ = v.as_float_array(tau, "tau")
-    v.check_finite(tau_, "tau", core_ndim=0)
-    v.batch_shape(("R0", R0.shape[:-2]), ("R1", R1.shape[:-2]), ("tau", tau_.shape))
+    R0, R1 = validate.rotation2(R0, "R0"), validate.rotation2(R1, "R1")
+    tau_ = validate.as_float_array(tau, "tau")
+    validate.check_finite(tau_, "tau", core_ndim=0)
+    validate.batch_shape(("R0", R0.shape[:-2]), ("R1", R1.shape[:-2]), ("tau", tau_.shape))
     w = tau_[..., None] * _log(_inverse(R0) @ R1)
-    return v.finite_output(np.asarray(R0 @ _exp(w), dtype=np.float64), "so2.interpolate")
+    return validate.finite_output(np.asarray(R0 @ _exp(w), dtype=np.float64), "so2.interpolate")

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from .series import jinv_coeff, one_minus_cos_over_t2, sinc, t_minus_sin_over_t3
 
@@ -117,7 +117,7 @@ def hat(w: Any) -> FloatArray:
     ndarray, shape (..., 3, 3)
         ``hat(w) @ p == cross(w, p)``.
     """
-    return _hat(v.vector(w, "w", 3))
+    return _hat(validate.vector(w, "w", 3))
 
 
 def vee(W: Any) -> FloatArray:
@@ -125,12 +125,12 @@ def vee(W: Any) -> FloatArray:
 
     Uses ``(W − Wᵀ)/2`` so that a slightly non-skew input gives its nearest skew matrix's vector.
     """
-    W = v.square(W, "W", 3)
+    W = validate.square(W, "W", 3)
     w = 0.5 * np.stack(
         [W[..., 2, 1] - W[..., 1, 2], W[..., 0, 2] - W[..., 2, 0], W[..., 1, 0] - W[..., 0, 1]],
         axis=-1,
     )
-    return v.finite_output(w, "so3.vee")
+    return validate.finite_output(w, "so3.vee")
 
 
 def exp(w: Any) -> FloatArray:
@@ -138,7 +138,7 @@ def exp(w: Any) -> FloatArray:
 
     ``Exp(ω) = I + (sin θ/θ) hat(ω) + ((1 − cos θ)/θ²) hat(ω)²``, Taylor series near 0.
     """
-    return v.finite_output(_exp(v.tangent(w, "w", 3)), "so3.exp")
+    return validate.finite_output(_exp(validate.tangent(w, "w", 3)), "so3.exp")
 
 
 def _log(R: FloatArray) -> FloatArray:
@@ -186,32 +186,32 @@ def log(R: Any) -> FloatArray:
     at θ = π exactly both ``±π u`` are logarithms and the one with the sign of that column is
     returned. Raises ``ValueError`` on a non-rotation (see :mod:`liebridge._validate`).
     """
-    return _log(v.rotation(R, "R"))
+    return _log(validate.rotation(R, "R"))
 
 
 def jr(w: Any) -> FloatArray:
     """Right Jacobian of SO(3): ``I − B hat(ω) + C hat(ω)²``; ``Exp(ω+δ) ≈ Exp(ω) Exp(jr δ)``."""
-    return v.finite_output(_jr(v.tangent(w, "w", 3)), "so3.jr")
+    return validate.finite_output(_jr(validate.tangent(w, "w", 3)), "so3.jr")
 
 
 def jl(w: Any) -> FloatArray:
     """Left Jacobian of SO(3): ``I + B hat(ω) + C hat(ω)²`` ``= jr(−ω)``; also SE(3)'s ``V(ω)``."""
-    return v.finite_output(_jl(v.tangent(w, "w", 3)), "so3.jl")
+    return validate.finite_output(_jl(validate.tangent(w, "w", 3)), "so3.jl")
 
 
 def jr_inv(w: Any) -> FloatArray:
     """Inverse right Jacobian, closed form ``I + ½ hat(ω) + D hat(ω)²``, finite up to θ = π."""
-    return v.finite_output(_jr_inv(v.tangent(w, "w", 3)), "so3.jr_inv")
+    return validate.finite_output(_jr_inv(validate.tangent(w, "w", 3)), "so3.jr_inv")
 
 
 def jl_inv(w: Any) -> FloatArray:
     """Inverse left Jacobian ``I − ½ hat(ω) + D hat(ω)²`` ``= jr_inv(−ω)``; SE(3)'s ``V(ω)⁻¹``."""
-    return v.finite_output(_jl_inv(v.tangent(w, "w", 3)), "so3.jl_inv")
+    return validate.finite_output(_jl_inv(validate.tangent(w, "w", 3)), "so3.jl_inv")
 
 
 def adjoint(R: Any) -> FloatArray:
     """Adjoint of SO(3), which is ``R`` itself: ``R·Exp(ω)·Rᵀ = Exp(R ω)``. Returns a copy."""
-    return np.array(v.rotation(R, "R"), dtype=np.float64, copy=True)
+    return np.array(validate.rotation(R, "R"), dtype=np.float64, copy=True)
 
 
 def project(M: Any) -> FloatArray:
@@ -220,7 +220,7 @@ def project(M: Any) -> FloatArray:
     An explicit opt-in for inputs that drifted from orthonormality; nothing in liebridge calls it
     silently.
     """
-    M = v.square(M, "M", 3)
+    M = validate.square(M, "M", 3)
     U, _, Vt = np.linalg.svd(M)
     d = np.sign(np.linalg.det(U @ Vt))
     d = np.where(d == 0, 1.0, d)

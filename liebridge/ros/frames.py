@@ -25,7 +25,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from ..conventions import convert_covariance
 from ..io.poses import from_matrix
@@ -58,7 +58,7 @@ def transform_messages(msgs: RosMessages, T_new_old: Any, new_frame_id: str) -> 
         raise TypeError(f"msgs: expected RosMessages, got {type(msgs).__name__}")
     if msgs.msgtype == "sensor_msgs/msg/Imu":
         raise ValueError("msgs: sensor_msgs/Imu carries no pose to transform")
-    Tf = v.pose(T_new_old, "T_new_old")
+    Tf = validate.pose(T_new_old, "T_new_old")
     if Tf.shape != (4, 4):
         raise ValueError(f"T_new_old: expected one pose (4, 4), got {Tf.shape}")
     n = len(msgs)

@@ -33,7 +33,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from ..conventions import convert_covariance, tangent_map
 from ..gtsam import between, from_values, marginals, prior
@@ -183,7 +183,7 @@ def messages_from_gtsam(
     ks = [int(k) for k in keys]
     T = from_values(values, ks)
     cov = marginals(graph, values, ks, "ros", marginals_object=marginals_object)
-    t = v.as_float_array(stamps, "stamps")
+    t = validate.as_float_array(stamps, "stamps")
     return from_poses(
         T,
         cov,
@@ -255,14 +255,14 @@ def odometry_from_navstate(
     dropped : DroppedCrossCovariance
         The pose–twist cross-covariance the message cannot carry.
     """
-    Tm = v.pose(T, "T")
+    Tm = validate.pose(T, "T")
     if Tm.ndim != 3:
         raise ValueError(f"T: expected shape (N, 4, 4), got {Tm.shape}")
     n = Tm.shape[0]
-    vw = v.vector(v_world, "v_world", 3)
-    S = v.covariance(cov_joint, "cov_joint", 9)
-    om = v.vector(omega_body, "omega_body", 3)
-    oc = v.covariance(omega_cov, "omega_cov", 3)
+    vw = validate.vector(v_world, "v_world", 3)
+    S = validate.covariance(cov_joint, "cov_joint", 9)
+    om = validate.vector(omega_body, "omega_body", 3)
+    oc = validate.covariance(omega_cov, "omega_cov", 3)
     for name, a, shape in (
         ("v_world", vw, (n, 3)),
         ("cov_joint", S, (n, 9, 9)),

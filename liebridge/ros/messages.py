@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import QUATERNION_TOL, FloatArray
 from ..conventions import Convention, ConventionLike, convert_covariance, get
 from ..io.poses import from_matrix
@@ -225,7 +225,7 @@ class RosMessages:
                 if required:
                     raise ValueError(f"{name}: required for {mt}")
                 return None
-            a = v.as_float_array(value, name)
+            a = validate.as_float_array(value, name)
             if a.shape != (n, width):
                 k = next((i for i in range(min(n, len(a))) if np.shape(a[i]) != (width,)), None)
                 at = f" (message row {k})" if k is not None else ""
@@ -351,7 +351,7 @@ class RosMessages:
     def _check_cov(self, cov: FloatArray, field_name: str) -> None:
         for k in range(cov.shape[0]):
             try:
-                v.covariance(cov[k], field_name, 6)
+                validate.covariance(cov[k], field_name, 6)
             except ValueError as exc:
                 raise ValueError(
                     f"{self._where(k)}: {exc} — cannot convert it to {self.convention.name!r}"
@@ -396,10 +396,10 @@ class RosMessages:
 
 def _stamps_split(stamps: Any, n: int) -> tuple[IntArray, IntArray]:
     """Seconds → (sec, nanosec), rounded to the nearest nanosecond."""
-    t = v.as_float_array(stamps, "stamps")
+    t = validate.as_float_array(stamps, "stamps")
     if t.shape != (n,):
         raise ValueError(f"stamps: expected shape ({n},), got {t.shape}")
-    v.check_finite(t, "stamps")
+    validate.check_finite(t, "stamps")
     ns = np.round(t * 1e9).astype(np.int64)
     return ns // 1_000_000_000, ns % 1_000_000_000
 
@@ -448,7 +448,7 @@ def from_poses(
     mt = normalize_msgtype(msgtype)
     if mt == _IMU:
         raise ValueError("msgtype: from_poses does not build sensor_msgs/Imu messages")
-    Tm = v.pose(T, "T")
+    Tm = validate.pose(T, "T")
     if Tm.ndim != 3:
         raise ValueError(f"T: expected shape (N, 4, 4), got {Tm.shape}")
     n = Tm.shape[0]
@@ -459,7 +459,7 @@ def from_poses(
         if cov is None:
             c_ros = np.zeros((n, 6, 6))
         else:
-            c = v.covariance(cov, "cov", 6)
+            c = validate.covariance(cov, "cov", 6)
             if c.shape != (n, 6, 6):
                 raise ValueError(f"cov: expected shape ({n}, 6, 6), got {c.shape}")
             c_ros = c if conv.name == "ros" else convert_covariance(c, Tm, conv, "ros")
@@ -480,8 +480,10 @@ def from_poses(
             "base_link" if child_frame_id is None else child_frame_id, "child_frame_id"
         )
     if mt == _ODOM:
-        tw = np.zeros((n, 6)) if twist is None else v.vector(twist, "twist", 6)
-        twc = np.zeros((n, 6, 6)) if twist_cov is None else v.square(twist_cov, "twist_cov", 6)
+        tw = np.zeros((n, 6)) if twist is None else validate.vector(twist, "twist", 6)
+        twc = (
+            np.zeros((n, 6, 6)) if twist_cov is None else validate.square(twist_cov, "twist_cov", 6)
+        )
         if tw.shape != (n, 6) or twc.shape != (n, 6, 6):
             raise ValueError(f"twist, twist_cov: expected shapes ({n}, 6), ({n}, 6, 6)")
         if conv.order == "rot_first":

@@ -31,7 +31,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from ..conventions import ConventionLike, get
 from ..conventions import unchecked as cu
@@ -78,7 +78,7 @@ class Alignment:
         ----------
         T_est : array_like, shape (..., 4, 4)
         """
-        T = v.pose(T_est, "T_est")
+        T = validate.pose(T_est, "T_est")
         out = np.array(T, dtype=np.float64, copy=True)
         out[..., :3, :3] = self.R_ref_est @ T[..., :3, :3]
         out[..., :3, 3] = (self.scale * T[..., :3, 3]) @ self.R_ref_est.T + self.t_ref_est
@@ -90,7 +90,7 @@ class Alignment:
         Both increments are in ``convention`` (see the module docstring), shape (..., 6, 6).
         """
         conv = get(convention)
-        T = v.pose(T_est, "T_est")
+        T = validate.pose(T_est, "T_est")
         D = np.diag([1.0, 1.0, 1.0, self.scale, self.scale, self.scale])
         J = cu.from_canonical(conv, self.apply(T)) @ D @ cu.to_canonical(conv, T)
         return np.asarray(J, dtype=np.float64)
@@ -114,15 +114,15 @@ class Alignment:
         ndarray, shape (..., 6, 6)
             In ``convention``'s tangent at ``apply(T_est)``.
         """
-        cov = v.covariance(cov_est, "cov_est", 6)
+        cov = validate.covariance(cov_est, "cov_est", 6)
         J = self.covariance_map(T_est, convention)
-        v.batch_shape(("T_est", J.shape[:-2]), ("cov_est", cov.shape[:-2]))
+        validate.batch_shape(("T_est", J.shape[:-2]), ("cov_est", cov.shape[:-2]))
         out = J @ cov @ np.swapaxes(J, -1, -2)
         return np.asarray(0.5 * (out + np.swapaxes(out, -1, -2)), dtype=np.float64)
 
 
 def _positions(x: Any, name: str) -> FloatArray:
-    p = v.vector(x, name, 3)
+    p = validate.vector(x, name, 3)
     if p.ndim != 2:
         raise ValueError(f"{name}: expected shape (N, 3), got {p.shape}")
     return p
@@ -191,8 +191,8 @@ def align(T_ref: Any, T_est: Any, kind: AlignmentKind | str = "se3") -> Alignmen
     Use ``alignment.apply(T_est)`` for the aligned poses and
     ``alignment.transform_covariance(T_est, cov, convention)`` for their covariances.
     """
-    Tr = v.pose(T_ref, "T_ref")
-    Te = v.pose(T_est, "T_est")
+    Tr = validate.pose(T_ref, "T_ref")
+    Te = validate.pose(T_est, "T_est")
     if Tr.ndim != 3 or Te.ndim != 3:
         raise ValueError(f"T_ref, T_est: expected shape (N, 4, 4), got {Tr.shape}, {Te.shape}")
     return umeyama(Te[:, :3, 3], Tr[:, :3, 3], kind)

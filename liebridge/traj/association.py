@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 
 __all__ = ["MAX_DIFF", "associate", "check_timestamps"]
@@ -39,12 +39,12 @@ def check_timestamps(t: Any, name: str) -> FloatArray:
     ValueError
         Naming ``name``, the first index where a stamp does not increase and both stamps.
     """
-    arr = v.as_float_array(t, name)
+    arr = validate.as_float_array(t, name)
     if arr.ndim != 1:
         raise ValueError(f"{name}: expected shape (N,), got {arr.shape}")
     if arr.size == 0:
         raise ValueError(f"{name}: no poses")
-    v.check_finite(arr, name, core_ndim=0)
+    validate.check_finite(arr, name, core_ndim=0)
     bad = np.flatnonzero(np.diff(arr) <= 0.0)
     if bad.size:
         i = int(bad[0]) + 1

@@ -28,7 +28,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from ..conventions import ConventionLike, get
 from ..conventions import unchecked as cu
@@ -45,10 +45,10 @@ Method = Literal["geodesic", "lerp_slerp"]
 def _bracket(
     t_query: Any, t: Any
 ) -> tuple[FloatArray, np.ndarray[Any, np.dtype[np.intp]], FloatArray]:
-    tq = v.as_float_array(t_query, "t_query")
+    tq = validate.as_float_array(t_query, "t_query")
     if tq.ndim != 1:
         raise ValueError(f"t_query: expected shape (M,), got {tq.shape}")
-    v.check_finite(tq, "t_query", core_ndim=0)
+    validate.check_finite(tq, "t_query", core_ndim=0)
     ts = check_timestamps(t, "t")
     if ts.size < 2:
         raise ValueError(f"t: interpolation needs at least 2 poses, got {ts.size}")
@@ -99,7 +99,7 @@ def interpolate_poses(
     if method not in METHODS:
         raise ValueError(f"method: expected one of {', '.join(METHODS)}, got {method!r}")
     _, i, tau = _bracket(t_query, t)
-    Tp = v.pose(T, "T")
+    Tp = validate.pose(T, "T")
     if Tp.ndim != 3 or Tp.shape[0] != np.asarray(t).shape[0]:
         raise ValueError(f"T: expected shape ({np.asarray(t).shape[0]}, 4, 4), got {Tp.shape}")
     return _interp(Tp[i], Tp[i + 1], tau, method)
@@ -132,8 +132,8 @@ def interpolate_covariances(
     conv = get(convention)
     Tq = interpolate_poses(t_query, t, T, method)
     _, i, tau = _bracket(t_query, t)
-    Tp = v.pose(T, "T")
-    C = v.covariance(cov, "cov", 6)
+    Tp = validate.pose(T, "T")
+    C = validate.covariance(cov, "cov", 6)
     if C.ndim != 3 or C.shape[0] != Tp.shape[0]:
         raise ValueError(
             f"cov: {C.shape[0] if C.ndim == 3 else C.shape} covariances for {Tp.shape[0]} poses"

@@ -31,7 +31,7 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from ..lie import unchecked as lu
 
@@ -84,10 +84,10 @@ class Statistics:
 
 def statistics(errors: Any) -> Statistics:
     """Statistics of a non-empty 1-D error array."""
-    e = v.as_float_array(errors, "errors")
+    e = validate.as_float_array(errors, "errors")
     if e.ndim != 1 or e.size == 0:
         raise ValueError(f"errors: expected a non-empty shape (N,), got {e.shape}")
-    v.check_finite(e, "errors", core_ndim=0)
+    validate.check_finite(e, "errors", core_ndim=0)
     sq = e * e
     return Statistics(
         rmse=float(np.sqrt(np.mean(sq))),
@@ -102,8 +102,8 @@ def statistics(errors: Any) -> Statistics:
 
 
 def _pair(T_ref: Any, T_est: Any) -> tuple[FloatArray, FloatArray]:
-    Tr = v.pose(T_ref, "T_ref")
-    Te = v.pose(T_est, "T_est")
+    Tr = validate.pose(T_ref, "T_ref")
+    Te = validate.pose(T_est, "T_est")
     if Tr.ndim != 3 or Tr.shape != Te.shape:
         raise ValueError(
             f"T_ref, T_est: expected two (N, 4, 4) arrays of associated poses, got {Tr.shape} "
@@ -157,7 +157,7 @@ def rpe_pairs(
     ValueError
         For ``delta`` not positive (not an integer for frames), an unknown unit, or no pair.
     """
-    Tp = v.pose(T, "T")
+    Tp = validate.pose(T, "T")
     n = Tp.shape[0]
     if unit == "frames":
         if not (float(delta).is_integer() and delta >= 1):
@@ -305,7 +305,7 @@ def kitti_segment_errors(
         When no segment of any length fits in the trajectory.
     """
     Q, P = _pair(T_ref, T_est)
-    Ls = v.as_float_array(lengths, "lengths").reshape(-1)
+    Ls = validate.as_float_array(lengths, "lengths").reshape(-1)
     if Ls.size == 0 or not (np.isfinite(Ls).all() and (Ls > 0).all()):
         raise ValueError(f"lengths: expected positive segment lengths, got {Ls.tolist()}")
     if step < 1:

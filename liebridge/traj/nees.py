@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from ..conventions import ConventionLike, get
 from ..conventions import unchecked as cu
@@ -121,18 +121,18 @@ def nees(
         positive definite (naming the pose index).
     """
     conv = get(convention)
-    Tr = v.pose(T_ref, "T_ref")
-    Te = v.pose(T_est, "T_est")
+    Tr = validate.pose(T_ref, "T_ref")
+    Te = validate.pose(T_est, "T_est")
     if Tr.ndim != 3 or Tr.shape != Te.shape:
         raise ValueError(f"T_ref, T_est: expected two (N, 4, 4) arrays, got {Tr.shape}, {Te.shape}")
-    cov = v.as_float_array(cov_est, "cov_est")
+    cov = validate.as_float_array(cov_est, "cov_est")
     if cov.ndim != 3 or cov.shape[1:] != (6, 6):
         raise ValueError(f"cov_est: expected shape (N, 6, 6), got {cov.shape}")
     if cov.shape[0] != Te.shape[0]:
         raise ValueError(
             f"cov_est: {cov.shape[0]} covariances for {Te.shape[0]} poses of the estimate"
         )
-    cov = v.covariance(cov, "cov_est", 6)
+    cov = validate.covariance(cov, "cov_est", 6)
     e = cu.local(conv, Te, Tr)
     try:
         L = np.linalg.cholesky(cov)

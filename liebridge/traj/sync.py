@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from ..conventions import ConventionLike
 from .association import MAX_DIFF, associate, check_timestamps
@@ -87,15 +87,15 @@ def synchronize(
     """
     a = check_timestamps(t_ref, "t_ref")
     b = check_timestamps(t_est, "t_est")
-    Tr = v.pose(T_ref, "T_ref")
-    Te = v.pose(T_est, "T_est")
+    Tr = validate.pose(T_ref, "T_ref")
+    Te = validate.pose(T_est, "T_est")
     if Tr.shape != (a.size, 4, 4):
         raise ValueError(f"T_ref: expected shape ({a.size}, 4, 4) to match t_ref, got {Tr.shape}")
     if Te.shape != (b.size, 4, 4):
         raise ValueError(f"T_est: expected shape ({b.size}, 4, 4) to match t_est, got {Te.shape}")
     C = None
     if cov_est is not None:
-        C = v.as_float_array(cov_est, "cov_est")
+        C = validate.as_float_array(cov_est, "cov_est")
         if C.ndim != 3 or C.shape[1:] != (6, 6):
             raise ValueError(f"cov_est: expected shape (M, 6, 6), got {C.shape}")
         if C.shape[0] != b.size:

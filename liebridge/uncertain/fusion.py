@@ -21,7 +21,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from ..conventions import Convention, unchecked
 from .ops import _check_pair, _check_uncertain, _sym
@@ -82,7 +82,7 @@ def _average(est: list[UncertainPose], names: tuple[str, ...]) -> UncertainPose:
         raise ValueError("estimates: need at least one UncertainPose")
     shape = _check_uncertain(est[0], names[0]).batch_shape
     for i, E in enumerate(est[1:], 1):
-        shape = v.batch_shape(
+        shape = validate.batch_shape(
             (names[0], shape), (names[i], _check_pair(est[0], E, names[0], names[i]))
         )
     c = est[0].convention

@@ -43,7 +43,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from ..conventions import CANONICAL, Convention, group_input, unchecked
 from ..conventions.cubature import cubature_rule_5, sqrt_psd
@@ -98,7 +98,7 @@ def _check_pair(A: Any, B: Any, na: str = "A", nb: str = "B") -> tuple[int, ...]
             f"{nb}.to({na}.convention)"
         )
     try:
-        return v.batch_shape((na, A.batch_shape), (nb, B.batch_shape))
+        return validate.batch_shape((na, A.batch_shape), (nb, B.batch_shape))
     except ValueError as exc:
         raise ValueError(f"{na}, {nb}: {exc}") from None
 
@@ -109,11 +109,11 @@ def _joint(
     """``[[Σ_A, cross], [crossᵀ, Σ_B]]`` validated positive semi-definite."""
     n = A.dim
     if cross is not None:
-        X = v.as_float_array(cross, "cross")
+        X = validate.as_float_array(cross, "cross")
         if X.ndim < 2 or X.shape[-2:] != (n, n):
             raise ValueError(f"cross: expected shape (..., {n}, {n}), got {X.shape}")
-        v.check_finite(X, "cross", core_ndim=2)
-        shape = v.batch_shape(("A and B", shape), ("cross", X.shape[:-2]))
+        validate.check_finite(X, "cross", core_ndim=2)
+        shape = validate.batch_shape(("A and B", shape), ("cross", X.shape[:-2]))
     J = np.zeros((*shape, 2 * n, 2 * n))
     J[..., :n, :n] = A.cov
     J[..., n:, n:] = B.cov
@@ -121,7 +121,7 @@ def _joint(
         return J, shape
     J[..., :n, n:] = X
     J[..., n:, :n] = np.swapaxes(X, -1, -2)
-    v.covariance(J, "cross (the joint covariance [[A.cov, cross], [crossᵀ, B.cov]])", 2 * n)
+    validate.covariance(J, "cross (the joint covariance [[A.cov, cross], [crossᵀ, B.cov]])", 2 * n)
     return J, shape
 
 
@@ -309,7 +309,11 @@ def transform(
     if isinstance(T_fixed, UncertainPose):
         _check_pair(A, T_fixed, "A", "T_fixed")
         if side == "left":
-            X = None if cross is None else np.swapaxes(v.as_float_array(cross, "cross"), -1, -2)
+            X = (
+                None
+                if cross is None
+                else np.swapaxes(validate.as_float_array(cross, "cross"), -1, -2)
+            )
             return compose(T_fixed, A, X, method)
         return compose(A, T_fixed, cross, method)
     if cross is not None:
@@ -317,7 +321,7 @@ def transform(
     F = group_input(_matrix_of(T_fixed), "T_fixed")
     if F.shape[-2:] != A.T.shape[-2:]:
         raise ValueError(f"T_fixed: a {F.shape[-2:]} matrix, but A holds {A.T.shape[-2:]}")
-    shape = v.batch_shape(("A", A.batch_shape), ("T_fixed", F.shape[:-2]))
+    shape = validate.batch_shape(("A", A.batch_shape), ("T_fixed", F.shape[:-2]))
     c = A.convention
     TA, F = _bshape(A.T, shape), _bshape(F, shape)
     TC = np.asarray(F @ TA if side == "left" else TA @ F, dtype=np.float64)
@@ -355,9 +359,11 @@ def act(A: UncertainPose, p: Any, cov_p: Any = None, method: Method = "linear") 
     """
     A = _check_uncertain(A, "A")
     _check_method(method)
-    pa = v.vector(p, "p", 3)
-    Cp = np.zeros((3, 3)) if cov_p is None else v.covariance(cov_p, "cov_p", 3)
-    shape = v.batch_shape(("A", A.batch_shape), ("p", pa.shape[:-1]), ("cov_p", Cp.shape[:-2]))
+    pa = validate.vector(p, "p", 3)
+    Cp = np.zeros((3, 3)) if cov_p is None else validate.covariance(cov_p, "cov_p", 3)
+    shape = validate.batch_shape(
+        ("A", A.batch_shape), ("p", pa.shape[:-1]), ("cov_p", Cp.shape[:-2])
+    )
     c, n = A.convention, A.dim
     TA = _bshape(A.T, shape)
     pa = np.broadcast_to(pa, (*shape, 3))

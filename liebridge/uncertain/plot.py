@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from .ops import act
 from .pose import UncertainPoint, UncertainPose
@@ -49,8 +49,8 @@ def ellipse_points(mean: Any, cov: Any, n_sigma: float = 2.0, num: int = 100) ->
 
     A singular ``Σ`` gives a degenerate (segment or point) ellipse, not an error.
     """
-    m = v.vector(mean, "mean", 2)
-    C = v.covariance(cov, "cov", 2)
+    m = validate.vector(mean, "mean", 2)
+    C = validate.covariance(cov, "cov", 2)
     a = np.linspace(0.0, 2.0 * np.pi, num)
     circle = np.stack([np.cos(a), np.sin(a)], axis=-1)
     return np.asarray(m + n_sigma * circle @ _sqrt(C).T, dtype=np.float64)
@@ -60,8 +60,8 @@ def ellipsoid_points(
     mean: Any, cov: Any, n_sigma: float = 2.0, num: int = 24
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Surface grids ``(x, y, z)``, each ``(num, num)``, of the 3-D ``n_sigma`` ellipsoid."""
-    m = v.vector(mean, "mean", 3)
-    C = v.covariance(cov, "cov", 3)
+    m = validate.vector(mean, "mean", 3)
+    C = validate.covariance(cov, "cov", 3)
     uu, vv = np.meshgrid(np.linspace(0, 2 * np.pi, num), np.linspace(0, np.pi, num))
     sphere = np.stack([np.cos(uu) * np.sin(vv), np.sin(uu) * np.sin(vv), np.cos(vv)], axis=-1)
     pts = m + n_sigma * sphere @ _sqrt(C).T

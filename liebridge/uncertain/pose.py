@@ -15,7 +15,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from .. import _validate as v
+from .. import _validate as validate
 from .._validate import FloatArray
 from ..conventions import Convention, ConventionLike, convert_covariance, get, group_input
 
@@ -74,8 +74,8 @@ class UncertainPose:
         conv = get(convention)
         Ta = group_input(_matrix_of(T), "T")
         n = 3 if Ta.shape[-1] == 3 else 6
-        C = v.covariance(cov, "cov", n)
-        shape = v.batch_shape(("T", Ta.shape[:-2]), ("cov", C.shape[:-2]))
+        C = validate.covariance(cov, "cov", n)
+        shape = validate.batch_shape(("T", Ta.shape[:-2]), ("cov", C.shape[:-2]))
         object.__setattr__(self, "T", _frozen(np.broadcast_to(Ta, (*shape, *Ta.shape[-2:]))))
         object.__setattr__(self, "cov", _frozen(np.broadcast_to(C, (*shape, n, n))))
         object.__setattr__(self, "convention", conv)
@@ -168,9 +168,9 @@ class UncertainPoint:
     cov: FloatArray
 
     def __init__(self, p: Any, cov: Any) -> None:
-        pa = v.vector(p, "p", 3)
-        C = v.covariance(cov, "cov", 3)
-        shape = v.batch_shape(("p", pa.shape[:-1]), ("cov", C.shape[:-2]))
+        pa = validate.vector(p, "p", 3)
+        C = validate.covariance(cov, "cov", 3)
+        shape = validate.batch_shape(("p", pa.shape[:-1]), ("cov", C.shape[:-2]))
         object.__setattr__(self, "p", _frozen(np.broadcast_to(pa, (*shape, 3))))
         object.__setattr__(self, "cov", _frozen(np.broadcast_to(C, (*shape, 3, 3))))
 
