@@ -28,6 +28,7 @@ import numpy as np
 
 from .. import _validate as validate
 from .._validate import FloatArray
+from . import _matrix_group as _mg
 from .series import one_minus_cos_over_t2, sinc, t_minus_sin_over_t3
 
 __all__ = [
@@ -211,25 +212,17 @@ def inverse(T: Any) -> FloatArray:
 
 def compose(T1: Any, T2: Any) -> FloatArray:
     """``T1·T2`` (broadcast): ``compose(T_a_b, T_b_c) = T_a_c``."""
-    A, B = validate.pose2(T1, "T1"), validate.pose2(T2, "T2")
-    validate.batch_shape(("T1", A.shape[:-2]), ("T2", B.shape[:-2]))
-    return validate.finite_output(np.asarray(A @ B, dtype=np.float64), "se2.compose")
+    return _mg.compose(T1, T2, validate.pose2, ("T1", "T2"), "se2.compose")
 
 
 def act(T: Any, p: Any) -> FloatArray:
     """``R p + t`` for 2-D points ``(..., 2)``: ``act(T_world_body, p_body) = p_world``."""
-    T = validate.pose2(T, "T")
-    p = validate.vector(p, "p", 2)
-    validate.batch_shape(("T", T.shape[:-2]), ("p", p.shape[:-1]))
-    out = np.einsum("...ij,...j->...i", T[..., :2, :2], p) + T[..., :2, 2]
-    return validate.finite_output(np.asarray(out, dtype=np.float64), "se2.act")
+    return _mg.act(T, p, validate.pose2, 2, ("T", "p"), "se2.act")
 
 
 def interpolate(T0: Any, T1: Any, tau: Any) -> FloatArray:
     """Geodesic ``T0·Exp(τ·Log(T0⁻¹T1))``; ``τ`` broadcasts against the batch."""
-    T0, T1 = validate.pose2(T0, "T0"), validate.pose2(T1, "T1")
-    tau_ = validate.as_float_array(tau, "tau")
-    validate.check_finite(tau_, "tau", core_ndim=0)
-    validate.batch_shape(("T0", T0.shape[:-2]), ("T1", T1.shape[:-2]), ("tau", tau_.shape))
-    xi = _tangent(tau_[..., None] * _log(_inverse(T0) @ T1), "tau·Log(T0⁻¹T1)")
-    return validate.finite_output(np.asarray(T0 @ _exp(xi), dtype=np.float64), "se2.interpolate")
+    ops = (_log, _exp, _inverse)
+    return _mg.interpolate(
+        T0, T1, tau, validate.pose2, _tangent, ops, ("T0", "T1"), "se2.interpolate"
+    )

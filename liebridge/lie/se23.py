@@ -24,6 +24,7 @@ import numpy as np
 
 from .. import _validate as validate
 from .._validate import FloatArray
+from . import _matrix_group as _mg
 from . import se3, so3
 
 __all__ = [
@@ -179,24 +180,17 @@ def inverse(X: Any) -> FloatArray:
 
 def compose(X1: Any, X2: Any) -> FloatArray:
     """``X1·X2`` (broadcast): ``(R1R2, p1 + R1p2, v1 + R1v2)``."""
-    A, B = validate.extended_pose(X1, "X1"), validate.extended_pose(X2, "X2")
-    validate.batch_shape(("X1", A.shape[:-2]), ("X2", B.shape[:-2]))
-    return validate.finite_output(np.asarray(A @ B, dtype=np.float64), "se23.compose")
+    return _mg.compose(X1, X2, validate.extended_pose, ("X1", "X2"), "se23.compose")
 
 
 def act(X: Any, x: Any) -> FloatArray:
     """Apply the pose part to points: ``R x + p``, ``(..., 3)``."""
-    X = validate.extended_pose(X, "X")
-    x = validate.vector(x, "x", 3)
-    validate.batch_shape(("X", X.shape[:-2]), ("x", x.shape[:-1]))
-    return validate.finite_output(np.asarray(_mv(X[..., :3, :3], x) + X[..., :3, 3]), "se23.act")
+    return _mg.act(X, x, validate.extended_pose, 3, ("X", "x"), "se23.act")
 
 
 def interpolate(X0: Any, X1: Any, tau: Any) -> FloatArray:
     """Geodesic ``X0·Exp(τ·Log(X0⁻¹X1))``; ``τ`` broadcasts against the batch."""
-    X0, X1 = validate.extended_pose(X0, "X0"), validate.extended_pose(X1, "X1")
-    tau_ = validate.as_float_array(tau, "tau")
-    validate.check_finite(tau_, "tau", core_ndim=0)
-    validate.batch_shape(("X0", X0.shape[:-2]), ("X1", X1.shape[:-2]), ("tau", tau_.shape))
-    xi = _tangent(tau_[..., None] * _log(_inverse(X0) @ X1), "tau·Log(X0⁻¹X1)")
-    return validate.finite_output(np.asarray(X0 @ _exp(xi), dtype=np.float64), "se23.interpolate")
+    ops = (_log, _exp, _inverse)
+    return _mg.interpolate(
+        X0, X1, tau, validate.extended_pose, _tangent, ops, ("X0", "X1"), "se23.interpolate"
+    )

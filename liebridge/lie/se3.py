@@ -27,6 +27,7 @@ import numpy as np
 
 from .. import _validate as validate
 from .._validate import FloatArray
+from . import _matrix_group as _mg
 from . import so3
 from .series import (
     jinv_coeff,
@@ -229,18 +230,12 @@ def inverse(T: Any) -> FloatArray:
 
 def compose(T1: Any, T2: Any) -> FloatArray:
     """Group product ``T1·T2`` (broadcast): ``compose(T_a_b, T_b_c) = T_a_c``."""
-    A, B = validate.pose(T1, "T1"), validate.pose(T2, "T2")
-    validate.batch_shape(("T1", A.shape[:-2]), ("T2", B.shape[:-2]))
-    return validate.finite_output(np.asarray(A @ B, dtype=np.float64), "se3.compose")
+    return _mg.compose(T1, T2, validate.pose, ("T1", "T2"), "se3.compose")
 
 
 def act(T: Any, p: Any) -> FloatArray:
     """Apply ``T`` to points: ``R p + t``; ``act(T_world_body, p_body) = p_world``, ``(..., 3)``."""
-    T = validate.pose(T, "T")
-    p = validate.vector(p, "p", 3)
-    validate.batch_shape(("T", T.shape[:-2]), ("p", p.shape[:-1]))
-    out = np.einsum("...ij,...j->...i", T[..., :3, :3], p) + T[..., :3, 3]
-    return validate.finite_output(np.asarray(out, dtype=np.float64), "se3.act")
+    return _mg.act(T, p, validate.pose, 3, ("T", "p"), "se3.act")
 
 
 def adjoint(T: Any) -> FloatArray:

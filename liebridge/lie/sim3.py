@@ -30,6 +30,7 @@ import numpy as np
 
 from .. import _validate as validate
 from .._validate import FloatArray
+from . import _matrix_group as _mg
 from . import so3
 from .series import sim3_coeffs
 
@@ -208,24 +209,17 @@ def inverse(X: Any) -> FloatArray:
 
 def compose(X1: Any, X2: Any) -> FloatArray:
     """``X1·X2`` (broadcast)."""
-    A, B = validate.similarity(X1, "X1"), validate.similarity(X2, "X2")
-    validate.batch_shape(("X1", A.shape[:-2]), ("X2", B.shape[:-2]))
-    return validate.finite_output(np.asarray(A @ B, dtype=np.float64), "sim3.compose")
+    return _mg.compose(X1, X2, validate.similarity, ("X1", "X2"), "sim3.compose")
 
 
 def act(X: Any, p: Any) -> FloatArray:
     """``sRp + t`` for points ``(..., 3)`` (GTSAM ``transformFrom``)."""
-    X = validate.similarity(X, "X")
-    p = validate.vector(p, "p", 3)
-    validate.batch_shape(("X", X.shape[:-2]), ("p", p.shape[:-1]))
-    return validate.finite_output(np.asarray(_mv(X[..., :3, :3], p) + X[..., :3, 3]), "sim3.act")
+    return _mg.act(X, p, validate.similarity, 3, ("X", "p"), "sim3.act")
 
 
 def interpolate(X0: Any, X1: Any, tau: Any) -> FloatArray:
     """Geodesic ``X0·Exp(τ·Log(X0⁻¹X1))``; ``τ`` broadcasts against the batch."""
-    X0, X1 = validate.similarity(X0, "X0"), validate.similarity(X1, "X1")
-    tau_ = validate.as_float_array(tau, "tau")
-    validate.check_finite(tau_, "tau", core_ndim=0)
-    validate.batch_shape(("X0", X0.shape[:-2]), ("X1", X1.shape[:-2]), ("tau", tau_.shape))
-    xi = _tangent(tau_[..., None] * _log(_inverse(X0) @ X1), "tau·Log(X0⁻¹X1)")
-    return validate.finite_output(np.asarray(X0 @ _exp(xi), dtype=np.float64), "sim3.interpolate")
+    ops = (_log, _exp, _inverse)
+    return _mg.interpolate(
+        X0, X1, tau, validate.similarity, _tangent, ops, ("X0", "X1"), "sim3.interpolate"
+    )
