@@ -122,7 +122,10 @@ BAD = [
     ("VERTEX_SE2 0 0 zero 0\n", r"g\.g2o:1: not a number: 'zero'"),
     ("VERTEX_SE2 0 0 0 nan\n", r"g\.g2o:1: NaN or Inf"),
     ("VERTEX_SE2 0 0 0 0\nVERTEX_SE2 0 1 1 1\n", r"g\.g2o:2: vertex 0 already defined on line 1"),
-    ("VERTEX_SE2 0 0 0 0\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n", r"g\.g2o:2: edge refers to vertex 1"),
+    (
+        "VERTEX_SE2 0 0 0 0\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n",
+        r"g\.g2o:2: edge refers to vertex 1, which has no VERTEX line",
+    ),
     (
         "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 0 0 0\nEDGE_SE2 0 1 1 0 0 1 0 0 -1 0 1\n",
         r"g\.g2o:3: information: not positive semi-definite",

@@ -592,21 +592,13 @@ def read(
                 raise P.fail(e_lines[k], f"{exc} (after conversion to GTSAM's (ω, v))") from None
         raise
     edges = np.array(e_ids, dtype=np.uint64).reshape(-1, 2)
-    from_odometry = not v_ids
-    if from_odometry:
-        ids, vpar = _chain_odometry(P, edges, measured)
-    else:
-        ids = np.array(v_ids, dtype=np.uint64)
-        for k, (i, j) in enumerate(e_ids):
-            for end in (i, j):
-                if end not in v_line:
-                    raise P.fail(
-                        e_lines[k], f"edge refers to vertex {end}, which has no VERTEX line"
-                    )
-    id_set = set(ids.tolist())
-    for k in fixed:
-        if k not in id_set:
-            raise ValueError(f"{path}: FIX refers to vertex {k}, which does not exist")
+    ids, vpar, from_odometry = vertices(
+        P,
+        (v_ids, v_line, vpar),
+        (edges, e_lines, _layouts.to_matrix(measured, layout="xyz_qxyzw")),
+        fixed,
+        lambda T: _layouts.from_matrix(T, layout="xyz_qxyzw"),
+    )
     return G2OGraph(
         vertex_ids=ids,
         vertex_xyz_qxyzw=vpar,
@@ -627,36 +619,69 @@ def _params_from_raw(raw: FloatArray, euler: npt.NDArray[np.bool_]) -> FloatArra
     return out
 
 
-def _chain_odometry(
-    P: _Parser, edges: KeyArray, measured: FloatArray
-) -> tuple[KeyArray, FloatArray]:
-    """Chain initial poses by composing odometry edges ``(k−1, k)`` (or ``(k, k−1)``, inverted)."""
-    if edges.shape[0] == 0:
-        return np.zeros(0, dtype=np.uint64), np.zeros((0, 7))
-    ids = np.unique(edges)
-    Z = _layouts.to_matrix(measured, layout="xyz_qxyzw")
-    step: dict[int, FloatArray] = {}
-    for k in range(edges.shape[0] - 1, -1, -1):  # first occurrence wins
-        i, j = int(edges[k, 0]), int(edges[k, 1])
-        if j == i + 1:
-            step[j] = Z[k]
-        elif i == j + 1 and i not in step:
-            Zi = Z[k]
-            inv = np.eye(4)
-            inv[:3, :3] = Zi[:3, :3].T
-            inv[:3, 3] = -Zi[:3, :3].T @ Zi[:3, 3]
-            step[i] = inv
-    T = np.empty((ids.shape[0], 4, 4))
-    T[0] = np.eye(4)
-    for n in range(1, ids.shape[0]):
-        k = int(ids[n])
-        if k != int(ids[n - 1]) + 1 or k not in step:
-            raise ValueError(
-                f"{P.path}: no VERTEX lines and no odometry edge {k - 1} -> {k}: cannot chain "
-                "initial values (add VERTEX lines or use gtsam.InitializePose3)"
-            )
-        T[n] = T[n - 1] @ step[k]
-    return ids.astype(np.uint64), _layouts.from_matrix(T, layout="xyz_qxyzw")
+def vertices(
+    P: _Parser,
+    read_vertices: tuple[list[int], dict[int, int], FloatArray],
+    read_edges: tuple[KeyArray, list[int], FloatArray],
+    fixed: list[int],
+    to_params: Any,
+) -> tuple[KeyArray, FloatArray, bool]:
+    """Vertex ids and poses of a graph file (2-D and 3-D alike), checked against its edges.
+
+    ``read_vertices = (ids, line of each id, pose parameters)``; ``read_edges = (edges (M, 2),
+    line of each edge, measurements as homogeneous matrices (M, n, n))``. Without vertex lines the
+    poses are chained from the odometry edges ``(k−1, k)`` (or ``(k, k−1)``, inverted) from the
+    identity at the smallest id and returned as ``to_params(T)``. Returns ``(ids, params,
+    chained)``. Raises naming the file and line for an edge to a missing vertex, a gap in the
+    odometry chain, or a ``FIX`` of a vertex that does not exist.
+    """
+    v_ids, v_line, vpar = read_vertices
+    edges, e_lines, Z = read_edges
+    chained = not v_ids
+    if not chained:
+        ids = np.array(v_ids, dtype=np.uint64)
+        for k, ends in enumerate(edges.tolist()):
+            for end in ends:
+                if end not in v_line:
+                    raise P.fail(
+                        e_lines[k], f"edge refers to vertex {end}, which has no VERTEX line"
+                    )
+    elif edges.shape[0] == 0:
+        ids, vpar = np.zeros(0, dtype=np.uint64), to_params(np.zeros((0, *Z.shape[1:])))
+    else:
+        ids = np.unique(edges)
+        step: dict[int, FloatArray] = {}
+        for k in range(edges.shape[0] - 1, -1, -1):  # first occurrence wins
+            i, j = int(edges[k, 0]), int(edges[k, 1])
+            if j == i + 1:
+                step[j] = Z[k]
+            elif i == j + 1 and i not in step:
+                step[i] = _rigid_inverse(Z[k])
+        T = np.empty((ids.shape[0], *Z.shape[1:]))
+        T[0] = np.eye(Z.shape[-1])
+        for n in range(1, ids.shape[0]):
+            k = int(ids[n])
+            if k != int(ids[n - 1]) + 1 or k not in step:
+                raise ValueError(
+                    f"{P.path}: no vertex lines and no odometry edge {k - 1} -> {k}: cannot "
+                    "chain initial values (add vertex lines, or use gtsam.InitializePose3)"
+                )
+            T[n] = T[n - 1] @ step[k]
+        vpar = to_params(T)
+    id_set = set(ids.tolist())
+    for k in fixed:
+        if k not in id_set:
+            raise ValueError(f"{P.path}: FIX refers to vertex {k}, which does not exist")
+    return ids, vpar, chained
+
+
+def _rigid_inverse(Z: FloatArray) -> FloatArray:
+    """``[[Rᵀ, −Rᵀt], [0, 1]]`` of one rigid transform of any size (closed form)."""
+    n = Z.shape[-1] - 1
+    inv = np.eye(n + 1)
+    inv[:n, :n] = Z[:n, :n].T
+    inv[:n, n] = -Z[:n, :n].T @ Z[:n, n]
+    return inv
 
 
 def write(path: PathLike, graph: G2OGraph) -> None:

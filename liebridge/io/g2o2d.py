@@ -53,7 +53,7 @@ import numpy.typing as npt
 
 from .. import _validate as validate
 from .._validate import FloatArray
-from .g2o import _Parser
+from .g2o import _Parser, vertices
 from .trajectory import text_lines
 
 __all__ = ["G2OGraph2D", "is_2d", "read", "write"]
@@ -321,22 +321,13 @@ def read(path: PathLike, *, edge2: Edge2Order = "auto") -> G2OGraph2D:
         raise
     edges = np.array(e_ids, dtype=np.uint64).reshape(-1, 2)
     measured = eraw[:, :3].copy()
-    from_odometry = not v_ids
-    if from_odometry:
-        ids, vpar = _chain_odometry(P, edges, measured)
-    else:
-        ids = np.array(v_ids, dtype=np.uint64)
-        vpar = np.array(v_raw, dtype=np.float64).reshape(-1, 3)
-        for k, (i, j) in enumerate(e_ids):
-            for end in (i, j):
-                if end not in v_line:
-                    raise P.fail(
-                        e_lines[k], f"edge refers to vertex {end}, which has no vertex line"
-                    )
-    id_set = set(ids.tolist())
-    for k in fixed:
-        if k not in id_set:
-            raise ValueError(f"{path}: FIX refers to vertex {k}, which does not exist")
+    ids, vpar, from_odometry = vertices(
+        P,
+        (v_ids, v_line, np.array(v_raw, dtype=np.float64).reshape(-1, 3)),
+        (edges, e_lines, pose2_matrix(measured)),
+        fixed,
+        pose2_params,
+    )
     return G2OGraph2D(
         vertex_ids=ids,
         vertex_xytheta=vpar,
@@ -348,34 +339,6 @@ def read(path: PathLike, *, edge2: Edge2Order = "auto") -> G2OGraph2D:
         skipped=tuple(sorted(skipped.items())),
         vertices_from_odometry=from_odometry,
     )
-
-
-def _chain_odometry(
-    P: _Parser, edges: KeyArray, measured: FloatArray
-) -> tuple[KeyArray, FloatArray]:
-    """Chain initial poses by composing odometry edges ``(k−1, k)`` (or ``(k, k−1)``, inverted)."""
-    if edges.shape[0] == 0:
-        return np.zeros(0, dtype=np.uint64), np.zeros((0, 3))
-    ids = np.unique(edges)
-    Z = pose2_matrix(measured)
-    step: dict[int, FloatArray] = {}
-    for k in range(edges.shape[0] - 1, -1, -1):  # first occurrence wins
-        i, j = int(edges[k, 0]), int(edges[k, 1])
-        if j == i + 1:
-            step[j] = Z[k]
-        elif i == j + 1 and i not in step:
-            step[i] = np.linalg.inv(Z[k])
-    T = np.empty((ids.shape[0], 3, 3))
-    T[0] = np.eye(3)
-    for n in range(1, ids.shape[0]):
-        k = int(ids[n])
-        if k != int(ids[n - 1]) + 1 or k not in step:
-            raise ValueError(
-                f"{P.path}: no vertex lines and no odometry edge {k - 1} -> {k}: cannot chain "
-                "initial values (add VERTEX_SE2 lines)"
-            )
-        T[n] = T[n - 1] @ step[k]
-    return ids.astype(np.uint64), pose2_params(T)
 
 
 def write(path: PathLike, graph: G2OGraph2D) -> None:
