@@ -130,44 +130,6 @@ def _first_duplicate(keys: Sequence[int]) -> int | None:
     return None
 
 
-def _to_values_pose3(T: Any, keys: Any, values: Any = None) -> Any:
-    """Insert a batch of poses into a ``gtsam.Values`` as ``Pose3``.
-
-    Parameters
-    ----------
-    T : array_like, shape (N, 4, 4)
-        Poses, validated as in :func:`to_pose3`.
-    keys : sequence of int, length N
-        GTSAM keys (plain integers or ``gtsam.symbol(...)`` values); must be unique.
-    values : gtsam.Values, optional
-        Existing values to extend. It is **not** modified: a copy with the new poses added is
-        returned. Its keys must not collide with ``keys``.
-
-    Returns
-    -------
-    gtsam.Values
-    """
-    arr = validate.pose(T, "T")
-    if arr.ndim != 3:
-        raise ValueError(f"T: expected shape (N, 4, 4), got {arr.shape}")
-    ks = _keys(keys, arr.shape[0])
-    dup = _first_duplicate(ks)
-    if dup is not None:
-        raise ValueError(f"keys: key {ks[dup]} appears twice (second time at index {dup})")
-    if values is None:
-        out = gtsam.Values()
-    elif isinstance(values, gtsam.Values):
-        out = gtsam.Values(values)
-        for i, k in enumerate(ks):
-            if out.exists(k):
-                raise ValueError(f"keys[{i}]: key {k} already exists in values")
-    else:
-        raise TypeError(f"values: expected gtsam.Values or None, got {type(values).__name__}")
-    for k, Ti in zip(ks, arr, strict=True):
-        out.insert(k, _pose3(Ti))
-    return out
-
-
 def _from_values_pose3(values: Any, keys: Any) -> FloatArray:
     """Read the ``Pose3`` stored under ``keys`` into an ``(N, 4, 4)`` array, in ``keys`` order.
 
@@ -335,8 +297,6 @@ def to_values(T: Any, keys: Any, values: Any = None, *, group: str = "se3") -> A
     -------
     gtsam.Values
     """
-    if group == "se3":
-        return _to_values_pose3(T, keys, values)
     check, n, _, make, _ = _group(group)
     arr = check(T, "T")
     if arr.ndim != 3:
