@@ -24,7 +24,6 @@ from typing import Any
 
 import numpy as np
 
-from .. import _validate as validate
 from .._validate import FloatArray
 from . import poses as _layouts
 from .sanity import check_quaternions, hemisphere_continuous
@@ -110,13 +109,7 @@ def write_euroc(path: PathLike, timestamps: Any, poses: Any) -> None:
     poses : array_like, shape (N, 4, 4)
         ``T_world_body``.
     """
-    t = validate.as_float_array(timestamps, "timestamps")
-    validate.check_finite(t, "timestamps")
-    T = validate.pose(poses, "poses")
-    if t.ndim != 1 or T.ndim != 3 or T.shape[0] != t.shape[0]:
-        raise ValueError(
-            f"timestamps, poses: expected (N,) and (N, 4, 4), got {t.shape}, {T.shape}"
-        )
+    t, T = _layouts.stamped_poses(timestamps, poses)
     x = _layouts.from_matrix(T, layout="xyz_qwxyz")
     x[:, 3:] = hemisphere_continuous(x[:, 3:])
     sec = np.floor(t)  # whole seconds apart: t·1e9 in one float would round to 256 ns at 1.4e9 s

@@ -291,3 +291,15 @@ def text_rotation_tol(fields: list[str] | tuple[str, ...]) -> float:
     gets ``2e-6``.
     """
     return float(min(max(ROTATION_TOL, 2.0 * _text_place(fields)), TEXT_TOL_MAX))
+
+
+def stamped_poses(timestamps: Any, poses: Any) -> tuple[FloatArray, FloatArray]:
+    """Validate a trajectory to write: finite ``timestamps (N,)`` and poses ``(N, 4, 4)``."""
+    t = validate.as_float_array(timestamps, "timestamps")
+    validate.check_finite(t, "timestamps")
+    T = validate.pose(poses, "poses")
+    if t.ndim != 1 or T.ndim != 3 or T.shape[0] != t.shape[0]:
+        raise ValueError(
+            f"timestamps, poses: expected (N,) and (N, 4, 4), got {t.shape}, {T.shape}"
+        )
+    return t, T

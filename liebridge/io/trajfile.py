@@ -34,7 +34,6 @@ from typing import Any, Literal
 
 import numpy as np
 
-from .. import _validate as validate
 from .._validate import FloatArray
 from . import poses as _layouts
 from .euroc import read_euroc, write_euroc
@@ -269,13 +268,7 @@ def write_trajectory(
         raise ValueError(f"format: expected one of {', '.join(FORMATS)}, got {format!r}")
     if quat_order not in ("xyzw", "wxyz"):
         raise ValueError(f"quat_order: expected 'xyzw' or 'wxyz', got {quat_order!r}")
-    t = validate.as_float_array(timestamps, "timestamps")
-    validate.check_finite(t, "timestamps")
-    T = validate.pose(poses, "poses")
-    if t.ndim != 1 or T.ndim != 3 or T.shape[0] != t.shape[0]:
-        raise ValueError(
-            f"timestamps, poses: expected (N,) and (N, 4, 4), got {t.shape}, {T.shape}"
-        )
+    t, T = _layouts.stamped_poses(timestamps, poses)
     layout = "xyz_qxyzw" if quat_order == "xyzw" else "xyz_qwxyz"
     x = _layouts.from_matrix(T, layout=layout)
     x[:, 3:] = hemisphere_continuous(x[:, 3:])
