@@ -47,9 +47,27 @@ class _Prepared:
     resampled: str | None
 
 
-def _read(path: str, fmt: str, quat_order: str | None, what: str) -> tuple[FloatArray, FloatArray]:
+def _read_topic(path: str, topic: str, what: str) -> tuple[FloatArray, FloatArray]:
+    """Stamps and poses of a bag topic (PoseWithCovarianceStamped, Odometry, TF...)."""
+    try:
+        from ..ros import read_messages
+    except ImportError as exc:  # the 'ros' extra
+        raise CLIError(f"{what}: {exc}") from None
+    try:
+        msgs = read_messages(path, topic)
+    except (ValueError, OSError, ImportError) as exc:
+        raise CLIError(f"{what}: {one_line(str(exc))}") from None
+    return np.asarray(msgs.stamps, dtype=np.float64), np.asarray(msgs.T, dtype=np.float64)
+
+
+def _read(
+    path: str, fmt: str, quat_order: str | None, what: str, topic: str | None = None
+) -> tuple[FloatArray, FloatArray]:
     from ..io import trajfile
     from ..io.sanity import QuaternionOrderWarning
+
+    if topic is not None:
+        return _read_topic(path, topic, what)
 
     try:
         with warnings.catch_warnings(record=True) as caught:
@@ -67,8 +85,8 @@ def _prepare(
 ) -> _Prepared:
     from .. import traj
 
-    t_ref, T_ref = _read(args.ref, args.ref_format, args.quat_order, "REF")
-    t_est, T_est = _read(args.est, args.est_format, args.quat_order, "EST")
+    t_ref, T_ref = _read(args.ref, args.ref_format, args.quat_order, "REF", args.ref_topic)
+    t_est, T_est = _read(args.est, args.est_format, args.quat_order, "EST", args.est_topic)
     if cov is not None and cov.shape[0] != len(t_est):
         raise CLIError(
             f"--cov: {cov.shape[0]} covariances for {len(t_est)} poses of EST "
@@ -302,7 +320,9 @@ def _nees(args: argparse.Namespace) -> int:
 def _common(q: argparse.ArgumentParser) -> None:
     from ..traj import ALIGNMENTS
 
-    q.add_argument("ref", metavar="REF", help="reference trajectory file (TUM, KITTI, EuRoC)")
+    q.add_argument(
+        "ref", metavar="REF", help="reference trajectory file (TUM, KITTI, EuRoC), or a bag"
+    )
     q.add_argument("est", metavar="EST", help="estimated trajectory file")
     q.add_argument(
         "--align",
@@ -328,6 +348,13 @@ def _common(q: argparse.ArgumentParser) -> None:
         help="resample the longer trajectory at the other's matched stamps (evo's "
         "interpolation sync: lerp_slerp) instead of taking the nearest poses",
     )
+    q.add_argument(
+        "--ref-topic",
+        metavar="TOPIC",
+        help="REF is a ROS 1/2 bag and this its pose topic (PoseWithCovarianceStamped, "
+        'Odometry, PoseStamped...; needs pip install "liebridge[ros]")',
+    )
+    q.add_argument("--est-topic", metavar="TOPIC", help="EST is a bag: its pose topic")
     q.add_argument("--ref-format", default="auto", choices=("auto", "tum", "kitti", "euroc"))
     q.add_argument("--est-format", default="auto", choices=("auto", "tum", "kitti", "euroc"))
     q.add_argument(
