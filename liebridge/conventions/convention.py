@@ -428,13 +428,13 @@ class Convention:
         return validate.finite_output(self._local_jacobian(X, Y), f"{self.name}.local_jacobian")
 
     # ----------------------------------------------------------------- first-order maps
-    def _euler_base(self) -> tuple[Convention, FloatArray]:
+    def _euler_base(self) -> tuple[Convention, slice]:
         """Return the rotation-vector twin (right, ``exp``) and where its rotation entries sit."""
         base = Convention(
             name=f"{self.name}_exp", side="right", order=self.order, chart=self.chart,
             rotation="exp", quat_order=self.quat_order,
         )  # fmt: skip
-        return base, np.arange(3) if self.order == "rot_first" else np.arange(3, 6)
+        return base, slice(0, 3) if self.order == "rot_first" else slice(3, 6)
 
     def _euler_D(self, X: FloatArray, inverse: bool) -> FloatArray:
         """Return ``D``: ``W⁻¹`` (``inverse``: ``W``) on the rotation entries, else ``I``."""
@@ -449,7 +449,7 @@ class Convention:
         _, k = self._euler_base()
         D = np.zeros((*X.shape[:-2], 6, 6))
         D[..., :, :] = np.eye(6)
-        D[..., k[0] : k[-1] + 1, k[0] : k[-1] + 1] = B
+        D[..., k, k] = B
         return D
 
     def _to_canonical(self, X: FloatArray) -> FloatArray:
