@@ -34,7 +34,7 @@ NAIVE = {
 
 
 def openvins_state() -> tuple[np.ndarray, np.ndarray]:
-    """An OpenVINS-like state and covariance: JPL q_GtoI, p_IinG, v_IinG, b_g, b_a."""
+    """Return an OpenVINS-like state and covariance (JPL q_GtoI, p_IinG, v_IinG, b_g, b_a)."""
     rng = np.random.default_rng(16)
     q_GtoI = np.array([0.2, -0.4, 0.6, 0.66])
     q_GtoI /= np.linalg.norm(q_GtoI)
