@@ -454,3 +454,15 @@ def test_state_bad_input() -> None:
     before = S.copy()
     lb.convert_covariance(np.eye(15) * 1e-4, S, "openvins", "vins", method="unscented")
     np.testing.assert_array_equal(S, before)
+
+
+@pytest.mark.parametrize("fmt", ["table", "json", "markdown"])
+@pytest.mark.parametrize("name", ["openvins", "gtsam_imu_keys"])
+def test_cli_describes_a_state_preset(
+    name: str, fmt: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from liebridge.cli import main
+
+    assert main(["conventions", name, "--format", fmt]) == 0
+    out = capsys.readouterr().out
+    assert name in out and "b_g" in out
