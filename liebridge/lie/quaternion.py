@@ -175,10 +175,14 @@ def jpl_to_hamilton(q_jpl: Any, *, order: HamiltonOrder) -> FloatArray:
     Trawny & Roumeliotis (2005, eq. 62) define ``C(q̄) = (2q₄² − 1)I − 2q₄ hat(q) + 2 q qᵀ``, which
     is ``to_matrix(q)ᵀ`` for the same four numbers read as Hamilton. So the Hamilton quaternion of
     the matrix ``C(q̄)`` is the conjugate. (JPL code usually stores ``xyzw``, scalar last.)
+    ``order`` is the storage of both (``wxyz`` or ``xyzw``); for numbers already read with
+    ``order="jpl"`` no conversion is needed.
     """
+    validate.option(order, "order", ("wxyz", "xyzw"))
     return conjugate(q_jpl, order=order)
 
 
 def hamilton_to_jpl(q: Any, *, order: HamiltonOrder) -> FloatArray:
     """Inverse of :func:`jpl_to_hamilton` (also a conjugation)."""
+    validate.option(order, "order", ("wxyz", "xyzw"))
     return conjugate(q, order=order)
