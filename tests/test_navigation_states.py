@@ -18,6 +18,8 @@ import itertools
 import gtsam
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 import liebridge as lb
 from liebridge import conventions as C
@@ -466,3 +468,45 @@ def test_cli_describes_a_state_preset(
     assert main(["conventions", name, "--format", fmt]) == 0
     out = capsys.readouterr().out
     assert name in out and "b_g" in out
+
+
+@given(
+    e=st.tuples(st.floats(-3.1, 3.1), st.floats(-1.4, 1.4), st.floats(-3.1, 3.1)),
+    d=st.tuples(st.floats(-0.15, 0.15), st.floats(-0.15, 0.15), st.floats(-0.15, 0.15)),
+)
+@pytest.mark.parametrize("kind", EULER)
+def test_euler_round_trip_hypothesis(kind: str, e: tuple[float, ...], d: tuple[float, ...]) -> None:
+    c = _euler_conv(kind, "so3xr3_world")
+    R = euler_to_matrix(np.array(e), kind)
+    np.testing.assert_allclose(c.local(R, c.retract(R, np.array(d))), d, atol=1e-9)
+
+
+def test_near_gimbal_lock_is_finite_and_exactly_there_is_an_error() -> None:
+    c = _euler_conv("euler_zyx")
+    for pitch in (np.pi / 2 - 1e-6, -np.pi / 2 + 1e-6):
+        R = euler_to_matrix(np.array([0.3, pitch, 0.1]), "euler_zyx")
+        M = c.to_canonical(R)
+        assert np.isfinite(M).all() and np.abs(M).max() < 10
+        assert np.isfinite(c.from_canonical(R)).all()  # large (1/cos pitch) but finite
+
+
+@pytest.mark.parametrize("angle", [0.0, 1e-12, 1.0, np.pi - 1e-6])
+def test_state_round_trip_at_rotation_edge_cases(angle: float) -> None:
+    rng = np.random.default_rng(14)
+    S = _state(rng)
+    for name in STATES:
+        conv = C.get(name)
+        d = np.zeros(15)
+        rot = slice(3, 6) if name in ("vins", "basalt") else slice(0, 3)
+        d[rot] = angle * np.array([0.0, 0.6, 0.8])
+        np.testing.assert_allclose(conv.local(S, conv.retract(S, d)), d, atol=1e-7)
+
+
+def test_cayley_chart_at_a_half_turn_is_one_clear_error() -> None:
+    rng = np.random.default_rng(15)
+    S = _state(rng)
+    half_turn = np.zeros(15)
+    half_turn[:3] = [np.pi, 0.0, 0.0]
+    Y = C.ORBSLAM3.retract(S, half_turn)  # rotated by π: outside the Cayley chart
+    with pytest.raises(ValueError, match="Cayley coordinates are undefined"):
+        C.OPENVINS.local(S, Y)
