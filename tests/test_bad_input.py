@@ -344,7 +344,7 @@ CASES = [
     Case(
         "quaternion-order",
         lambda: Q.to_matrix([1.0, 0.0, 0.0, 0.0], order="qwxyz"),  # type: ignore[arg-type]
-        r"order: expected 'wxyz' or 'xyzw', got 'qwxyz'",
+        r"order: expected one of 'wxyz', 'xyzw', 'jpl', got 'qwxyz'",
     ),
     Case(
         "covariance-method",

@@ -205,6 +205,7 @@ NOT_A_POSE = {
     "Bundle.dim": "X is a block-diagonal bundle element (no library has a bundle object)",
     "Bundle.element": "X is a block-diagonal bundle element (no library has a bundle object)",
     "Bundle.split": "X is a block-diagonal bundle element (no library has a bundle object)",
+    "NavChart.dim": "X is ignored: a navigation chart's tangent always has 9 entries",
 }
 PUBLIC = [
     ("se3", "liebridge.lie.se3"),

@@ -11,7 +11,7 @@ import json
 import re
 from typing import Any
 
-from ..conventions import ALL_PRESETS, GROUP_NAMES, PRESETS, Convention
+from ..conventions import ALL_PRESETS, GROUP_NAMES, PRESETS, Bundle, Convention
 from ._common import option_value
 
 __all__ = ["add_parser", "evidence_summary", "render", "rows"]
@@ -104,6 +104,18 @@ def rows(group: str | None = None) -> list[dict[str, str]]:
 
 
 def _as_dict(c: Convention) -> dict[str, Any]:
+    if isinstance(c, Bundle):  # a whole state: its blocks and tangent order, not one chart
+        return {
+            "group": c.group,
+            "name": c.name,
+            "blocks": {
+                n: (b.describe() if isinstance(b, Convention) else b.group) for n, b in c.blocks
+            },
+            "tangent_order": list(c.perm) if c.perm is not None else list(range(c.dim())),
+            "source": c.source,
+            "notes": c.notes,
+            "evidence": evidence_summary(c.source),
+        }
     out: dict[str, Any] = {} if c.group == "se3" else {"group": c.group}
     return out | {
         "name": c.name,
@@ -181,6 +193,8 @@ def render(fmt: str = "table", group: str | None = None) -> str:
 
 def _markdown_one(c: Convention) -> str:
     """One preset as markdown: its table row (the README's columns) and its full text."""
+    if isinstance(c, Bundle):  # whole states have no row in the one-chart table
+        return "\n".join([f"### `{c.name}`", "", "```text", _describe_one(c), "```"])
     row = next(r for r in rows() if r["name"] == c.name)
     cells = [f"`{row[k]}`" if k != "evidence" else row[k].replace("|", "\\|") for k in COLUMNS]
     text = _describe_one(c).split("\n")
@@ -206,6 +220,8 @@ def _describe_one(c: Convention) -> str:
     from ..lie import se3
     from ._common import tangent_label
 
+    if isinstance(c, Bundle):
+        return _describe_state(c)
     if c.group != "se3":
         return _describe_group(c)
     X = se3.exp(np.array([0.4, -0.7, 0.5, 1.5, -2.0, 0.8]))
@@ -235,6 +251,34 @@ _GTSAM_OF = {
     "se23": "gtsam_navstate",
     "so3": "gtsam",
 }
+
+
+def _describe_state(c: Bundle) -> str:
+    """Describe a whole-state preset: blocks, map from ``gtsam_combined`` at a generic state."""
+    import numpy as np
+
+    from ..conventions.convert import is_exactly_linear, tangent_map
+    from ..lie import se23
+
+    lines = [c.describe(), f"source: {c.source}", f"notes: {c.notes}"]
+    if c.group == "bundle[se23,r3,r3]" and c.dim() == 15:
+        X = c.assemble(
+            nav=se23.exp(np.array([0.4, -0.7, 0.5, 1.5, -2.0, 0.8, -0.6, 1.1, 0.7])),
+            b_a=np.array([0.1, -0.2, 0.05]),
+            b_g=np.array([0.01, 0.0, -0.02]),
+        )
+        M = tangent_map(X, "gtsam_combined", c)
+        lines += [
+            "from gtsam_combined's tangent: "
+            + (
+                "exactly linear"
+                if is_exactly_linear("gtsam_combined", c)
+                else "linear to first order only"
+            )
+            + "; at a generic state, d = M ξ with M =",
+            np.array2string(M, precision=3, suppress_small=True, max_line_width=200),
+        ]
+    return "\n".join(lines)
 
 
 def _describe_group(c: Convention) -> str:

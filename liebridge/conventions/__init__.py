@@ -19,6 +19,7 @@ from .convert import (
     tangent_map,
 )
 from .detect import ConventionNotDetected, detect_convention, matches_so3
+from .navstate import NavChart, nav_state
 from .presets import (
     ALL_PRESETS,
     BARFOOT,
@@ -64,10 +65,21 @@ from .presets import (
     StorageLayout,
 )
 from .registry import ConventionLike, get, matching_presets, names
+from .state_presets import (
+    BASALT,
+    GTSAM_COMBINED,
+    GTSAM_IMU_KEYS,
+    KIMERA,
+    OPENVINS,
+    ORBSLAM3,
+    STATE_PRESETS,
+    VINS,
+)
 
 __all__ = [
     "ALL_PRESETS",
     "BARFOOT",
+    "BASALT",
     "CANONICAL",
     "CERES_EIGEN_QUATERNION",
     "CERES_POSE",
@@ -81,18 +93,23 @@ __all__ = [
     "GROUP_PRESETS",
     "GTSAM",
     "GTSAM_CAYLEY",
+    "GTSAM_COMBINED",
+    "GTSAM_IMU_KEYS",
     "GTSAM_NAVSTATE",
     "GTSAM_POSE2",
     "GTSAM_ROT2",
     "GTSAM_SIMILARITY3",
     "JAXLIE",
     "JAXLIE_SE2",
+    "KIMERA",
     "LAYOUTS",
     "MANIF",
     "MANIF_SE2",
     "MANIF_SE23",
     "MR_BODY",
     "MR_SPACE",
+    "OPENVINS",
+    "ORBSLAM3",
     "PINOCCHIO",
     "PINOCCHIO_R3XSO3",
     "PRESETS",
@@ -105,15 +122,18 @@ __all__ = [
     "SOPHUS",
     "SOPHUS_SE2",
     "SOPHUS_SIM3",
+    "STATE_PRESETS",
     "SYMFORCE",
     "SYMFORCE_POSE2",
     "THESEUS",
     "THESEUS_SE2",
+    "VINS",
     "Bundle",
     "Convention",
     "ConventionLike",
     "ConventionNotDetected",
     "Embed",
+    "NavChart",
     "StorageLayout",
     "Vector",
     "convert_covariance",
@@ -127,6 +147,7 @@ __all__ = [
     "matches_so3",
     "matching_presets",
     "names",
+    "nav_state",
     "tangent_map",
     "unchecked",
 ]

@@ -14,9 +14,12 @@ A :class:`Convention` says how a library perturbs a pose ``X = (R, t)`` with a 6
     translation perturbed separately, translation increment in the body frame ``t + R·u``;
     ``so3xr3_world``: separately, translation increment in the world frame ``t + u``.
 ``rotation``
-    how ``r`` becomes a rotation: see :mod:`liebridge.conventions.rotation_coords`.
+    how ``r`` becomes a rotation: see :mod:`liebridge.conventions.rotation_coords`. The Euler
+    coordinates ``euler_zyx`` (yaw, pitch, roll) and ``euler_rpy`` (roll, pitch, yaw) are absolute
+    (``R = E(e(R) + r)``, ``side`` ignored), for SO(3)/SE(3) split charts only.
 ``quat_order``
-    how the library stores quaternions (``wxyz`` or ``xyzw``); it does not enter the retraction.
+    how the library stores quaternions (``wxyz``, ``xyzw`` Hamilton, or ``jpl``: JPL ``(x, y, z,
+    w)``, the transpose); it does not enter the retraction.
 
 ``group``
     which Lie group the elements belong to: ``so2``, ``se2``, ``so3``, ``se3``, ``sim3``,
@@ -46,10 +49,16 @@ from .._validate import FloatArray
 from ..lie import unchecked as U
 from . import groups as G
 from .rotation_coords import (
+    EULER_COORDS,
     FIRST_ORDER_SCALE,
     ROTATION_COORDS,
     d_from_rotation,
+    euler_local,
+    euler_rate_map,
+    euler_rate_map_inv,
+    euler_retract,
     from_rotation,
+    matrix_to_euler,
     to_rotation,
 )
 from .tangent_maps import canonical_tangent_map
@@ -102,7 +111,7 @@ Chart = Literal[
 SIDES = ("right", "left")
 ORDERS = ("rot_first", "trans_first")
 CHARTS = ("se3", "so3xr3_body", "so3xr3_world")
-QUAT_ORDERS = ("wxyz", "xyzw")
+QUAT_ORDERS = ("wxyz", "xyzw", "jpl")
 
 
 def _check_field(name: str, value: str, allowed: tuple[str, ...]) -> None:
@@ -174,6 +183,11 @@ class Convention:
         _check_field("chart", self.chart, GROUP_CHARTS[self.group])
         _check_field("rotation", self.rotation, ROTATION_COORDS)
         _check_field("quat_order", self.quat_order, QUAT_ORDERS)
+        if self.rotation in EULER_COORDS and self.group not in ("se3", "so3"):
+            raise ValueError(
+                f"Convention {self.name!r}: Euler-angle coordinates ({self.rotation!r}) are "
+                f"implemented for SO(3)/SE(3) conventions, not {self.group}"
+            )
         if self.group in ("so2", "se2") and self.rotation != "exp":
             raise ValueError(
                 f"Convention {self.name!r}: a planar rotation has one coordinate, the angle: "
@@ -205,6 +219,11 @@ class Convention:
     def fields(self) -> tuple[str, str, str, str]:
         """``(side, order, chart, rotation)``: what a retraction determines (not ``quat_order``)."""
         return self._key
+
+    @property
+    def is_euler(self) -> bool:
+        """Whether the rotation coordinates are absolute Euler angles (``euler_zyx``/``_rpy``)."""
+        return self.rotation in EULER_COORDS
 
     @property
     def generic(self) -> bool:
@@ -286,6 +305,8 @@ class Convention:
         if self.generic:
             return G.retract(self, X, d)
         if _is_so3(X):
+            if self.is_euler:
+                return euler_retract(X, d, self.rotation)
             dR = to_rotation(d, self.rotation)
             return np.asarray(X @ dR if self.side == "right" else dR @ X, dtype=np.float64)
         r, u = self._split(d)
@@ -293,8 +314,11 @@ class Convention:
             E = U.se3_exp(np.concatenate([r, u], axis=-1))
             return np.asarray(X @ E if self.side == "right" else E @ X, dtype=np.float64)
         R, t = X[..., :3, :3], X[..., :3, 3]
-        dR = to_rotation(r, self.rotation)
-        R2 = R @ dR if self.side == "right" else dR @ R
+        if self.is_euler:
+            R2 = euler_retract(R, r, self.rotation)
+        else:
+            dR = to_rotation(r, self.rotation)
+            R2 = R @ dR if self.side == "right" else dR @ R
         du = np.einsum("...ij,...j->...i", R, u) if self.chart == "so3xr3_body" else u
         out = np.zeros(np.broadcast_shapes(X.shape, (*d.shape[:-1], 4, 4)))
         out[..., :3, :3] = R2
@@ -306,6 +330,8 @@ class Convention:
         if self.generic:
             return G.local(self, X, Y)
         if _is_so3(X):
+            if self.is_euler:
+                return euler_local(X, Y, self.rotation)
             Xt = np.swapaxes(X, -1, -2)
             dR = Xt @ Y if self.side == "right" else Y @ Xt
             return from_rotation(dR, self.rotation)
@@ -317,8 +343,11 @@ class Convention:
         R, t = X[..., :3, :3], X[..., :3, 3]
         Rt = np.swapaxes(R, -1, -2)
         RY, tY = Y[..., :3, :3], Y[..., :3, 3]
-        dR = Rt @ RY if self.side == "right" else RY @ Rt
-        r = from_rotation(dR, self.rotation)
+        if self.is_euler:
+            r = euler_local(R, RY, self.rotation)
+        else:
+            dR = Rt @ RY if self.side == "right" else RY @ Rt
+            r = from_rotation(dR, self.rotation)
         dt = tY - t
         u = np.einsum("...ij,...j->...i", Rt, dt) if self.chart == "so3xr3_body" else dt
         return self._join(r, u)
@@ -351,6 +380,18 @@ class Convention:
         if self.generic:
             return G.local_jacobian(self, X, Y)
         s = self.rotation_scale
+        if self.is_euler:  # local(X, retract(Y, δ)) = e(Y) + δ − e(X): the identity
+            shape = np.broadcast_shapes(X.shape[:-2], Y.shape[:-2])
+            matrix_to_euler(Y[..., :3, :3], self.rotation, "Y")  # gimbal lock raises
+            n = 3 if _is_so3(X) else 6
+            J = np.zeros((*shape, n, n))
+            J[..., :, :] = np.eye(n)
+            if n == 6:
+                RX, RY = X[..., :3, :3], Y[..., :3, :3]
+                tb = np.swapaxes(RX, -1, -2) @ RY if self.chart == "so3xr3_body" else np.eye(3)
+                k = slice(3, 6) if self.order == "rot_first" else slice(0, 3)
+                J[..., k, k] = tb
+            return J
         if _is_so3(X):
             Xt = np.swapaxes(X, -1, -2)
             dR = Xt @ Y if self.side == "right" else Y @ Xt
@@ -387,14 +428,46 @@ class Convention:
         return validate.finite_output(self._local_jacobian(X, Y), f"{self.name}.local_jacobian")
 
     # ----------------------------------------------------------------- first-order maps
+    def _euler_base(self) -> tuple[Convention, slice]:
+        """Return the rotation-vector twin (right, ``exp``) and where its rotation entries sit."""
+        base = Convention(
+            name=f"{self.name}_exp", side="right", order=self.order, chart=self.chart,
+            rotation="exp", quat_order=self.quat_order,
+        )  # fmt: skip
+        return base, slice(0, 3) if self.order == "rot_first" else slice(3, 6)
+
+    def _euler_D(self, X: FloatArray, inverse: bool) -> FloatArray:
+        """Return ``D``: ``W⁻¹`` (``inverse``: ``W``) on the rotation entries, else ``I``."""
+        R = X[..., :3, :3]
+        e = matrix_to_euler(R, self.rotation, "X")
+        if inverse:
+            B = euler_rate_map(e, self.rotation, "X")
+        else:
+            B = euler_rate_map_inv(e, self.rotation)
+        if _is_so3(X):
+            return B
+        _, k = self._euler_base()
+        D = np.zeros((*X.shape[:-2], 6, 6))
+        D[..., :, :] = np.eye(6)
+        D[..., k, k] = B
+        return D
+
     def _to_canonical(self, X: FloatArray) -> FloatArray:
         if self.generic:
             return G.to_canonical(self, X)
+        if self.is_euler:  # ω_body = W⁻¹(e) r; the rest as the rotation-vector twin
+            base, _ = self._euler_base()
+            M = canonical_tangent_map(base, "to", X.shape[-1] == 3)(X)
+            return np.asarray(M @ self._euler_D(X, False), dtype=np.float64)
         return canonical_tangent_map(self, "to", X.shape[-1] == 3)(X)
 
     def _from_canonical(self, X: FloatArray) -> FloatArray:
         if self.generic:
             return G.from_canonical(self, X)
+        if self.is_euler:
+            base, _ = self._euler_base()
+            M = canonical_tangent_map(base, "from", X.shape[-1] == 3)(X)
+            return np.asarray(self._euler_D(X, True) @ M, dtype=np.float64)
         return canonical_tangent_map(self, "from", X.shape[-1] == 3)(X)
 
     def to_canonical(self, X: Any) -> FloatArray:

@@ -75,6 +75,8 @@ def is_exactly_linear(src: ConventionLike, dst: ConventionLike) -> bool:
         return a.exactly_linear_to(b, is_exactly_linear)
     if _chart_family(a) != _chart_family(b):
         return False
+    if a.is_euler or b.is_euler:  # absolute angles: linear only between two Euler orders
+        return a.is_euler and b.is_euler
     return a.rotation == b.rotation or {a.rotation, b.rotation} <= _LINEAR_ROTATIONS
 
 

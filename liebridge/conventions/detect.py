@@ -2,7 +2,8 @@
 
 ``detect_convention(retract)`` calls ``retract(X, d)`` at a generic pose (or rotation) for a set of
 increments and compares the results with every convention of the model (2 sides × 2 orders ×
-(SE(3) exp + 2 decoupled charts × 4 rotation coordinates) = 36 for poses, 8 for rotations).
+(SE(3) exp + 2 decoupled charts × 4 rotation coordinates) = 36 for poses, 8 for rotations, plus
+the Euler-angle charts (``euler_zyx``, ``euler_rpy``; side-free): 8 for poses, 2 for rotations).
 Distinct conventions give distinct retractions at these probes, including the pairs that agree to
 first order (``half_exp`` vs ``quat_vec``, ``se3`` vs ``so3xr3_body``), because the increments
 are finite (‖d‖ ≈ 0.5). Nothing about the library is assumed: GTSAM's own build is checked this
@@ -24,7 +25,10 @@ from ..lie.numdiff import numerical_jacobian
 from . import groups as G
 from .convention import CANONICAL, CHARTS, GROUP_CHARTS, GROUP_DIMS, ORDERS, SIDES, Convention
 from .registry import get, matching_presets
-from .rotation_coords import ROTATION_COORDS
+from .rotation_coords import EULER_COORDS, ROTATION_COORDS
+
+#: Increment coordinates (the Euler angles are absolute and SO(3)/SE(3) only).
+_INCREMENT_COORDS = tuple(r for r in ROTATION_COORDS if r not in EULER_COORDS)
 
 
 class ConventionNotDetected(ValueError):
@@ -42,7 +46,7 @@ _PROBES: dict[str, list[float]] = {
 
 def _candidates(group: str) -> list[Convention]:
     if group in G.GROUPS:
-        rots = ("exp",) if group in ("so2", "se2") else ROTATION_COORDS
+        rots = ("exp",) if group in ("so2", "se2") else _INCREMENT_COORDS
         charts = GROUP_CHARTS[group]
         return [
             Convention(
@@ -58,12 +62,17 @@ def _candidates(group: str) -> list[Convention]:
             if c[2] != group or c[3] == "exp"
         ]
     if group == "so3":  # only side and rotation coordinates act on a rotation
-        combos = [(s, "rot_first", "so3xr3_body", r) for s in SIDES for r in ROTATION_COORDS]
+        combos = [
+            (s, "rot_first", "so3xr3_body", r)
+            for s in SIDES
+            for r in ROTATION_COORDS
+            if s == "right" or r not in EULER_COORDS  # Euler angles ignore the side
+        ]
     else:
         combos = [
             c
             for c in itertools.product(SIDES, ORDERS, CHARTS, ROTATION_COORDS)
-            if c[2] != "se3" or c[3] == "exp"
+            if (c[2] != "se3" or c[3] == "exp") and (c[0] == "right" or c[3] not in EULER_COORDS)
         ]
     return [
         Convention("detected:" + "/".join(c), c[0], c[1], c[2], c[3], "wxyz")  # type: ignore[arg-type]

@@ -6,8 +6,9 @@ import difflib
 
 from .convention import Convention
 from .presets import ALL_PRESETS
+from .state_presets import STATE_PRESETS
 
-_REGISTRY: dict[str, Convention] = {c.name: c for c in ALL_PRESETS}
+_REGISTRY: dict[str, Convention] = {c.name: c for c in (*ALL_PRESETS, *STATE_PRESETS)}
 
 ConventionLike = Convention | str
 

@@ -18,6 +18,23 @@ order up to a scale (``exp``, ``cayley``: 1; ``half_exp``, ``quat_vec``: 1/2, i.
     = I + 4/(4 + ‖r‖²)·(hat(r) + hat(r)²/2)``; inverse ``r = 2 vee(R − Rᵀ)/(1 + tr R)``.
 
 ``exp`` and ``half_exp`` are linearly related (exactly); the others are not.
+
+Two more coordinates are **absolute** (Euler angles), not increments: they name the rotation
+itself, and the chart adds to them, ``retract(R, r) = E(e(R) + r)``, ``local(R₁, R₂) =
+e(R₂) − e(R₁)`` (yaw and roll differences wrapped to (−π, π]); ``side`` does not enter.
+
+``euler_zyx``
+    ``e = (yaw, pitch, roll)``, ``R = Rz(yaw)·Ry(pitch)·Rx(roll)`` (MRPT ``CPose3D`` /
+    ``CPose3DPDFGaussian``: ``(x, y, z, yaw, pitch, roll)``, ``mrpt/poses/CPose3D.h``).
+``euler_rpy``
+    the same rotation, ``e = (roll, pitch, yaw)`` (ROS ``robot_localization``'s state
+    ``(x, y, z, roll, pitch, yaw, ...)``, the iSAM/TORO ``EDGE3`` lines).
+
+Their first-order map is not constant: the Euler rates of a body rate ``ω`` are
+``ė = W(e) ω`` with (for ``(roll φ, pitch θ, yaw ψ)``) ``W = [[1, sφ tθ, cφ tθ], [0, cφ, −sφ],
+[0, sφ/cθ, cφ/cθ]]``, singular at ``cos θ = 0``: at pitch = ±90° (gimbal lock) the chart is
+singular and every function here raises (never NaN). False: "Euler-angle covariances convert by
+reordering to (ω)" — only at roll = pitch = 0 is ``W = I``.
 """
 
 from __future__ import annotations
@@ -30,15 +47,128 @@ from .._validate import FloatArray
 from ..lie import unchecked as U
 from ..lie.series import sinc
 
-RotationCoords = Literal["exp", "half_exp", "quat_vec", "cayley"]
-ROTATION_COORDS: tuple[str, ...] = ("exp", "half_exp", "quat_vec", "cayley")
+RotationCoords = Literal["exp", "half_exp", "quat_vec", "cayley", "euler_zyx", "euler_rpy"]
+ROTATION_COORDS: tuple[str, ...] = (
+    "exp", "half_exp", "quat_vec", "cayley", "euler_zyx", "euler_rpy"
+)  # fmt: skip
+#: The absolute (Euler-angle) coordinates.
+EULER_COORDS: tuple[str, ...] = ("euler_zyx", "euler_rpy")
 
-#: First-order scale ``dω/dr`` at ``r = 0`` of each map.
-FIRST_ORDER_SCALE: dict[str, float] = {"exp": 1.0, "half_exp": 2.0, "quat_vec": 2.0, "cayley": 1.0}
+#: First-order scale ``dω/dr`` at ``r = 0`` of each map (Euler: at roll = pitch = 0).
+FIRST_ORDER_SCALE: dict[str, float] = {
+    "exp": 1.0, "half_exp": 2.0, "quat_vec": 2.0, "cayley": 1.0, "euler_zyx": 1.0, "euler_rpy": 1.0
+}  # fmt: skip
+
+#: Gimbal-lock threshold: ``|cos(pitch)|`` below this is refused.
+GIMBAL_TOL = 1e-9
+
+
+def _rpy(e: FloatArray, kind: str) -> FloatArray:
+    """Euler coordinates of ``kind`` → ``(roll, pitch, yaw)``."""
+    return e if kind == "euler_rpy" else np.asarray(e[..., ::-1], dtype=np.float64)
+
+
+def _from_rpy(rpy: FloatArray, kind: str) -> FloatArray:
+    return rpy if kind == "euler_rpy" else np.asarray(rpy[..., ::-1], dtype=np.float64)
+
+
+def _check_gimbal(cp: FloatArray, what: str) -> None:
+    bad = ~(np.abs(cp) >= GIMBAL_TOL)
+    if bad.any():
+        i = tuple(int(k) for k in np.argwhere(bad)[0]) if bad.ndim else ()
+        raise ValueError(
+            f"{what}: pitch = ±90° (|cos pitch| = {float(np.abs(cp[i])):.3g} at batch index {i}): "
+            "gimbal lock, where the Euler-angle chart is singular (roll and yaw are not separately "
+            "defined and their rates are infinite); use a rotation-vector convention there"
+        )
+
+
+def euler_to_matrix(e: FloatArray, kind: str) -> FloatArray:
+    """``Rz(yaw)·Ry(pitch)·Rx(roll)`` from Euler coordinates of ``kind`` ``(..., 3)``."""
+    rpy = _rpy(e, kind)
+    cr, sr = np.cos(rpy[..., 0]), np.sin(rpy[..., 0])
+    cp, sp = np.cos(rpy[..., 1]), np.sin(rpy[..., 1])
+    cy, sy = np.cos(rpy[..., 2]), np.sin(rpy[..., 2])
+    R = np.empty((*rpy.shape[:-1], 3, 3))
+    R[..., 0, 0] = cy * cp
+    R[..., 0, 1] = cy * sp * sr - sy * cr
+    R[..., 0, 2] = cy * sp * cr + sy * sr
+    R[..., 1, 0] = sy * cp
+    R[..., 1, 1] = sy * sp * sr + cy * cr
+    R[..., 1, 2] = sy * sp * cr - cy * sr
+    R[..., 2, 0] = -sp
+    R[..., 2, 1] = cp * sr
+    R[..., 2, 2] = cp * cr
+    return R
+
+
+def matrix_to_euler(R: FloatArray, kind: str, what: str = "R") -> FloatArray:
+    """Euler coordinates of ``kind`` of ``R`` (pitch in [−π/2, π/2]); gimbal lock raises."""
+    cp = np.hypot(R[..., 0, 0], R[..., 1, 0])
+    _check_gimbal(cp, what)
+    pitch = np.arctan2(-R[..., 2, 0], cp)
+    roll = np.arctan2(R[..., 2, 1], R[..., 2, 2])
+    yaw = np.arctan2(R[..., 1, 0], R[..., 0, 0])
+    return _from_rpy(np.stack([roll, pitch, yaw], axis=-1), kind)
+
+
+def euler_rate_map(e: FloatArray, kind: str, what: str = "R") -> FloatArray:
+    """``W`` with ``ė = W ω_body`` (rows and columns: ``e`` in ``kind``'s order / ``ω``)."""
+    rpy = _rpy(e, kind)
+    cr, sr = np.cos(rpy[..., 0]), np.sin(rpy[..., 0])
+    cp, sp = np.cos(rpy[..., 1]), np.sin(rpy[..., 1])
+    _check_gimbal(cp, what)
+    W = np.zeros((*rpy.shape[:-1], 3, 3))
+    W[..., 0, 0] = 1.0
+    W[..., 0, 1] = sr * sp / cp
+    W[..., 0, 2] = cr * sp / cp
+    W[..., 1, 1] = cr
+    W[..., 1, 2] = -sr
+    W[..., 2, 1] = sr / cp
+    W[..., 2, 2] = cr / cp
+    return W if kind == "euler_rpy" else np.asarray(W[..., ::-1, :], dtype=np.float64)
+
+
+def euler_rate_map_inv(e: FloatArray, kind: str) -> FloatArray:
+    """``W⁻¹``: ``ω_body = W⁻¹ ė`` = ``[[1, 0, −sθ], [0, cφ, sφ cθ], [0, −sφ, cφ cθ]]`` (rpy)."""
+    rpy = _rpy(e, kind)
+    cr, sr = np.cos(rpy[..., 0]), np.sin(rpy[..., 0])
+    cp, sp = np.cos(rpy[..., 1]), np.sin(rpy[..., 1])
+    Wi = np.zeros((*rpy.shape[:-1], 3, 3))
+    Wi[..., 0, 0] = 1.0
+    Wi[..., 0, 2] = -sp
+    Wi[..., 1, 1] = cr
+    Wi[..., 1, 2] = sr * cp
+    Wi[..., 2, 1] = -sr
+    Wi[..., 2, 2] = cr * cp
+    return Wi if kind == "euler_rpy" else np.asarray(Wi[..., :, ::-1], dtype=np.float64)
+
+
+def _wrap_angles(d: FloatArray, kind: str) -> FloatArray:
+    """Wrap the yaw and roll entries (not pitch) of an Euler difference to (−π, π]."""
+    w = np.pi - np.mod(np.pi - d, 2.0 * np.pi)
+    keep = np.array([False, True, False])  # pitch sits in the middle in both orders
+    return np.where(keep, d, w)
+
+
+def euler_retract(R: FloatArray, r: FloatArray, kind: str) -> FloatArray:
+    """``E(e(R) + r)``: the Euler chart's retraction."""
+    return euler_to_matrix(matrix_to_euler(R, kind, "X") + r, kind)
+
+
+def euler_local(RX: FloatArray, RY: FloatArray, kind: str) -> FloatArray:
+    """``e(RY) − e(RX)``, yaw and roll differences wrapped to (−π, π]."""
+    d = matrix_to_euler(RY, kind, "Y") - matrix_to_euler(RX, kind, "X")
+    return np.asarray(_wrap_angles(d, kind), dtype=np.float64)
 
 
 def to_rotation(r: FloatArray, kind: str) -> FloatArray:
-    """Map coordinates ``r`` ``(..., 3)`` to the rotation increment ``(..., 3, 3)``."""
+    """Map coordinates ``r`` ``(..., 3)`` to the rotation increment ``(..., 3, 3)``.
+
+    For the Euler kinds: the rotation with those Euler angles.
+    """
+    if kind in EULER_COORDS:
+        return euler_to_matrix(r, kind)
     if kind == "exp":
         return U.so3_exp(r)
     if kind == "half_exp":
@@ -62,6 +192,8 @@ def to_rotation(r: FloatArray, kind: str) -> FloatArray:
 
 def from_rotation(R: FloatArray, kind: str) -> FloatArray:
     """Inverse of :func:`to_rotation` (principal branch: ``θ ≤ π``, quaternion ``w ≥ 0``)."""
+    if kind in EULER_COORDS:
+        return matrix_to_euler(R, kind)
     if kind == "exp":
         return U.so3_log(R)
     if kind == "half_exp":

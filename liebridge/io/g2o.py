@@ -88,6 +88,7 @@ import numpy.typing as npt
 from .. import _validate as validate
 from .._validate import FloatArray
 from ..conventions.convert import tangent_map
+from ..conventions.rotation_coords import GIMBAL_TOL, euler_rate_map, euler_to_matrix
 from ..lie import quaternion as quat
 from . import poses as _layouts
 from .trajectory import field_numbers, open_text, text_lines
@@ -127,20 +128,7 @@ def _g2o_error_map() -> FloatArray:
 
 def _rpy_matrix(rpy: FloatArray) -> FloatArray:
     """``Rz(yaw)·Ry(pitch)·Rx(roll)`` for ``rpy = (roll, pitch, yaw)`` ``(..., 3)``."""
-    cr, sr = np.cos(rpy[..., 0]), np.sin(rpy[..., 0])
-    cp, sp = np.cos(rpy[..., 1]), np.sin(rpy[..., 1])
-    cy, sy = np.cos(rpy[..., 2]), np.sin(rpy[..., 2])
-    R = np.empty((*rpy.shape[:-1], 3, 3))
-    R[..., 0, 0] = cy * cp
-    R[..., 0, 1] = cy * sp * sr - sy * cr
-    R[..., 0, 2] = cy * sp * cr + sy * sr
-    R[..., 1, 0] = sy * cp
-    R[..., 1, 1] = sy * sp * sr + cy * cr
-    R[..., 1, 2] = sy * sp * cr - cy * sr
-    R[..., 2, 0] = -sp
-    R[..., 2, 1] = cp * sr
-    R[..., 2, 2] = cp * cr
-    return R
+    return euler_to_matrix(rpy, "euler_rpy")
 
 
 def _euler_error_map(rpy: FloatArray) -> FloatArray:
@@ -148,20 +136,11 @@ def _euler_error_map(rpy: FloatArray) -> FloatArray:
 
     ``Z = (Rz(yaw)·Ry(pitch)·Rx(roll), t)``; columns ``ξ = (ω, v)`` (GTSAM). The translation of
     ``Z·Exp(ξ)`` is ``t + R_Z·v + O(|ξ|²)``; the ZYX Euler rates for a body rate ``ω`` are
-    ``W ω`` with ``W = [[1, sφ tθ, cφ tθ], [0, cφ, −sφ], [0, sφ/cθ, cφ/cθ]]`` (φ roll, θ pitch),
-    singular at ``cos θ = 0``. So ``E = [[0, R_Z], [W, 0]]``.
+    ``W ω`` (:func:`liebridge.conventions.rotation_coords.euler_rate_map`, ``euler_rpy``),
+    singular at ``cos(pitch) = 0`` (gimbal lock: an error there). So ``E = [[0, R_Z], [W, 0]]``.
     """
     R = _rpy_matrix(rpy)
-    cr, sr = np.cos(rpy[..., 0]), np.sin(rpy[..., 0])
-    cp, tp = np.cos(rpy[..., 1]), np.tan(rpy[..., 1])
-    W = np.zeros(R.shape)
-    W[..., 0, 0] = 1.0
-    W[..., 0, 1] = sr * tp
-    W[..., 0, 2] = cr * tp
-    W[..., 1, 1] = cr
-    W[..., 1, 2] = -sr
-    W[..., 2, 1] = sr / cp
-    W[..., 2, 2] = cr / cp
+    W = euler_rate_map(rpy, "euler_rpy", "EDGE3 measurement")
     E = np.zeros((*rpy.shape[:-1], 6, 6))
     E[..., :3, 3:] = R
     E[..., 3:, :3] = W
@@ -563,6 +542,14 @@ def read(
     info = np.empty((eraw.shape[0], 6, 6))
     q = ~euler
     if information == "g2o":
+        cp = np.abs(np.cos(eraw[euler, 4]))
+        for k in np.flatnonzero(~(cp >= GIMBAL_TOL)).tolist()[:1]:
+            raise P.fail(
+                e_lines[int(np.flatnonzero(euler)[k])],
+                f"EDGE3 measurement at pitch = ±90° (|cos pitch| = {float(cp[k]):.3g}): gimbal "
+                "lock, where the roll-pitch-yaw chart of its information matrix is singular; "
+                "read it with information='gtsam' to keep the numbers as they are",
+            )
         info[q] = _swap_blocks(_triu_to_sym(nums[q])) * _G2O_TO_GTSAM_SCALE  # = Mᵀ Λ M, exactly
         with np.errstate(over="ignore", invalid="ignore"):  # reported per line below
             if edge3 == "sqrt_information":

@@ -1,10 +1,18 @@
 """Unit quaternions (Hamilton) with the storage order always explicit.
 
-Every function takes ``order="wxyz"`` or ``order="xyzw"`` as a required keyword: liebridge never
-guesses. All quaternions here are **Hamilton** (``q(R1 R2) = q(R1) ⊗ q(R2)``, the convention of
-GTSAM, Eigen, Sophus, ROS, scipy, Ceres); JPL quaternions (Trawny & Roumeliotis, "Indirect Kalman
-Filter for 3D Attitude Estimation", TR 2005-002, eq. 62; used by MSCKF-family VIO code such as
-OpenVINS) are converted with :func:`jpl_to_hamilton` / :func:`hamilton_to_jpl`.
+Every function takes ``order="wxyz"``, ``order="xyzw"`` or ``order="jpl"`` as a required keyword:
+liebridge never guesses. ``wxyz``/``xyzw`` are **Hamilton** quaternions (``q(R1 R2) = q(R1) ⊗
+q(R2)``, the convention of GTSAM, Eigen, Sophus, ROS, scipy, Ceres) stored scalar first / last.
+
+``jpl`` is a **JPL** quaternion (Trawny & Roumeliotis, "Indirect Kalman Filter for 3D Attitude
+Estimation", TR 2005-002, eq. 62; MSCKF-family VIO code such as OpenVINS,
+``ov_core/src/types/JPLQuat.h``) stored ``(x, y, z, w)``, scalar last, with
+``C(q̄) = (2q₄² − 1)I − 2q₄ hat(q) + 2 q qᵀ``. So ``to_matrix(q, order="jpl") ==
+to_matrix(q, order="xyzw").T``: the same four numbers read as Hamilton give the **inverse**
+rotation (OpenVINS's ``q_GtoI`` read as Hamilton is ``q_ItoG``). The JPL product satisfies
+``C(q̄₁ ⊗ q̄₂) = C(q̄₁) C(q̄₂)`` (Trawny eq. 8-13). False: "JPL is Hamilton stored scalar last"
+(that is ``xyzw``; the difference is the transpose, not the storage). :func:`jpl_to_hamilton` /
+:func:`hamilton_to_jpl` convert the numbers (a conjugation).
 
 Matrix → quaternion uses :class:`scipy.spatial.transform.Rotation` (Markley's method, robust at
 every angle including π); quaternion → matrix is the closed polynomial form.
@@ -19,7 +27,8 @@ import numpy as np
 from .. import _validate as validate
 from .._validate import FloatArray
 
-QuatOrder = Literal["wxyz", "xyzw"]
+QuatOrder = Literal["wxyz", "xyzw", "jpl"]
+HamiltonOrder = Literal["wxyz", "xyzw"]
 
 __all__ = [
     "canonical",
@@ -35,10 +44,11 @@ __all__ = [
 
 def _check_order(order: str) -> QuatOrder:
     """Return the storage order normalised like every string option (``"XYZW"`` is ``"xyzw"``)."""
-    return cast(QuatOrder, validate.option(order, "order", ("wxyz", "xyzw")))
+    return cast(QuatOrder, validate.option(order, "order", ("wxyz", "xyzw", "jpl")))
 
 
 def _to_wxyz(q: FloatArray, order: str) -> FloatArray:
+    """Storage → scalar first (a JPL quaternion keeps its four numbers: ``(w, x, y, z)``)."""
     order = _check_order(order)
     return q if order == "wxyz" else np.roll(q, 1, axis=-1)
 
@@ -50,8 +60,10 @@ def _from_wxyz(q: FloatArray, order: str) -> FloatArray:
 def to_matrix(q: Any, *, order: QuatOrder) -> FloatArray:
     """Convert a unit quaternion ``(..., 4)`` in ``order`` to a rotation ``(..., 3, 3)``.
 
-    ``R = I + 2w·hat(u) + 2·hat(u)²`` for ``q = (w, u)``. The norm must be 1 within
-    :data:`liebridge._validate.QUATERNION_TOL`; normalise explicitly otherwise.
+    ``R = I + 2w·hat(u) + 2·hat(u)²`` for ``q = (w, u)`` (Hamilton); ``order="jpl"`` returns
+    Trawny's ``C(q̄)``, the transpose of that. The norm must be 1 within
+    :data:`liebridge._validate.QUATERNION_TOL` (a non-unit quaternion is an error naming the
+    batch index and the norm); normalise explicitly otherwise.
     """
     order = _check_order(order)
     q = _to_wxyz(validate.quaternion(q, "q"), order)
@@ -66,16 +78,19 @@ def to_matrix(q: Any, *, order: QuatOrder) -> FloatArray:
     R[..., 2, 0] = 2 * (x * z - w * y)
     R[..., 2, 1] = 2 * (y * z + w * x)
     R[..., 2, 2] = 1 - 2 * (x * x + y * y)
-    return R
+    return np.ascontiguousarray(np.swapaxes(R, -1, -2)) if order == "jpl" else R
 
 
 def from_matrix(R: Any, *, order: QuatOrder) -> FloatArray:
     """Rotation ``(..., 3, 3)`` → unit quaternion ``(..., 4)`` with ``w ≥ 0``, in ``order``.
 
     Uses scipy's ``Rotation.from_matrix`` (Markley's method), which is exact at θ = π.
+    ``order="jpl"`` returns the JPL ``(x, y, z, w)`` with Trawny's ``C(q̄) = R``.
     """
     order = _check_order(order)
     R = validate.rotation(R, "R")
+    if order == "jpl":
+        R = np.swapaxes(R, -1, -2)
     flat = R.reshape(-1, 3, 3)
     from scipy.spatial.transform import Rotation  # lazy: importing scipy.spatial costs ~0.8 s
 
@@ -85,11 +100,15 @@ def from_matrix(R: Any, *, order: QuatOrder) -> FloatArray:
 
 
 def multiply(q1: Any, q2: Any, *, order: QuatOrder) -> FloatArray:
-    """Hamilton product ``q1 ⊗ q2`` of unit quaternions (broadcast).
+    """Quaternion product ``q1 ⊗ q2`` of unit quaternions (broadcast).
 
-    ``to_matrix(q1 ⊗ q2) = to_matrix(q1) @ to_matrix(q2)``.
+    ``to_matrix(q1 ⊗ q2) = to_matrix(q1) @ to_matrix(q2)`` in every order: Hamilton's product for
+    ``wxyz``/``xyzw``, the JPL product (Trawny eq. 8) for ``jpl``, which equals the Hamilton
+    product of the same numbers in the other order, ``q2 ⊗_H q1``.
     """
     order = _check_order(order)
+    if order == "jpl":
+        return multiply(q2, q1, order="xyzw")
     a = _to_wxyz(validate.quaternion(q1, "q1"), order)
     b = _to_wxyz(validate.quaternion(q2, "q2"), order)
     validate.batch_shape(("q1", a.shape[:-1]), ("q2", b.shape[:-1]))
@@ -150,16 +169,20 @@ def slerp(q0: Any, q1: Any, tau: Any, *, order: QuatOrder) -> FloatArray:
     return validate.finite_output(np.asarray(out, dtype=np.float64), "quaternion.slerp")
 
 
-def jpl_to_hamilton(q_jpl: Any, *, order: QuatOrder) -> FloatArray:
+def jpl_to_hamilton(q_jpl: Any, *, order: HamiltonOrder) -> FloatArray:
     """JPL quaternion → Hamilton quaternion of the same rotation matrix, same storage order.
 
     Trawny & Roumeliotis (2005, eq. 62) define ``C(q̄) = (2q₄² − 1)I − 2q₄ hat(q) + 2 q qᵀ``, which
     is ``to_matrix(q)ᵀ`` for the same four numbers read as Hamilton. So the Hamilton quaternion of
     the matrix ``C(q̄)`` is the conjugate. (JPL code usually stores ``xyzw``, scalar last.)
+    ``order`` is the storage of both (``wxyz`` or ``xyzw``); for numbers already read with
+    ``order="jpl"`` no conversion is needed.
     """
+    validate.option(order, "order", ("wxyz", "xyzw"))
     return conjugate(q_jpl, order=order)
 
 
-def hamilton_to_jpl(q: Any, *, order: QuatOrder) -> FloatArray:
+def hamilton_to_jpl(q: Any, *, order: HamiltonOrder) -> FloatArray:
     """Inverse of :func:`jpl_to_hamilton` (also a conjugation)."""
+    validate.option(order, "order", ("wxyz", "xyzw"))
     return conjugate(q, order=order)

@@ -1,0 +1,182 @@
+"""Charts of the navigation state ``(R, p, v)`` built from a pose convention and a velocity frame.
+
+VIO/LIO systems perturb the rotation and position of the IMU the way one of the SE(3)
+conventions does (right or left, rotation vector or Cayley, position increment in the body or
+the world frame), and the velocity separately: added in the world frame (OpenVINS, VINS, Basalt,
+ORB-SLAM3, a GTSAM graph's ``Vector3`` velocity key) or rotated into it from the body frame
+(GTSAM's ``NavState``). A :class:`NavChart` is that pair, as a convention of SE₂(3): its elements
+are liebridge's extended-pose matrices
+
+``X = [[R, p, v], [0, 1, 0], [0, 0, 1]]``  (5×5, ``R = R_world_body``, ``p``, ``v`` in world),
+
+its tangent is ``(pose tangent in the pose convention's order, δv)`` (9), and
+
+``retract(X, (d, δv)) = (pose.retract((R, p), d), v + R·δv)`` (``velocity="body"``, ``R`` the
+rotation before the update) or ``v + δv`` (``velocity="world"``).
+
+So every such chart converts to and from GTSAM's ``NavState`` chart and manif's ``SE_2_3``
+(:func:`liebridge.conventions.tangent_map`, ``convert_covariance``), and bundles of one with two
+bias vectors (``openvins``, ``vins``, ``gtsam_imu_keys``, ... in
+:mod:`liebridge.conventions.presets`) convert as whole 15-dimensional states.
+
+The first-order map to GTSAM's SE₂(3) tangent ``(θ, ρ, ν)`` (right, ``X·Exp(ξ)``) is
+block diagonal: the pose convention's own map to ``(ω, v)`` (to first order ``X·Exp(ξ)`` moves
+``(R, p)`` as the SE(3) ``X·Exp(ω, v)`` does) and ``I`` (body velocity) or ``Rᵀ`` (world).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+
+from .. import _validate as validate
+from .._validate import FloatArray
+from .convention import Convention
+
+VelocityFrame = Literal["body", "world"]
+
+
+def _pose(X: FloatArray) -> FloatArray:
+    """Return the SE(3) part ``[[R, p], [0, 1]]`` of extended poses (a view)."""
+    return X[..., :4, :4]
+
+
+def _mv(A: FloatArray, x: FloatArray) -> FloatArray:
+    return np.einsum("...ij,...j->...i", A, x)
+
+
+@dataclass(frozen=True)
+class NavChart(Convention):
+    """A navigation-state chart: an SE(3) ``pose`` convention and a ``velocity`` frame.
+
+    Build it with :meth:`NavChart.of`; see the module docstring for the retraction.
+    """
+
+    pose: Convention | None = None
+    velocity: str = "world"
+
+    @classmethod
+    def of(
+        cls,
+        name: str,
+        pose: Convention,
+        velocity: VelocityFrame,
+        source: str = "",
+        notes: str = "",
+    ) -> NavChart:
+        """Build the chart (``pose`` an SE(3) convention, ``velocity`` ``"body"``/``"world"``)."""
+        return cls(
+            name=name,
+            side=pose.side,
+            order=pose.order,
+            chart="split_body" if velocity == "body" else "split_world",
+            rotation=pose.rotation,
+            quat_order=pose.quat_order,
+            source=source,
+            notes=notes,
+            group="se23",
+            pose=pose,
+            velocity=velocity,
+        )
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        p = self.pose
+        if not isinstance(p, Convention) or p.group != "se3" or p.generic or p.is_euler:
+            raise ValueError(
+                f"NavChart {self.name!r}: pose must be an SE(3) convention with increment "
+                f"coordinates (not Euler angles), got {p!r}"
+            )
+        validate.option(self.velocity, "velocity", ("body", "world"))
+        object.__setattr__(
+            self, "_key", (f"nav:{p.side}", p.order, f"{p.chart}+v_{self.velocity}", p.rotation)
+        )
+
+    @property
+    def _p(self) -> Convention:
+        assert self.pose is not None  # checked in __post_init__
+        return self.pose
+
+    def dim(self, X: Any = None) -> int:
+        """9: the pose tangent (6, in the pose convention's order) then ``δv`` (3)."""
+        return 9
+
+    def describe(self) -> str:
+        """One line: name, pose convention, velocity frame."""
+        return (
+            f"{self.name} (se23 navigation chart): pose {self._p.describe()}; "
+            f"velocity increment in the {self.velocity} frame"
+        )
+
+    # ----------------------------------------------------------------- retraction
+    def _increment(self, d: Any, so3: bool, name: str = "d") -> FloatArray:
+        arr = validate.vector(d, name, 9)
+        self._p._increment(arr[..., :6], False, name)
+        return arr
+
+    def _retract(self, X: FloatArray, d: FloatArray) -> FloatArray:
+        T2 = self._p._retract(_pose(X), d[..., :6])
+        dv = d[..., 6:]
+        v = X[..., :3, 4]
+        v2 = v + (_mv(X[..., :3, :3], dv) if self.velocity == "body" else dv)
+        out = np.zeros((*np.broadcast_shapes(X.shape[:-2], d.shape[:-1]), 5, 5))
+        out[..., :4, :4] = T2
+        out[..., :3, 4] = v2
+        out[..., 4, 4] = 1.0
+        return out
+
+    def _local(self, X: FloatArray, Y: FloatArray) -> FloatArray:
+        d = self._p._local(_pose(X), _pose(Y))
+        dv = Y[..., :3, 4] - X[..., :3, 4]
+        if self.velocity == "body":
+            dv = _mv(np.swapaxes(X[..., :3, :3], -1, -2), dv)
+        batch = np.broadcast_shapes(d.shape[:-1], dv.shape[:-1])
+        parts = [np.broadcast_to(d, (*batch, 6)), np.broadcast_to(dv, (*batch, 3))]
+        return np.concatenate(parts, axis=-1)
+
+    # ----------------------------------------------------------------- first-order maps
+    def _blocks(self, X: FloatArray, A: FloatArray, vel: FloatArray) -> FloatArray:
+        out = np.zeros((*np.broadcast_shapes(A.shape[:-2], vel.shape[:-2]), 9, 9))
+        out[..., :6, :6] = A
+        out[..., 6:, 6:] = vel
+        return out
+
+    def _to_canonical(self, X: FloatArray) -> FloatArray:
+        R = X[..., :3, :3]
+        vel = np.broadcast_to(np.eye(3), R.shape) if self.velocity == "body" else R.swapaxes(-1, -2)
+        return self._blocks(X, self._p._to_canonical(_pose(X)), vel)
+
+    def _from_canonical(self, X: FloatArray) -> FloatArray:
+        R = X[..., :3, :3]
+        vel = np.broadcast_to(np.eye(3), R.shape) if self.velocity == "body" else R
+        return self._blocks(X, self._p._from_canonical(_pose(X)), vel)
+
+    def _local_jacobian(self, X: FloatArray, Y: FloatArray) -> FloatArray:
+        A = self._p._local_jacobian(_pose(X), _pose(Y))
+        if self.velocity == "body":
+            vel = np.swapaxes(X[..., :3, :3], -1, -2) @ Y[..., :3, :3]
+        else:
+            vel = np.broadcast_to(np.eye(3), (*A.shape[:-2], 3, 3))
+        return self._blocks(X, A, vel)
+
+
+def nav_state(R_world_body: Any, p_world: Any, v_world: Any) -> FloatArray:
+    """Assemble extended poses ``(..., 5, 5)`` from ``R_world_body``, position and velocity.
+
+    ``R_world_body`` rotates body (IMU) coordinates into the world frame; from an OpenVINS JPL
+    ``q_GtoI`` it is ``quaternion.to_matrix(q_GtoI, order="jpl").T``.
+    """
+    R = validate.rotation(R_world_body, "R_world_body")
+    p = validate.vector(p_world, "p_world", 3)
+    v = validate.vector(v_world, "v_world", 3)
+    shape = validate.batch_shape(
+        ("R_world_body", R.shape[:-2]), ("p_world", p.shape[:-1]), ("v_world", v.shape[:-1])
+    )
+    X = np.zeros((*shape, 5, 5))
+    X[..., :3, :3] = R
+    X[..., :3, 3] = p
+    X[..., :3, 4] = v
+    X[..., 3, 3] = X[..., 4, 4] = 1.0
+    return X

@@ -1,0 +1,207 @@
+"""Presets of whole IMU states: 15-dimensional (R, p, v, b_a, b_g) conventions of VIO/LIO systems.
+
+Every preset here is a :class:`~liebridge.conventions.Bundle` of the same three blocks, so any two
+convert into each other (``convert_covariance``, linear or unscented, ``convert_information``,
+``convert_jacobian``, ``tangent_map``):
+
+* ``nav``: an SE₂(3) chart of ``(R_world_body, p_world, v_world)``, the 5×5 extended pose
+  (GTSAM's ``NavState`` chart or a :class:`~liebridge.conventions.navstate.NavChart`);
+* ``b_a``, ``b_g``: accelerometer and gyroscope biases, additive.
+
+An element is the 13×13 block-diagonal matrix ``Bundle.assemble(nav=X, b_a=..., b_g=...)``
+(``X`` from :func:`~liebridge.conventions.navstate.nav_state`). The tangent is the system's own
+order (a permutation of ``(nav tangent, δb_a, δb_g)``). The 9-dimensional states are the SE₂(3)
+presets ``gtsam_navstate`` and ``manif_se23`` (and any ``NavChart``); a 15×15 covariance given to
+one of them is refused, and so is a 9×9 given to a 15-dimensional state.
+
+See ``docs/navigation-states.md`` for the table with sources. Not provided (not verified in
+their source in time): MOLA; FAST-LIO's ``state_ikfom`` is a 23-dimensional error state
+(p, R, R_LI, t_LI, v, b_g, b_a, g ∈ S²) whose S² gravity chart is outside this model.
+"""
+
+from __future__ import annotations
+
+from .bundle import Bundle, Vector
+from .convention import Convention
+from .navstate import NavChart
+from .presets import GTSAM, GTSAM_NAVSTATE
+
+_BIAS_BLOCKS: list[tuple[str, Vector]] = [("b_a", Vector(3)), ("b_g", Vector(3))]
+#: Tangent permutation for (nav 9, δb_g, δb_a) — the gyroscope bias first.
+_GYRO_FIRST = [*range(9), 12, 13, 14, 9, 10, 11]
+
+
+def _state(name: str, nav: Convention, order: list[int] | None, source: str, notes: str) -> Bundle:
+    return Bundle.of(name, [("nav", nav), *_BIAS_BLOCKS], order=order, source=source, notes=notes)
+
+
+GTSAM_COMBINED = _state(
+    "gtsam_combined",
+    GTSAM_NAVSTATE,
+    None,
+    source="V GTSAM 4.3.0 PyPI wheel (NavState.retract; CombinedImuFactor residual); "
+    "S gtsam/navigation/CombinedImuFactor.cpp (evaluateError: 15-vector, bias part b_i − b_j), "
+    "gtsam/navigation/NavState.cpp (retract), gtsam/navigation/ImuBias.h (vector() = (acc, gyro))",
+    notes=(
+        "d = (δθ, δp, δv, δb_a, δb_g): NavState.retract ((R·Exp(δθ), p + R·δp, v + R·δv), "
+        "component-wise in the body frame) followed by additive biases; the chart of "
+        "PreintegratedCombinedMeasurements' covariance and of CombinedImuFactor's residual. "
+        "False: retract = X·NavState.Expmap(δ) (the coupled SE₂(3) one); false: the biases come "
+        "(gyro, acc) as in OpenVINS/Basalt (ConstantBias.vector() is (acc, gyro))."
+    ),
+)
+"""GTSAM combined IMU chart: NavState (θ, p, v) body-frame split, then (δb_a, δb_g)."""
+
+_GTSAM_POSE_VEL = NavChart.of(
+    "gtsam_pose_velocity",
+    GTSAM,
+    "world",
+    source="V GTSAM 4.3.0 PyPI wheel (Pose3.retract, Vector3 +)",
+    notes="(Pose3 (ω, v) right SE(3) exponential, world-frame velocity added).",
+)
+
+GTSAM_IMU_KEYS = _state(
+    "gtsam_imu_keys",
+    _GTSAM_POSE_VEL,
+    None,
+    source="V GTSAM 4.3.0 PyPI wheel (Pose3.retract, Marginals.jointMarginalCovariance("
+    "[X(i), V(i), B(i)]).fullMatrix(): blocks in the order of the keys given, measured); "
+    "S gtsam/navigation/ImuFactor.h (pose, Vector3 velocity in the navigation frame, bias keys)",
+    notes=(
+        "d = (ω, ρ, δv, δb_a, δb_g): the graph's Pose3 key retracted as X·Exp(ω, ρ) (coupled "
+        "SE(3)), the Vector3 velocity key v + δv (world frame), the ConstantBias key b + δb with "
+        "(acc, gyro). What Marginals.jointMarginalCovariance([X(i), V(i), B(i)]).fullMatrix() "
+        "returns, in that key order. False: it equals the NavState chart (gtsam_combined): the "
+        "pose part is coupled and the velocity increment is in the world, not the body frame."
+    ),
+)
+"""A GTSAM graph's Pose3, world velocity and bias keys (what ``Marginals`` gives), in (X, V, B)."""
+
+KIMERA = _state(
+    "kimera",
+    _GTSAM_POSE_VEL,
+    None,
+    source="S Kimera-VIO src/backend/VioBackend.cpp (computeStateCovariance: marginals of "
+    "[pose, velocity, imu bias] symbols, reordered by UtilsOpenCV::Covariance_bvx2xvb); GTSAM "
+    "Pose3/Vector3/imuBias::ConstantBias keys",
+    notes=(
+        "Kimera-VIO's state covariance: gtsam_imu_keys' chart and order (ω, ρ, δv, δb_a, δb_g). "
+        "False: the marginals come (bias, velocity, pose) — Kimera reorders bvx → xvb itself."
+    ),
+)
+"""Kimera-VIO: GTSAM's Pose3 / velocity / bias keys, (x, v, b) order."""
+
+_OPENVINS_POSE = Convention(
+    name="openvins_pose",
+    side="right",
+    order="rot_first",
+    chart="so3xr3_world",
+    rotation="cayley",
+    quat_order="jpl",
+)
+OPENVINS = _state(
+    "openvins",
+    NavChart.of("openvins_nav", _OPENVINS_POSE, "world"),
+    _GYRO_FIRST,
+    source="S OpenVINS ov_core/src/types/JPLQuat.h (update: dq = quatnorm([½δθ; 1]), "
+    "q ← dq ⊗ q, JPL q_GtoI stored (x, y, z, w)), ov_core/src/types/IMU.h (error state "
+    "(θ, p, v, b_g, b_a); p_IinG, v_IinG, bg, ba added), ov_core/src/utils/quat_ops.h",
+    notes=(
+        "d = (δθ, δp, δv, δb_g, δb_a). The JPL update δq ⊗ q̄ of q_GtoI is "
+        "R_ItoG ← R_ItoG·Cay(δθ) (Cay(r) = (I − r^/2)⁻¹(I + r^/2), the rotation of "
+        "normalize(1, r/2)): a right (body-frame) update with Cayley/Gibbs coordinates; p_IinG, "
+        "v_IinG added in the global frame. The element's R is R_ItoG = "
+        "quaternion.to_matrix(q_GtoI, order='jpl').T. False: reading q_GtoI as a Hamilton "
+        "quaternion gives R_GtoI (it gives R_ItoG); false: δθ is a left/global rotation error "
+        "(δq multiplies q_GtoI on the left, which is the body side of R_ItoG)."
+    ),
+)
+"""OpenVINS IMU state: JPL ``q_GtoI``, (θ, p, v, b_g, b_a), Cayley right rotation, world p, v."""
+
+VINS = _state(
+    "vins",
+    NavChart.of(
+        "vins_nav",
+        Convention(
+            name="vins_pose",
+            side="right",
+            order="trans_first",
+            chart="so3xr3_world",
+            rotation="cayley",
+            quat_order="xyzw",
+        ),
+        "world",
+    ),
+    None,
+    source="S VINS-Mono/VINS-Fusion vins_estimator/src/factor/pose_local_parameterization.cpp "
+    "(Plus: p + δp, (q ⊗ (1, ½δθ)).normalized(), Utility::deltaQ), estimator.h para_SpeedBias "
+    "(v, b_a, b_g) added; parameters.h StateOrder (O_P 0, O_R 3, O_V 6, O_BA 9, O_BG 12)",
+    notes=(
+        "d = (δp, δθ, δv, δb_a, δb_g): p + δp (world), q ⊗ normalize(1, ½δθ) (Hamilton, Eigen "
+        "xyzw storage): R·Cay(δθ), a right update whose first-order scale is 1; v, b_a, b_g "
+        "added. False: Ceres's QuaternionManifold half angle (exp of δ/2·2); false: the rotation "
+        "increment is exactly Exp(δθ) (it is the Cayley map, equal to second order only)."
+    ),
+)
+"""VINS-Mono/Fusion: (p, θ, v, b_a, b_g), Cayley right rotation, world p, v."""
+
+BASALT = _state(
+    "basalt",
+    NavChart.of(
+        "basalt_nav",
+        Convention(
+            name="basalt_pose",
+            side="left",
+            order="trans_first",
+            chart="so3xr3_world",
+            rotation="exp",
+            quat_order="xyzw",
+        ),
+        "world",
+    ),
+    _GYRO_FIRST,
+    source="S basalt-headers include/basalt/imu/imu_types.h (PoseState::incPose: R' = Exp(ω)·R, "
+    "p' = p + υ; PoseVelBiasState::applyInc: [trans, rot, vel, bias_gyro, bias_accel])",
+    notes=(
+        "d = (δp, δθ, δv, δb_g, δb_a): Exp(δθ)·R (left, world frame), p, v, biases added. "
+        "False: Basalt's increment is Sophus's SE3 right perturbation T·Exp(ξ)."
+    ),
+)
+"""Basalt ``PoseVelBiasState``: (p, θ, v, b_g, b_a), left rotation, world p, v."""
+
+ORBSLAM3 = _state(
+    "orbslam3",
+    NavChart.of(
+        "orbslam3_nav",
+        Convention(
+            name="orbslam3_pose",
+            side="right",
+            order="rot_first",
+            chart="so3xr3_body",
+            rotation="exp",
+            quat_order="wxyz",
+        ),
+        "world",
+    ),
+    _GYRO_FIRST,
+    source="S ORB-SLAM3 src/G2oTypes.cc (ImuCamPose::Update: twb += Rwb·ut, Rwb = "
+    "Rwb·ExpSO3(ur), pu = (ur, ut); VertexVelocity, VertexGyroBias, VertexAccBias added), "
+    "src/Optimizer.cc (15×15 H of ConstraintPoseImu: pose, velocity, gyro bias, acc bias)",
+    notes=(
+        "d = (δθ, δp, δv, δb_g, δb_a): R·Exp(δθ), p + R·δp (body frame), v + δv (world), "
+        "biases added. False: the velocity increment is body-frame like GTSAM's NavState "
+        "(ORB-SLAM3's pose update is body-frame, its velocity vertex is not)."
+    ),
+)
+"""ORB-SLAM3 inertial vertices: (θ, p, v, b_g, b_a), right rotation, body p, world v."""
+
+#: The 15-dimensional whole-state presets, in registry order.
+STATE_PRESETS: tuple[Bundle, ...] = (
+    GTSAM_COMBINED,
+    GTSAM_IMU_KEYS,
+    OPENVINS,
+    VINS,
+    BASALT,
+    ORBSLAM3,
+    KIMERA,
+)
