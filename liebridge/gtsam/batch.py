@@ -21,6 +21,12 @@ from ..conventions import Convention
 from . import factor_math
 
 
+#: Groups whose liebridge factors carry a batch spec. Factors of the other groups (Pose2,
+#: Similarity3, NavState) are evaluated by GTSAM through their single-factor callbacks, which
+#: call the same :mod:`~liebridge.gtsam.factor_math`.
+BATCHED_GROUPS = frozenset({"se3"})
+
+
 @dataclass(frozen=True)
 class PoseFactorSpec:
     """One between (``j`` set) or prior (``j`` None) factor on ``Pose3`` keys."""
@@ -70,7 +76,7 @@ class PoseFactorGroup:
 
     def _residuals(self, keys: KeyArray, T: FloatArray) -> tuple[FloatArray, FloatArray]:
         Tj = T[_rows(keys, self.j)] if self.between else None
-        H = factor_math.relative(T[_rows(keys, self.i)], Tj)
+        H = factor_math.relative(T[_rows(keys, self.i)], Tj, self.conv.group)
         return H, factor_math.residual(self.conv, self.Z, H)
 
     def error(self, keys: KeyArray, T: FloatArray) -> float:
