@@ -6,7 +6,9 @@ covariances, marginal covariances. Inside it is an ordinary ``gtsam.NonlinearFac
 
 Factor choice (``native=None``, the default): a native GTSAM factor when the conversion to GTSAM's
 tangent is exact (side, order, rotation scale — see :func:`liebridge.is_exactly_linear`), else
-liebridge's custom factor with the convention's own residual and exact Jacobians.
+liebridge's custom factor with the convention's own residual and exact Jacobians. Sim(3) always
+gets the custom factor: GTSAM 4.3.0's ``BetweenFactorSimilarity3``/``PriorFactorSimilarity3``
+linearize with the zero-residual Jacobians (see :mod:`liebridge.gtsam.pose_factors`).
 
 Every group: the wrapper's variables are of its convention's group — ``Pose3`` (SE(3)),
 ``Pose2`` (SE(2), e.g. ``ConventionGraph("g2o_se2")``), ``Similarity3`` (Sim(3)), ``NavState``
@@ -63,6 +65,8 @@ class ConventionGraph:
 
     def _native(self, native: bool | None) -> bool:
         if native is None:
+            if self.group == "sim3":  # GTSAM's Similarity3 factors have zero-residual Jacobians
+                return False
             return is_exactly_linear(self.convention, gtsam_convention_of(self.group))
         return native
 

@@ -29,10 +29,17 @@ group     GTSAM variable       native factors (GTSAM 4.3.0 Python wrapper)      
 ``se23``  ``NavState`` (5×5)   ``BetweenFactorNavState``, ``PriorFactorNavState``          9
 ========  ===================  ==========================================================  ====
 
-GTSAM's error of each is ``localCoordinates(Z, H)`` of its class (``gtsam/slam/BetweenFactor.h``,
-``PriorFactor.h``): ``Log(Z⁻¹H)`` for ``Pose2``/``Similarity3`` (presets ``gtsam_pose2``,
-``gtsam_similarity3``) and the split body chart for ``NavState`` (``gtsam_navstate``; NOT
-``Log(Z⁻¹H)`` with the SE₂(3) exponential). A ``Similarity3`` matrix is ``[sR t; 0 1]``
+GTSAM's ``Pose2`` and ``NavState`` factors linearize exactly (their Jacobians match central
+differences through GTSAM's own ``retract`` to 1e-9); its ``Similarity3`` factors do **not**: GTSAM
+4.3.0 linearizes them with ``(−Ad(H⁻¹), I)`` (``I`` for the prior) whatever the residual
+(``Similarity3::Logmap``'s derivative is not implemented, ``gtsam/geometry/Similarity3.cpp``),
+so ``native=True`` warns for Sim(3) and :class:`~liebridge.gtsam.ConventionGraph` uses the custom
+factor there. GTSAM's between error is ``Local(Z, H)`` of its class (``gtsam/slam/BetweenFactor.h``):
+``Log(Z⁻¹H)`` for ``Pose2``/``Similarity3`` (presets ``gtsam_pose2``, ``gtsam_similarity3``) and
+the split body chart for ``NavState`` (``gtsam_navstate``; NOT ``Log(Z⁻¹H)`` with the SE₂(3)
+exponential). Its prior error is ``−Local(X, Z)`` (``gtsam/nonlinear/PriorFactor.h``), which is
+``Log(Z⁻¹X)`` on the Lie-group charts but, for ``NavState``, differs from liebridge's prior
+residual ``local(Z, X)`` at second order (measured in ``tests/test_gtsam_factors_groups.py``). A ``Similarity3`` matrix is ``[sR t; 0 1]``
 (``p ↦ sRp + t``; GTSAM's constructor takes ``t/s``, the glue converts). For a convention with an
 embedding (``ros_pose2``) ``cov`` is in the convention's tangent (ROS's 6×6 over
 ``(x, y, z, roll, pitch, yaw)``) and only its ``(x, y, yaw)`` block is used.
@@ -111,6 +118,16 @@ def _covariance(conv: Convention, cov: Any) -> tuple[FloatArray, FloatArray]:
     return c, block
 
 
+def _warn_sim3_jacobians() -> None:
+    warnings.warn(
+        "liebridge: GTSAM's BetweenFactorSimilarity3/PriorFactorSimilarity3 linearize with the "
+        "zero-residual Jacobians (−Ad(H⁻¹), I) (Similarity3::Logmap's derivative is not "
+        "implemented in GTSAM 4.3), so an optimizer stops where those vanish, not at the "
+        "minimum of the objective. Use native=False for exact Jacobians.",
+        stacklevel=3,
+    )
+
+
 def _native_noise(conv: Convention, Z: FloatArray, cov: FloatArray) -> Any:
     """GTSAM noise model of a native factor: ``cov`` converted to GTSAM's tangent at ``Z``."""
     hub = gtsam_convention_of(conv.group)
@@ -181,6 +198,8 @@ def between(
         raise ValueError(f"j: the same key as i ({i}); a between factor relates two variables")
     dim, Between, _ = _NATIVE[group]
     if native:
+        if group == "sim3":
+            _warn_sim3_jacobians()
         return Between(i, j, _gtsam_object(group, Z), _native_noise(conv, Z, cov_conv))
 
     Zc = Z.copy()
@@ -227,6 +246,8 @@ def prior(
     i = validate.key(i, "i")
     dim, _, Prior = _NATIVE[group]
     if native:
+        if group == "sim3":
+            _warn_sim3_jacobians()
         return Prior(i, _gtsam_object(group, Z), _native_noise(conv, Z, cov_conv))
     Zc = Z.copy()
 
