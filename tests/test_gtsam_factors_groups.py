@@ -49,7 +49,8 @@ def _gtsam_retract(group: str) -> Any:
         shape = np.broadcast_shapes(X.shape[:-2], d.shape[:-1])
         Xb = np.broadcast_to(X, (*shape, *X.shape[-2:])).reshape(-1, *X.shape[-2:])
         db = np.broadcast_to(d, (*shape, d.shape[-1])).reshape(-1, d.shape[-1])
-        out = [from_gtsam(to_gtsam(x, group).retract(e), group) for x, e in zip(Xb, db)]
+        pairs = zip(Xb, db, strict=True)
+        out = [from_gtsam(to_gtsam(x, group).retract(e), group) for x, e in pairs]
         return np.stack(out).reshape(*shape, *X.shape[-2:])
 
     return retract
@@ -130,7 +131,7 @@ def test_similarity3_errors_equal_gtsams_but_its_jacobians_are_the_zero_residual
     the Jacobian tests); GTSAM's are the zero-residual ones. If this fails, GTSAM implemented
     Similarity3::Logmap's derivative: revisit ConventionGraph's custom-factor choice for Sim(3).
     """
-    Ti, Tj, Z, cov = _case("sim3", seed)
+    Ti, Tj, Z, _ = _case("sim3", seed)
     v = _values("sim3", {1: Ti, 2: Tj})
     unit = gtsam.noiseModel.Unit.Create(7)
     theirs = gtsam.BetweenFactorSimilarity3(1, 2, to_gtsam(Z, "sim3"), unit)
@@ -200,7 +201,7 @@ def test_custom_jacobians_match_central_differences_through_gtsams_retract(
     group: str, name: str, seed: int
 ) -> None:
     conv = get(name)
-    Ti, Tj, Z, cov = _case(group, seed)
+    Ti, Tj, Z, _ = _case(group, seed)
     n = DIM[group]
     retract = _gtsam_retract(group)
     with warnings.catch_warnings():
@@ -283,7 +284,7 @@ def test_marginals_of_another_group_are_refused_clearly() -> None:
     graph.add(gtsam.PriorFactorPose2(0, gtsam.Pose2(), gtsam.noiseModel.Isotropic.Sigma(3, 1.0)))
     v = gtsam.Values()
     v.insert(0, gtsam.Pose2())
-    with pytest.raises(TypeError, match="keys\\[0\\]: the value under key 0 is not a Similarity3"):
+    with pytest.raises(TypeError, match=r"keys\[0\]: the value under key 0 is not a Similarity3"):
         marginals(graph, v, [0], "sophus_sim3")
 
 
@@ -339,9 +340,9 @@ def test_custom_factors_in_every_se2_convention_reach_gtsams_optimum(dataset: st
         assert result.converged
         X = cg.poses(keys)
         exact = lb.is_exactly_linear(conv, get("gtsam_pose2"))
-        tol = 1e-7 if exact else 2e-3
+        tol = 1e-7 if exact else 1e-4  # measured: 1.0e-5 (pose2example), 2.2e-5 (w100_30)
         np.testing.assert_allclose(X, X_ref, atol=tol, err_msg=name)
-        assert cg.error() == pytest.approx(ref_graph.error(ref), rel=1e-6 if exact else 2e-2)
+        assert cg.error() == pytest.approx(ref_graph.error(ref), rel=1e-6 if exact else 1e-3)
 
 
 # --------------------------------------------------------------------- bad input
@@ -355,9 +356,9 @@ def test_a_3x3_rotation_is_not_an_se2_measurement() -> None:
 
 @pytest.mark.parametrize("native", [True, False])
 def test_a_nonpositive_sim3_scale_is_one_clear_error(native: bool) -> None:
-    with pytest.raises(ValueError, match="measured: Sim\\(3\\) scale .*≤ 0"):
+    with pytest.raises(ValueError, match=r"measured: Sim\(3\) scale .*≤ 0"):
         between(0, 1, np.diag([-0.5, -0.5, -0.5, 1.0]), np.eye(7), "sophus_sim3", native=native)
-    with pytest.raises(ValueError, match="pose: Sim\\(3\\) scale"):
+    with pytest.raises(ValueError, match=r"pose: Sim\(3\) scale"):
         prior(0, np.diag([0.0, 0.0, 0.0, 1.0]), np.eye(7), "gtsam_similarity3", native=native)
 
 

@@ -8,8 +8,8 @@ Sophus, manif, jaxlie, Theseus), else liebridge's custom factors with the conven
 residual (``g2o_se2``: g2o's ``(x, y, θ)`` of ``Z⁻¹Ti⁻¹Tj``; ``symforce_pose2``, ``ros_pose2``)
 and each edge's covariance converted to that convention at its measurement; a prior on the first
 vertex fixes the gauge. It is optimized by :func:`liebridge.gtsam.optimize`, and its marginals
-(``gtsam.Marginals``, over GTSAM's Pose2 tangent) are converted to the convention. The plot shows the initial and
-optimized trajectories with the 2σ position ellipses of the marginals.
+(``gtsam.Marginals``, over GTSAM's Pose2 tangent) are converted to the convention. The plot
+shows the initial and optimized trajectories with the 2σ position ellipses of the marginals.
 """
 
 from __future__ import annotations
@@ -47,7 +47,7 @@ def _se2_convention(name: str) -> Any:
 
 
 def factor_kind_2d(conv: Any) -> str:
-    """What :func:`build_2d` builds for ``conv`` (one line)."""
+    """Describe in one line what :func:`build_2d` builds for ``conv``."""
     from ..conventions.convert import is_exactly_linear
     from ..gtsam.build import gtsam_convention_of
 

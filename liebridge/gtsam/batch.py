@@ -20,7 +20,6 @@ from .._validate import FloatArray
 from ..conventions import Convention
 from . import factor_math
 
-
 #: Groups whose liebridge factors carry a batch spec. Factors of the other groups (Pose2,
 #: Similarity3, NavState) are evaluated by GTSAM through their single-factor callbacks, which
 #: call the same :mod:`~liebridge.gtsam.factor_math`.

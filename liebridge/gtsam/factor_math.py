@@ -51,9 +51,7 @@ def _ops(conv: Convention) -> tuple[Fn, Fn]:
     return GROUP_OPS[conv.group]
 
 
-def relative(
-    T_world_i: FloatArray, T_world_j: FloatArray | None, group: str = "se3"
-) -> FloatArray:
+def relative(T_world_i: FloatArray, T_world_j: FloatArray | None, group: str = "se3") -> FloatArray:
     """``H = T_i⁻¹·T_j`` for a between factor, ``T_i`` for a prior (``T_world_j`` None)."""
     if T_world_j is None:
         return T_world_i
@@ -61,7 +59,7 @@ def relative(
 
 
 def _rows(conv: Convention, A: FloatArray) -> FloatArray:
-    """The group's coordinates of a convention-tangent array (rows of an embedding)."""
+    """Pick the group's coordinates (an embedding's rows) of a convention-tangent array."""
     if conv.embed is None:
         return A
     return np.asarray(A[..., list(conv.embed.index), :], dtype=np.float64)

@@ -34,15 +34,16 @@ differences through GTSAM's own ``retract`` to 1e-9); its ``Similarity3`` factor
 4.3.0 linearizes them with ``(−Ad(H⁻¹), I)`` (``I`` for the prior) whatever the residual
 (``Similarity3::Logmap``'s derivative is not implemented, ``gtsam/geometry/Similarity3.cpp``),
 so ``native=True`` warns for Sim(3) and :class:`~liebridge.gtsam.ConventionGraph` uses the custom
-factor there. GTSAM's between error is ``Local(Z, H)`` of its class (``gtsam/slam/BetweenFactor.h``):
-``Log(Z⁻¹H)`` for ``Pose2``/``Similarity3`` (presets ``gtsam_pose2``, ``gtsam_similarity3``) and
-the split body chart for ``NavState`` (``gtsam_navstate``; NOT ``Log(Z⁻¹H)`` with the SE₂(3)
-exponential). Its prior error is ``−Local(X, Z)`` (``gtsam/nonlinear/PriorFactor.h``), which is
-``Log(Z⁻¹X)`` on the Lie-group charts but, for ``NavState``, differs from liebridge's prior
-residual ``local(Z, X)`` at second order (measured in ``tests/test_gtsam_factors_groups.py``). A ``Similarity3`` matrix is ``[sR t; 0 1]``
-(``p ↦ sRp + t``; GTSAM's constructor takes ``t/s``, the glue converts). For a convention with an
-embedding (``ros_pose2``) ``cov`` is in the convention's tangent (ROS's 6×6 over
-``(x, y, z, roll, pitch, yaw)``) and only its ``(x, y, yaw)`` block is used.
+factor there. GTSAM's between error is ``Local(Z, H)`` of its class
+(``gtsam/slam/BetweenFactor.h``): ``Log(Z⁻¹H)`` for ``Pose2``/``Similarity3`` (presets
+``gtsam_pose2``, ``gtsam_similarity3``) and the split body chart for ``NavState``
+(``gtsam_navstate``; NOT ``Log(Z⁻¹H)`` with the SE₂(3) exponential). Its prior error is
+``−Local(X, Z)`` (``gtsam/nonlinear/PriorFactor.h``), which is ``Log(Z⁻¹X)`` on the Lie-group
+charts but, for ``NavState``, differs from liebridge's prior residual ``local(Z, X)`` at second
+order (measured in ``tests/test_gtsam_factors_groups.py``). A ``Similarity3`` matrix is
+``[sR t; 0 1]`` (``p ↦ sRp + t``; GTSAM's constructor takes ``t/s``, the glue converts). For a
+convention with an embedding (``ros_pose2``) ``cov`` is in the convention's tangent (ROS's 6×6
+over ``(x, y, z, roll, pitch, yaw)``) and only its ``(x, y, yaw)`` block is used.
 """
 
 from __future__ import annotations
@@ -266,7 +267,7 @@ def prior(
 
 
 def _spec(conv: Convention, i: int, j: int | None, Z: FloatArray, noise: Any) -> Any:
-    """The batch spec (:mod:`liebridge.gtsam.batch`) of a factor whose group it can batch."""
+    """Return the batch spec (:mod:`liebridge.gtsam.batch`), None for an unbatched group."""
     if conv.group not in BATCHED_GROUPS:
         return None  # GTSAM evaluates it through the callback
     return PoseFactorSpec(conv, i, j, Z, np.asarray(noise.R(), dtype=np.float64))
