@@ -100,9 +100,11 @@ def _element(conv: Convention, X: Any, name: str) -> FloatArray:
     check, n, cls, _, _ = GLUE_GROUPS[conv.group]
     Z = np.asarray(check(X, name), dtype=np.float64)
     if Z.shape != (n, n):
-        what = "pose" if conv.group == "se3" else f"{conv.group} element ({cls})"
+        if conv.group == "se3":
+            raise ValueError(f"{name}: expected one pose (4, 4), got {Z.shape}")
         raise ValueError(
-            f"{name}: expected one {what} ({n}, {n}) for convention {conv.name!r}, got {Z.shape}"
+            f"{name}: expected one {conv.group} element ({cls}) ({n}, {n}) for convention "
+            f"{conv.name!r}, got {Z.shape}"
         )
     return Z
 
