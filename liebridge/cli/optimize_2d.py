@@ -1,11 +1,15 @@
 """``liebridge optimize FILE`` on a 2-D graph (``VERTEX_SE2``/``EDGE_SE2``/``EDGE2``).
 
 The graph is read by :func:`liebridge.io.g2o2d.read` (information over GTSAM's Pose2 tangent
-``(vx, vy, ω)``, ``EDGE2`` number order detected), built as ``gtsam.BetweenFactorPose2`` factors
-with a prior on the first vertex, optimized by :func:`liebridge.gtsam.optimize`, and its
-marginals (``gtsam.Marginals``, over GTSAM's Pose2 tangent) are converted to the SE(2)
-convention given with ``--convention`` (default ``gtsam_pose2``). The plot shows the initial and
-optimized trajectories with the 2σ position ellipses of the marginals.
+``(vx, vy, ω)``, ``EDGE2`` number order detected) and built in the SE(2) convention given with
+``--convention`` (default ``gtsam_pose2``), like the 3-D path: native ``gtsam.BetweenFactorPose2``
+when the conversion to GTSAM's tangent is exact (:func:`liebridge.is_exactly_linear`: GTSAM,
+Sophus, manif, jaxlie, Theseus), else liebridge's custom factors with the convention's own
+residual (``g2o_se2``: g2o's ``(x, y, θ)`` of ``Z⁻¹Ti⁻¹Tj``; ``symforce_pose2``, ``ros_pose2``)
+and each edge's covariance converted to that convention at its measurement; a prior on the first
+vertex fixes the gauge. It is optimized by :func:`liebridge.gtsam.optimize`, and its marginals
+(``gtsam.Marginals``, over GTSAM's Pose2 tangent) are converted to the convention. The plot
+shows the initial and optimized trajectories with the 2σ position ellipses of the marginals.
 """
 
 from __future__ import annotations
@@ -40,6 +44,54 @@ def _se2_convention(name: str) -> Any:
             "give an SE(2) one (e.g. gtsam_pose2, ros_pose2; 'liebridge conventions' lists them)"
         )
     return conv
+
+
+def factor_kind_2d(conv: Any) -> str:
+    """Describe in one line what :func:`build_2d` builds for ``conv``."""
+    from ..conventions.convert import is_exactly_linear
+    from ..gtsam.build import gtsam_convention_of
+
+    if is_exactly_linear(conv, gtsam_convention_of("se2")):
+        return "native BetweenFactorPose2 (the conversion to GTSAM's tangent is exact)"
+    return (
+        f"liebridge custom factors ({conv.name}'s own residual, exact Jacobians): the conversion "
+        "to GTSAM's tangent is not linear"
+    )
+
+
+def build_2d(g: Any, conv: Any) -> tuple[Any, Any]:
+    """GTSAM graph and values of the 2-D graph ``g`` with factors in ``conv``, plus the gauge prior.
+
+    Native ``BetweenFactorPose2`` (``g.to_gtsam()``) when the conversion to GTSAM's tangent is
+    exact, else :func:`liebridge.gtsam.between` custom factors in ``conv`` with each edge's
+    covariance (``Λ⁻¹`` over GTSAM's tangent) converted at its measurement. The gauge prior is
+    GTSAM's ``PriorFactorPose2`` on the first vertex, σ = :data:`PRIOR_SIGMA`.
+    """
+    import gtsam
+
+    from ..conventions import convert_covariance
+    from ..conventions.convert import is_exactly_linear
+    from ..gtsam import between
+    from ..gtsam.build import gtsam_convention_of
+    from ..gtsam.glue import to_values
+
+    hub = gtsam_convention_of("se2")
+    if is_exactly_linear(conv, hub):
+        graph, values = g.to_gtsam()
+    else:
+        values = to_values(g.poses, g.vertex_ids.tolist(), group="se2")
+        graph = gtsam.NonlinearFactorGraph()
+        Z = g.measured
+        cov = convert_covariance(np.linalg.inv(g.information), Z, hub, conv)
+        for (i, j), Zk, c in zip(g.edges.tolist(), Z, cov, strict=True):
+            graph.add(between(int(i), int(j), Zk, c, conv, native=False))
+    first = int(g.vertex_ids[0])
+    graph.add(
+        gtsam.PriorFactorPose2(
+            first, values.atPose2(first), gtsam.noiseModel.Isotropic.Sigma(3, PRIOR_SIGMA)
+        )
+    )
+    return graph, values
 
 
 def _marginals(graph: Any, values: Any, keys: list[int]) -> FloatArray:
@@ -90,8 +142,6 @@ def plot_2d(
 
 def run(args: argparse.Namespace, path: Path, params: Any, plt: Any, t_start: float) -> int:
     """Read, optimize and report a 2-D graph (the 3-D path's output lines, for SE(2))."""
-    import gtsam
-
     from ..conventions import convert_covariance
     from ..gtsam import optimize
     from ..io import g2o2d
@@ -122,21 +172,12 @@ def run(args: argparse.Namespace, path: Path, params: Any, plt: Any, t_start: fl
         "information: over (x, y, θ) of Z⁻¹·Ti⁻¹·Tj — the same matrix in g2o's and GTSAM's "
         f"readings (they agree to first order at zero error){order}"
     )
-    print(
-        f"convention: {conv.name} — native BetweenFactorPose2; marginals in {conv.name}'s tangent"
-    )
+    print(f"convention: {conv.name} — {factor_kind_2d(conv)}; marginals in its tangent")
     print(f"gauge: prior on vertex {int(g.vertex_ids[0])} (σ = {PRIOR_SIGMA:g})")
     if args.dry_run:
         print("dry run: nothing optimized")
         return 0
-    graph, values = g.to_gtsam()
-    graph.add(
-        gtsam.PriorFactorPose2(
-            int(g.vertex_ids[0]),
-            values.atPose2(int(g.vertex_ids[0])),
-            gtsam.noiseModel.Isotropic.Sigma(3, PRIOR_SIGMA),
-        )
-    )
+    graph, values = build_2d(g, conv)
 
     def progress(line: str) -> None:
         say("  " + line.removeprefix("liebridge.optimize: "))

@@ -10,7 +10,7 @@ Levenberg–Marquardt from Python and evaluates liebridge's factors batched; ``g
 is :class:`ISAM2`, GTSAM's iSAM2 with liebridge's factors linearized batched.
 """
 
-from .build import gtsam_convention
+from .build import gtsam_convention, gtsam_convention_of
 from .glue import from_pose3, from_values, to_pose3, to_values
 from .graph import ConventionGraph
 from .isam2 import ISAM2
@@ -26,6 +26,7 @@ __all__ = [
     "from_pose3",
     "from_values",
     "gtsam_convention",
+    "gtsam_convention_of",
     "marginals",
     "optimize",
     "prior",

@@ -20,10 +20,16 @@ from .._validate import FloatArray
 from ..conventions import Convention
 from . import factor_math
 
+#: Groups whose liebridge factors carry a batch spec (``Pose3``, ``Pose2``: GTSAM extracts all
+#: of them in one call). Factors of the other groups (Similarity3, NavState) are evaluated by
+#: GTSAM through their single-factor callbacks, which call the same
+#: :mod:`~liebridge.gtsam.factor_math`. :class:`~liebridge.gtsam.ISAM2` batches ``Pose3`` only.
+BATCHED_GROUPS = frozenset({"se3", "se2"})
+
 
 @dataclass(frozen=True)
 class PoseFactorSpec:
-    """One between (``j`` set) or prior (``j`` None) factor on ``Pose3`` keys."""
+    """One between (``j`` set) or prior (``j`` None) factor on keys of ``conv.group``."""
 
     conv: Convention
     i: int
@@ -36,8 +42,20 @@ KeyArray = npt.NDArray[np.uint64]  # GTSAM keys are uint64 (≥ 2**63 included)
 IntArray = npt.NDArray[np.int64]
 
 
-def poses_of(values: Any) -> tuple[KeyArray, FloatArray]:
-    """All ``Pose3`` entries of ``values`` as sorted keys ``(N,)`` and matrices ``(N, 4, 4)``."""
+def poses_of(values: Any, group: str = "se3") -> tuple[KeyArray, FloatArray]:
+    """All ``Pose3`` (``group="se2"``: ``Pose2``) entries of ``values``: sorted keys, matrices.
+
+    Matrices are ``(N, 4, 4)`` (``(N, 3, 3)`` for Pose2), in the order of the keys.
+    """
+    if group == "se2":
+        keys = np.asarray(list(gtsam.utilities.allPose2s(values).keys()), dtype=np.uint64)
+        xyt = np.asarray(gtsam.utilities.extractPose2(values), dtype=np.float64).reshape(-1, 3)
+        c, s = np.cos(xyt[:, 2]), np.sin(xyt[:, 2])
+        T2 = np.zeros((len(keys), 3, 3))
+        T2[:, 0, 0], T2[:, 0, 1], T2[:, 1, 0], T2[:, 1, 1] = c, -s, s, c
+        T2[:, :2, 2] = xyt[:, :2]
+        T2[:, 2, 2] = 1.0
+        return keys, T2
     keys = np.asarray(list(gtsam.utilities.allPose3s(values).keys()), dtype=np.uint64)
     m = np.asarray(gtsam.utilities.extractPose3(values), dtype=np.float64)
     T = np.zeros((len(keys), 4, 4))
@@ -52,7 +70,7 @@ def _rows(keys: KeyArray, wanted: KeyArray) -> IntArray:
     idx = np.clip(idx, 0, len(keys) - 1)
     missing = keys[idx] != wanted
     if missing.any():
-        raise ValueError(f"values: no Pose3 for key {int(wanted[missing][0])}")
+        raise ValueError(f"values: no pose of the factor's group for key {int(wanted[missing][0])}")
     return np.asarray(idx, dtype=np.int64)
 
 
@@ -62,6 +80,7 @@ class PoseFactorGroup:
     def __init__(self, specs: list[PoseFactorSpec]) -> None:
         self.specs = specs
         self.conv = specs[0].conv
+        self.group = self.conv.group
         self.between = specs[0].j is not None
         self.i = np.array([s.i for s in specs], dtype=np.uint64)
         self.j = np.array([s.j if s.j is not None else 0 for s in specs], dtype=np.uint64)
@@ -70,7 +89,7 @@ class PoseFactorGroup:
 
     def _residuals(self, keys: KeyArray, T: FloatArray) -> tuple[FloatArray, FloatArray]:
         Tj = T[_rows(keys, self.j)] if self.between else None
-        H = factor_math.relative(T[_rows(keys, self.i)], Tj)
+        H = factor_math.relative(T[_rows(keys, self.i)], Tj, self.conv.group)
         return H, factor_math.residual(self.conv, self.Z, H)
 
     def error(self, keys: KeyArray, T: FloatArray) -> float:
@@ -85,7 +104,7 @@ class PoseFactorGroup:
         J_e_i, J_e_j = factor_math.jacobians(self.conv, self.Z, H, self.between)
         b = -np.einsum("kij,kj->ki", self.R, e)
         Ai = self.R @ J_e_i
-        unit = gtsam.noiseModel.Unit.Create(6)
+        unit = gtsam.noiseModel.Unit.Create(self.R.shape[-1])
         if J_e_j is None:
             return [
                 gtsam.JacobianFactor(int(k), A, bb, unit)

@@ -6,7 +6,14 @@ covariances, marginal covariances. Inside it is an ordinary ``gtsam.NonlinearFac
 
 Factor choice (``native=None``, the default): a native GTSAM factor when the conversion to GTSAM's
 tangent is exact (side, order, rotation scale — see :func:`liebridge.is_exactly_linear`), else
-liebridge's custom factor with the convention's own residual and exact Jacobians.
+liebridge's custom factor with the convention's own residual and exact Jacobians. Sim(3) always
+gets the custom factor: GTSAM 4.3.0's ``BetweenFactorSimilarity3``/``PriorFactorSimilarity3``
+linearize with the zero-residual Jacobians (see :mod:`liebridge.gtsam.pose_factors`).
+
+Every group: the wrapper's variables are of its convention's group — ``Pose3`` (SE(3)),
+``Pose2`` (SE(2), e.g. ``ConventionGraph("g2o_se2")``), ``Similarity3`` (Sim(3)), ``NavState``
+(SE₂(3)) — and poses go in and come out as liebridge's matrices of that group (``(3, 3)`` for
+SE(2), ``[sR t; 0 1]`` for Sim(3), ``(5, 5)`` for SE₂(3)).
 """
 
 from __future__ import annotations
@@ -15,13 +22,14 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 import gtsam
+import numpy as np
 
 from .. import _validate as validate
 from .._validate import FloatArray
 from ..conventions import Convention, ConventionLike, get
 from ..conventions.convert import is_exactly_linear
-from .build import gtsam_convention
-from .glue import from_values, to_pose3
+from .build import gtsam_convention_of
+from .glue import from_values, to_gtsam, to_pose3
 from .marginals import marginals
 
 __all__ = ["ConventionGraph"]
@@ -50,21 +58,34 @@ class ConventionGraph:
 
     def __init__(self, convention: ConventionLike, graph: Any = None, values: Any = None) -> None:
         self.convention: Convention = get(convention)
+        self.group: str = gtsam_convention_of(self.convention.group).group
         self.graph = graph if graph is not None else gtsam.NonlinearFactorGraph()
         self.values = values if values is not None else gtsam.Values()
         self._marginals: Any = None
 
     def _native(self, native: bool | None) -> bool:
         if native is None:
-            return is_exactly_linear(self.convention, gtsam_convention())
+            if self.group == "sim3":  # GTSAM's Similarity3 factors have zero-residual Jacobians
+                return False
+            return is_exactly_linear(self.convention, gtsam_convention_of(self.group))
         return native
 
     def _changed(self) -> None:
         self._marginals = None
 
     def insert(self, key: int, pose: Any) -> None:
-        """Insert (or update) the initial estimate of ``T_world_key`` (a ``(4, 4)`` matrix)."""
-        p = to_pose3(validate.pose(pose, "pose"))
+        """Insert (or update) the initial estimate of ``T_world_key``.
+
+        ``pose`` is a matrix of the convention's group (``(4, 4)`` for SE(3), ``(3, 3)`` for
+        SE(2), ...).
+        """
+        if self.group == "se3":
+            p = to_pose3(validate.pose(pose, "pose"))
+        else:
+            arr = np.asarray(pose, dtype=np.float64)
+            if arr.ndim != 2:
+                raise ValueError(f"pose: expected one element, got shape {arr.shape}")
+            p = to_gtsam(arr, self.group)
         if self.values.exists(key):
             self.values.update(key, p)
         else:
@@ -99,19 +120,19 @@ class ConventionGraph:
         return result
 
     def pose(self, key: int) -> FloatArray:
-        """Return the current estimate of ``T_world_key``, ``(4, 4)``."""
-        return from_values(self.values, [key])[0]
+        """Return the current estimate of ``T_world_key`` (``(4, 4)`` for SE(3))."""
+        return from_values(self.values, [key], group=self.group)[0]
 
     def poses(self, keys: Sequence[int]) -> FloatArray:
-        """Return the current estimates, ``(N, 4, 4)``."""
-        return from_values(self.values, keys)
+        """Return the current estimates, ``(N, n, n)``."""
+        return from_values(self.values, keys, group=self.group)
 
     def error(self) -> float:
         """Total graph error ``½ Σ ‖whitened residual‖²`` at the current values."""
         return float(self.graph.error(self.values))
 
     def marginal_covariances(self, keys: Sequence[int]) -> FloatArray:
-        """Marginal covariances ``(N, 6, 6)`` in the wrapper's convention at the current values."""
+        """Marginal covariances ``(N, n, n)`` in the wrapper's convention at the current values."""
         if self._marginals is None:
             self._marginals = gtsam.Marginals(self.graph, self.values)
         return marginals(
@@ -119,7 +140,7 @@ class ConventionGraph:
         )
 
     def marginal_covariance(self, key: int) -> FloatArray:
-        """Marginal covariance ``(6, 6)`` of ``key`` in the wrapper's convention."""
+        """Marginal covariance ``(n, n)`` of ``key`` in the wrapper's convention."""
         return self.marginal_covariances([key])[0]
 
     def __repr__(self) -> str:

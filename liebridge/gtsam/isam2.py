@@ -223,7 +223,7 @@ class ISAM2:
             if f is None:
                 continue
             spec = identify(f, self._query)
-            if isinstance(spec, PoseFactorSpec):
+            if isinstance(spec, PoseFactorSpec) and spec.conv.group == "se3":
                 new_specs.append(spec)
             else:
                 rest.add(f)
@@ -330,6 +330,8 @@ class ISAM2:
         relin = self._var_keys[norm >= self._threshold]
         rows = np.searchsorted(self._pose_keys, relin)
         rows = np.clip(rows, 0, max(len(self._pose_keys) - 1, 0))
+        if len(self._pose_keys) == 0:  # no Pose3 variable at all (e.g. a Pose2 graph)
+            return relin
         is_pose = (rows < len(self._pose_keys)) & (self._pose_keys[rows] == relin)
         rows = rows[is_pose]
         if rows.size:

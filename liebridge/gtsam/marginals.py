@@ -5,6 +5,13 @@
 ``tests/test_presets_libs.py``). :func:`marginals` converts it at each estimate ``X̂`` with
 :func:`liebridge.convert_covariance` — e.g. to Sophus ``(v, ω)``: a permutation; to Barfoot
 (left, ``(v, ω)``): ``P·Ad_X̂``; to ROS: ``[[0, R], [R, 0]]``.
+
+The other groups: the convention's group says which GTSAM class the keys hold, and GTSAM's
+marginal is over that class's own tangent (:func:`liebridge.gtsam.build.gtsam_convention_of`):
+``Pose2`` ``(vx, vy, ω)`` of ``X̂·Exp(δ)`` (preset ``gtsam_pose2``), ``Similarity3``
+``(ω, u, λ)`` of ``X̂·Exp(δ)`` (``gtsam_similarity3``), ``NavState`` ``(δθ, δp, δv)`` of its
+split body retraction (``gtsam_navstate``). Checked by Monte Carlo of GTSAM's own ``retract`` in
+``tests/test_gtsam_factors_groups.py``.
 """
 
 from __future__ import annotations
@@ -19,7 +26,7 @@ from .. import _validate as validate
 from .._validate import FloatArray
 from ..conventions import ConventionLike, get
 from ..conventions.convert import convert_covariance
-from .build import gtsam_convention
+from .build import gtsam_convention_of
 from .glue import from_values
 
 __all__ = ["marginals"]
@@ -34,7 +41,11 @@ def marginals(
     method: Literal["linear", "unscented"] = "linear",
     marginals_object: Any = None,
 ) -> FloatArray:
-    """Marginal covariances of ``Pose3`` variables ``keys``, in ``convention``'s tangent.
+    """Marginal covariances of the variables ``keys``, in ``convention``'s tangent.
+
+    The variables are of the convention's group: ``Pose3`` for an SE(3) convention (the
+    default), ``Pose2`` for an SE(2) one (``"g2o_se2"``, ``"ros_pose2"``, ...), ``Similarity3``
+    for Sim(3), ``NavState`` for SE₂(3).
 
     Parameters
     ----------
@@ -42,7 +53,7 @@ def marginals(
     values : gtsam.Values
         The estimate (usually the optimum) the marginals are taken at.
     keys : sequence of int
-        ``Pose3`` keys.
+        Keys of variables of the convention's group.
     convention : Convention or str
         Target convention (default: GTSAM's own, i.e. no conversion).
     method : {"linear", "unscented"}
@@ -52,8 +63,12 @@ def marginals(
 
     Returns
     -------
-    ndarray, shape (N, 6, 6)
+    ndarray, shape (N, n, n)
+        n is the convention's tangent size (6 for SE(3), 3 for SE(2), 6 for ``ros_pose2``,
+        7 for Sim(3), 9 for SE₂(3)).
     """
+    conv = get(convention)
+    hub = gtsam_convention_of(conv.group)
     keys = [validate.key(k, f"keys[{n}]") for n, k in enumerate(keys)]
     graph_keys = graph.keys()  # held: iterating a temporary KeySet reads freed memory
     used = {int(k) for k in graph_keys}
@@ -67,5 +82,5 @@ def marginals(
     m = marginals_object if marginals_object is not None else gtsam.Marginals(graph, values)
     cov_g = np.stack([np.asarray(m.marginalCovariance(k), dtype=np.float64) for k in keys])
     cov_g = 0.5 * (cov_g + np.swapaxes(cov_g, -1, -2))
-    T = from_values(values, keys)
-    return convert_covariance(cov_g, T, gtsam_convention(), get(convention), method=method)
+    T = from_values(values, keys, group=conv.group)
+    return convert_covariance(cov_g, T, hub, conv, method=method)

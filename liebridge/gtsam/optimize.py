@@ -118,19 +118,23 @@ class _SplitGraph:
         self.groups = group_specs(specs)
         self.n_batched = len(specs)
 
+    def _poses(self, values: Any) -> dict[str, tuple[Any, Any]]:
+        """Keys and matrices of every group the batched factors live on (one extraction each)."""
+        return {group: poses_of(values, group) for group in {g.group for g in self.groups}}
+
     def error(self, values: Any) -> float:
         err = float(self.rest.error(values))
         if self.groups:
-            keys, T = poses_of(values)
-            err += sum(g.error(keys, T) for g in self.groups)
+            poses = self._poses(values)
+            err += sum(g.error(*poses[g.group]) for g in self.groups)
         return err
 
     def linearize(self, values: Any) -> Any:
         linear = self.rest.linearize(values)
         if self.groups:
-            keys, T = poses_of(values)
+            poses = self._poses(values)
             for g in self.groups:
-                for jf in g.linearize(keys, T):
+                for jf in g.linearize(*poses[g.group]):
                     linear.push_back(jf)
         return linear
 

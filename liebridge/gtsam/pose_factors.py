@@ -16,6 +16,34 @@ Jacobians in GTSAM's tangent columns (GTSAM retracts its variables its own way):
 and ``M(H) = tangent_map(H, "gtsam", conv)``. For ``gtsam`` this is GTSAM's own
 ``H2 = Jr⁻¹(e)``, ``H1 = −Jr⁻¹(e)·Ad(H⁻¹)`` (docs/common-formula-errors.md E6). False, and tempting:
 ``(−Ad(H⁻¹), I)`` — exact only at zero residual; on sphere2500 it converges elsewhere.
+
+**Every group.** The group is the convention's (``convention.group``); the same two functions
+build factors on GTSAM's class of that group, with the measurement as liebridge's matrix of it:
+
+========  ===================  ==========================================================  ====
+group     GTSAM variable       native factors (GTSAM 4.3.0 Python wrapper)                 dim
+========  ===================  ==========================================================  ====
+``se3``   ``Pose3`` (4×4)      ``BetweenFactorPose3``, ``PriorFactorPose3``                6
+``se2``   ``Pose2`` (3×3)      ``BetweenFactorPose2``, ``PriorFactorPose2``                3
+``sim3``  ``Similarity3``      ``BetweenFactorSimilarity3``, ``PriorFactorSimilarity3``    7
+``se23``  ``NavState`` (5×5)   ``BetweenFactorNavState``, ``PriorFactorNavState``          9
+========  ===================  ==========================================================  ====
+
+GTSAM's ``Pose2`` and ``NavState`` factors linearize exactly (their Jacobians match central
+differences through GTSAM's own ``retract`` to 1e-9); its ``Similarity3`` factors do **not**: GTSAM
+4.3.0 linearizes them with ``(−Ad(H⁻¹), I)`` (``I`` for the prior) whatever the residual
+(``Similarity3::Logmap``'s derivative is not implemented, ``gtsam/geometry/Similarity3.cpp``),
+so ``native=True`` warns for Sim(3) and :class:`~liebridge.gtsam.ConventionGraph` uses the custom
+factor there. GTSAM's between error is ``Local(Z, H)`` of its class
+(``gtsam/slam/BetweenFactor.h``): ``Log(Z⁻¹H)`` for ``Pose2``/``Similarity3`` (presets
+``gtsam_pose2``, ``gtsam_similarity3``) and the split body chart for ``NavState``
+(``gtsam_navstate``; NOT ``Log(Z⁻¹H)`` with the SE₂(3) exponential). Its prior error is
+``−Local(X, Z)`` (``gtsam/nonlinear/PriorFactor.h``), which is ``Log(Z⁻¹X)`` on the Lie-group
+charts but, for ``NavState``, differs from liebridge's prior residual ``local(Z, X)`` at second
+order (measured in ``tests/test_gtsam_factors_groups.py``). A ``Similarity3`` matrix is
+``[sR t; 0 1]`` (``p ↦ sRp + t``; GTSAM's constructor takes ``t/s``, the glue converts). For a
+convention with an embedding (``ros_pose2``) ``cov`` is in the convention's tangent (ROS's 6×6
+over ``(x, y, z, roll, pitch, yaw)``) and only its ``(x, y, yaw)`` block is used.
 """
 
 from __future__ import annotations
@@ -31,9 +59,10 @@ from .._validate import FloatArray
 from ..conventions import Convention, ConventionLike, get
 from ..conventions.convert import convert_covariance, is_exactly_linear
 from . import factor_math
-from .batch import PoseFactorSpec
-from .build import gtsam_convention
+from .batch import BATCHED_GROUPS, PoseFactorSpec
+from .build import gtsam_convention_of
 from .custom import make_custom_factor
+from .glue import GROUPS as GLUE_GROUPS
 
 __all__ = ["between", "prior"]
 
@@ -48,9 +77,63 @@ def _warn_first_order(conv: Convention) -> None:
     )
 
 
+#: group -> (tangent dimension, native between factor, native prior factor)
+_NATIVE: dict[str, tuple[int, Any, Any]] = {
+    "se3": (6, gtsam.BetweenFactorPose3, gtsam.PriorFactorPose3),
+    "se2": (3, gtsam.BetweenFactorPose2, gtsam.PriorFactorPose2),
+    "sim3": (7, gtsam.BetweenFactorSimilarity3, gtsam.PriorFactorSimilarity3),
+    "se23": (9, gtsam.BetweenFactorNavState, gtsam.PriorFactorNavState),
+}
+
+
+def _group_of(conv: Convention) -> str:
+    if conv.group not in _NATIVE:
+        raise ValueError(
+            f"convention: {conv.name!r} is a convention of {conv.group}; between/prior factors "
+            f"exist for the groups {', '.join(_NATIVE)}"
+        )
+    return conv.group
+
+
+def _element(conv: Convention, X: Any, name: str) -> FloatArray:
+    """Validate one element of the convention's group (liebridge's matrix of it)."""
+    check, n, cls, _, _ = GLUE_GROUPS[conv.group]
+    Z = np.asarray(check(X, name), dtype=np.float64)
+    if Z.shape != (n, n):
+        if conv.group == "se3":
+            raise ValueError(f"{name}: expected one pose (4, 4), got {Z.shape}")
+        raise ValueError(
+            f"{name}: expected one {conv.group} element ({cls}) ({n}, {n}) for convention "
+            f"{conv.name!r}, got {Z.shape}"
+        )
+    return Z
+
+
+def _covariance(conv: Convention, cov: Any) -> tuple[FloatArray, FloatArray]:
+    """``(cov in the convention's tangent, cov of the residual)``: equal unless embedded."""
+    dim = _NATIVE[conv.group][0]
+    if conv.embed is None:
+        c = validate.positive_definite(cov, "cov", dim)
+        return c, c
+    c = validate.covariance(cov, "cov", conv.embed.size)
+    idx = list(conv.embed.index)
+    block = validate.positive_definite(c[np.ix_(idx, idx)], f"cov (its block {idx})", dim)
+    return c, block
+
+
+def _warn_sim3_jacobians() -> None:
+    warnings.warn(
+        "liebridge: GTSAM's BetweenFactorSimilarity3/PriorFactorSimilarity3 linearize with the "
+        "zero-residual Jacobians (−Ad(H⁻¹), I) (Similarity3::Logmap's derivative is not "
+        "implemented in GTSAM 4.3), so an optimizer stops where those vanish, not at the "
+        "minimum of the objective. Use native=False for exact Jacobians.",
+        stacklevel=3,
+    )
+
+
 def _native_noise(conv: Convention, Z: FloatArray, cov: FloatArray) -> Any:
     """GTSAM noise model of a native factor: ``cov`` converted to GTSAM's tangent at ``Z``."""
-    hub = gtsam_convention()
+    hub = gtsam_convention_of(conv.group)
     if not is_exactly_linear(conv, hub):
         _warn_first_order(conv)
     return _noise(convert_covariance(cov, Z, conv, hub))
@@ -60,8 +143,15 @@ def _noise(cov: FloatArray) -> Any:
     return gtsam.noiseModel.Gaussian.Covariance(np.ascontiguousarray(cov))
 
 
-def _pose_at(values: Any, key: int) -> FloatArray:
-    return np.asarray(values.atPose3(key).matrix(), dtype=np.float64)
+def _element_at(values: Any, key: int, group: str) -> FloatArray:
+    if group == "se3":
+        return np.asarray(values.atPose3(key).matrix(), dtype=np.float64)
+    _, _, cls, _, read = GLUE_GROUPS[group]
+    return np.asarray(read(getattr(values, f"at{cls}")(key)), dtype=np.float64)
+
+
+def _gtsam_object(group: str, Z: FloatArray) -> Any:
+    return gtsam.Pose3(Z) if group == "se3" else GLUE_GROUPS[group][3](Z)
 
 
 def between(
@@ -79,34 +169,48 @@ def between(
     ----------
     i, j : int
         GTSAM keys of ``T_world_i`` and ``T_world_j``.
-    measured : array_like, shape (4, 4)
-        The measured ``Z = T_i⁻¹·T_j`` (``T_i_j``: maps j's frame to i's).
-    cov : array_like, shape (6, 6)
-        Covariance of the residual ``convention.local(Z, T_i⁻¹T_j)``, in the convention's order.
+    measured : array_like, shape (4, 4) (SE(3)), or the matrix of the convention's group
+        The measured ``Z = T_i⁻¹·T_j`` (``T_i_j``: maps j's frame to i's); ``(3, 3)`` for an
+        SE(2) convention, ``(4, 4)`` ``[sR t; 0 1]`` for Sim(3), ``(5, 5)`` for SE₂(3).
+    cov : array_like, shape (n, n)
+        Covariance of the residual ``convention.local(Z, T_i⁻¹T_j)``, in the convention's order
+        (n = 6, 3, 7, 9 for SE(3), SE(2), Sim(3), SE₂(3); 6 for ``ros_pose2``).
     convention : Convention or str
+        Its group (``convention.group``) says which GTSAM class the keys hold.
     native : bool
-        ``True``: ``gtsam.BetweenFactorPose3`` with the covariance converted at ``Z``;
-        ``False``: a ``gtsam.CustomFactor`` with the convention's exact residual and Jacobians.
+        ``True``: GTSAM's ``BetweenFactor{Pose3, Pose2, Similarity3, NavState}`` with the
+        covariance converted at ``Z``; ``False``: a ``gtsam.CustomFactor`` with the convention's
+        exact residual and Jacobians.
 
     Returns
     -------
-    gtsam.BetweenFactorPose3 or gtsam.CustomFactor
+    gtsam.BetweenFactorPose3 (Pose2, Similarity3, NavState) or gtsam.CustomFactor
+
+    Raises
+    ------
+    ValueError
+        ``measured`` not an element of the convention's group (e.g. a 3×3 rotation for SE(2), a
+        Sim(3) scale ≤ 0), ``cov`` not positive definite or of the wrong size, ``i == j``.
     """
     conv = get(convention)
-    Z = validate.pose(measured, "measured")
-    if Z.shape != (4, 4):
-        raise ValueError(f"measured: expected one pose (4, 4), got {Z.shape}")
-    cov = validate.positive_definite(cov, "cov", 6)
+    group = _group_of(conv)
+    Z = _element(conv, measured, "measured")
+    cov_conv, cov = _covariance(conv, cov)
     i, j = validate.key(i, "i"), validate.key(j, "j")
     if i == j:
         raise ValueError(f"j: the same key as i ({i}); a between factor relates two variables")
+    dim, Between, _ = _NATIVE[group]
     if native:
-        return gtsam.BetweenFactorPose3(i, j, gtsam.Pose3(Z), _native_noise(conv, Z, cov))
+        if group == "sim3":
+            _warn_sim3_jacobians()
+        return Between(i, j, _gtsam_object(group, Z), _native_noise(conv, Z, cov_conv))
 
     Zc = Z.copy()
 
     def evaluate(values: Any, want: bool) -> tuple[FloatArray, list[FloatArray] | None]:
-        H = factor_math.relative(_pose_at(values, i), _pose_at(values, j))
+        H = factor_math.relative(
+            _element_at(values, i, group), _element_at(values, j, group), group
+        )
         e = factor_math.residual(conv, Zc, H)
         if not want:
             return e, None
@@ -115,9 +219,9 @@ def between(
         return e, [J_e_i, J_e_j]
 
     noise = _noise(cov)
-    spec = PoseFactorSpec(conv, int(i), int(j), Zc, np.asarray(noise.R(), dtype=np.float64))
+    spec = _spec(conv, int(i), int(j), Zc, noise)
     return make_custom_factor(
-        noise, [i, j], [6, 6], evaluate, name=f"between[{conv.name}]({i}, {j})", spec=spec
+        noise, [i, j], [dim, dim], evaluate, name=f"between[{conv.name}]({i}, {j})", spec=spec
     )
 
 
@@ -131,30 +235,41 @@ def prior(
 ) -> Any:
     """Prior on ``T_world_i`` at ``pose`` with a covariance in ``convention``.
 
-    The residual is ``convention.local(pose, T_i)`` (GTSAM: ``Log(pose⁻¹·T_i)``); see
-    :func:`between` for ``native``.
+    The residual is ``convention.local(pose, T_i)`` (GTSAM: ``Log(pose⁻¹·T_i)``); ``pose`` is
+    an element of the convention's group; see :func:`between` for ``cov`` and ``native``.
 
     Returns
     -------
-    gtsam.PriorFactorPose3 or gtsam.CustomFactor
+    gtsam.PriorFactorPose3 (Pose2, Similarity3, NavState) or gtsam.CustomFactor
     """
     conv = get(convention)
-    Z = validate.pose(pose, "pose")
-    if Z.shape != (4, 4):
-        raise ValueError(f"pose: expected one pose (4, 4), got {Z.shape}")
-    cov = validate.positive_definite(cov, "cov", 6)
+    group = _group_of(conv)
+    Z = _element(conv, pose, "pose")
+    cov_conv, cov = _covariance(conv, cov)
     i = validate.key(i, "i")
+    dim, _, Prior = _NATIVE[group]
     if native:
-        return gtsam.PriorFactorPose3(i, gtsam.Pose3(Z), _native_noise(conv, Z, cov))
+        if group == "sim3":
+            _warn_sim3_jacobians()
+        return Prior(i, _gtsam_object(group, Z), _native_noise(conv, Z, cov_conv))
     Zc = Z.copy()
 
     def evaluate(values: Any, want: bool) -> tuple[FloatArray, list[FloatArray] | None]:
-        H = factor_math.relative(_pose_at(values, i), None)
+        H = factor_math.relative(_element_at(values, i, group), None, group)
         e = factor_math.residual(conv, Zc, H)
         if not want:
             return e, None
         return e, [factor_math.jacobians(conv, Zc, H, between=False)[0]]
 
     noise = _noise(cov)
-    spec = PoseFactorSpec(conv, int(i), None, Zc, np.asarray(noise.R(), dtype=np.float64))
-    return make_custom_factor(noise, [i], [6], evaluate, name=f"prior[{conv.name}]({i})", spec=spec)
+    spec = _spec(conv, int(i), None, Zc, noise)
+    return make_custom_factor(
+        noise, [i], [dim], evaluate, name=f"prior[{conv.name}]({i})", spec=spec
+    )
+
+
+def _spec(conv: Convention, i: int, j: int | None, Z: FloatArray, noise: Any) -> Any:
+    """Return the batch spec (:mod:`liebridge.gtsam.batch`), None for an unbatched group."""
+    if conv.group not in BATCHED_GROUPS:
+        return None  # GTSAM evaluates it through the callback
+    return PoseFactorSpec(conv, i, j, Z, np.asarray(noise.R(), dtype=np.float64))
