@@ -1,7 +1,7 @@
 """GTSAM factors in any convention, the optimizer and IMU preintegration (a façade).
 
 The code lives in :mod:`liebridge.gtsam` (``between``, ``prior``, ``optimize``) and
-:mod:`liebridge.imu` (``preintegrate``, ``ImuPreintegrator``, ``imu``, ``imu_kernel``); this module
+:mod:`liebridge.imu` (``preintegrate``, ``preintegrate_windows``, ``ImuPreintegrator``, ``imu``, ``imu_kernel``); this module
 re-exports it under the import path of earlier releases.
 """
 
@@ -10,10 +10,12 @@ from ..imu import (
     ImuDelta,
     ImuPreintegrator,
     PreintegratedImu,
+    PreintegratedWindows,
     imu,
     imu_kernel,
     imu_residual,
     preintegrate,
+    preintegrate_windows,
 )
 
 __all__ = [
@@ -22,11 +24,13 @@ __all__ = [
     "ImuPreintegrator",
     "OptimizeResult",
     "PreintegratedImu",
+    "PreintegratedWindows",
     "between",
     "imu",
     "imu_kernel",
     "imu_residual",
     "optimize",
     "preintegrate",
+    "preintegrate_windows",
     "prior",
 ]

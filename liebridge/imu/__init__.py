@@ -13,13 +13,16 @@ from .preintegration import (
     imu_kernel,
     preintegrate,
 )
+from .windows import PreintegratedWindows, preintegrate_windows
 
 __all__ = [
     "ImuDelta",
     "ImuPreintegrator",
     "PreintegratedImu",
+    "PreintegratedWindows",
     "imu",
     "imu_kernel",
     "imu_residual",
     "preintegrate",
+    "preintegrate_windows",
 ]

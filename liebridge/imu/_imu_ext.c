@@ -74,6 +74,124 @@ static void coefficients(double t2, const double *coef, int K, double small2, do
     }
 }
 
+/* The sums of one block of n samples (the comment at the top of this file), written to out[N_OUT];
+   scr holds N_SCRATCH doubles per sample. */
+static void sums(const double *acc, const double *gyro, const double *dt, Py_ssize_t n,
+                 const double *bias, int rotate, const double *bRs, const double *coef, int K,
+                 double small2, double *scr, double *out) {
+    for (int i = 0; i < N_OUT; i++) out[i] = 0.0;
+    /* tau_k = sum_{j>k} dt_j */
+    double T = 0.0;
+    for (Py_ssize_t k = n - 1; k >= 0; k--) {
+        scr[k * N_SCRATCH] = T;
+        T += dt[k];
+    }
+    out[O_T] = T;
+    double q[4] = {1.0, 0.0, 0.0, 0.0};
+    double R[9];
+    for (Py_ssize_t k = 0; k < n; k++) {
+        double *s = scr + k * N_SCRATCH;
+        double d = dt[k];
+        double a[3], w[3], th[3];
+        for (int i = 0; i < 3; i++) {
+            a[i] = acc[3 * k + i] - bias[i];
+            w[i] = gyro[3 * k + i] - bias[3 + i];
+        }
+        if (rotate) {
+            double a2[3], w2[3];
+            for (int i = 0; i < 3; i++) {
+                a2[i] = bRs[3 * i] * a[0] + bRs[3 * i + 1] * a[1] + bRs[3 * i + 2] * a[2];
+                w2[i] = bRs[3 * i] * w[0] + bRs[3 * i + 1] * w[1] + bRs[3 * i + 2] * w[2];
+            }
+            for (int i = 0; i < 3; i++) { a[i] = a2[i]; w[i] = w2[i]; }
+        }
+        for (int i = 0; i < 3; i++) th[i] = w[i] * d;
+        double t2 = th[0] * th[0] + th[1] * th[1] + th[2] * th[2];
+        double c[5];
+        coefficients(t2, coef, K, small2, c);
+        quat_to_R(q, R);
+        double ra[3], u[3];
+        for (int i = 0; i < 3; i++) {
+            ra[i] = R[3 * i] * a[0] + R[3 * i + 1] * a[1] + R[3 * i + 2] * a[2];
+            u[i] = R[3 * i] * th[0] + R[3 * i + 1] * th[1] + R[3 * i + 2] * th[2];
+        }
+        double alpha = (s[0] + 0.5 * d) * d;
+        for (int i = 0; i < 3; i++) {
+            s[1 + i] = ra[i] * alpha;
+            s[4 + i] = ra[i] * d;
+            out[O_P + i] += s[1 + i];
+            out[O_V + i] += s[4 + i];
+        }
+        for (int i = 0; i < 9; i++) {
+            out[O_JA + i] += alpha * R[i];
+            out[O_JA + 9 + i] += d * R[i];
+        }
+        out[O_SA2] += alpha * alpha / d;
+        out[O_SA] += alpha;
+        /* Y = c0 dt R + [g]x R + Cu th^T, g = B dt u, Cu = C dt u */
+        double c0dt = c[0] * d, g[3], Cu[3];
+        for (int i = 0; i < 3; i++) { g[i] = c[1] * d * u[i]; Cu[i] = c[2] * d * u[i]; }
+        double *Y = s + 7;
+        for (int i = 0; i < 3; i++) {
+            int j1 = (i + 1) % 3, j2 = (i + 2) % 3;
+            for (int j = 0; j < 3; j++)
+                Y[3 * i + j] = c0dt * R[3 * i + j] + g[j1] * R[3 * j2 + j] - g[j2] * R[3 * j1 + j]
+                               + Cu[i] * th[j];
+        }
+        for (int i = 0; i < 3; i++) s[16 + i] = u[i];
+        double B2 = c[1] * c[1];
+        double wa = d * (c[0] * c[0] + B2 * t2);
+        s[19] = wa;
+        s[20] = d * (c[2] * (2.0 * c[0] + c[2] * t2) - B2);
+        out[O_SWA] += wa;
+        /* q <- q * Exp(th): increment (cos(t/2), sin(t/2) th/t) */
+        double hs = 0.5 * c[4];
+        double w2 = c[3], x2 = hs * th[0], y2 = hs * th[1], z2 = hs * th[2];
+        double w1 = q[0], x1 = q[1], y1 = q[2], z1 = q[3];
+        q[0] = w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2;
+        q[1] = w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2;
+        q[2] = w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2;
+        q[3] = w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2;
+    }
+    quat_to_R(q, out + O_R);
+    /* backward pass: suffix sums p~ (pv[0..2]) and v~ (pv[3..5]) */
+    double pv[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+    double *S = out + O_S, *cv = out + O_COVV, *M = out + O_M, *spv = out + O_SPV;
+    for (Py_ssize_t k = n - 1; k >= 0; k--) {
+        const double *s = scr + k * N_SCRATCH;
+        const double *Y = s + 7, *u = s + 16;
+        double wa = s[19], wb = s[20];
+        for (int j = 0; j < 9; j++) S[j] += Y[j];
+        for (int m = 0; m < 6; m++) {
+            double x = pv[m];
+            double *Sm = S + 9 * (m + 1);
+            for (int j = 0; j < 9; j++) Sm[j] += x * Y[j];
+        }
+        double V[9];
+        V[0] = u[0]; V[1] = u[1]; V[2] = u[2];
+        for (int r = 0; r < 2; r++) {
+            const double *x = pv + 3 * r;
+            V[3 + 3 * r] = x[1] * u[2] - x[2] * u[1];
+            V[4 + 3 * r] = x[2] * u[0] - x[0] * u[2];
+            V[5 + 3 * r] = x[0] * u[1] - x[1] * u[0];
+        }
+        for (int i = 0; i < 9; i++) {
+            double wv = wb * V[i];
+            for (int j = i; j < 9; j++) cv[9 * i + j] += wv * V[j];
+        }
+        for (int i = 0; i < 6; i++) {
+            double wx = wa * pv[i];
+            spv[i] += wx;
+            for (int j = i; j < 6; j++) M[6 * i + j] += wx * pv[j];
+        }
+        for (int i = 0; i < 6; i++) pv[i] += s[1 + i];
+    }
+    for (int i = 0; i < 9; i++)
+        for (int j = 0; j < i; j++) cv[9 * i + j] = cv[9 * j + i];
+    for (int i = 0; i < 6; i++)
+        for (int j = 0; j < i; j++) M[6 * i + j] = M[6 * j + i];
+}
+
 static PyObject *block_sums(PyObject *self, PyObject *args) {
     (void)self;
     Py_buffer acc_b, gyro_b, dt_b, bias_b, bRs_b, coef_b, scratch_b, out_b;
@@ -104,117 +222,7 @@ static PyObject *block_sums(PyObject *self, PyObject *args) {
         const double *bRs = bRs_b.buf, *coef = coef_b.buf;
         double *scr = scratch_b.buf, *out = out_b.buf;
         Py_BEGIN_ALLOW_THREADS
-        for (int i = 0; i < N_OUT; i++) out[i] = 0.0;
-        /* tau_k = sum_{j>k} dt_j */
-        double T = 0.0;
-        for (Py_ssize_t k = n - 1; k >= 0; k--) {
-            scr[k * N_SCRATCH] = T;
-            T += dt[k];
-        }
-        out[O_T] = T;
-        double q[4] = {1.0, 0.0, 0.0, 0.0};
-        double R[9];
-        for (Py_ssize_t k = 0; k < n; k++) {
-            double *s = scr + k * N_SCRATCH;
-            double d = dt[k];
-            double a[3], w[3], th[3];
-            for (int i = 0; i < 3; i++) {
-                a[i] = acc[3 * k + i] - bias[i];
-                w[i] = gyro[3 * k + i] - bias[3 + i];
-            }
-            if (rotate) {
-                double a2[3], w2[3];
-                for (int i = 0; i < 3; i++) {
-                    a2[i] = bRs[3 * i] * a[0] + bRs[3 * i + 1] * a[1] + bRs[3 * i + 2] * a[2];
-                    w2[i] = bRs[3 * i] * w[0] + bRs[3 * i + 1] * w[1] + bRs[3 * i + 2] * w[2];
-                }
-                for (int i = 0; i < 3; i++) { a[i] = a2[i]; w[i] = w2[i]; }
-            }
-            for (int i = 0; i < 3; i++) th[i] = w[i] * d;
-            double t2 = th[0] * th[0] + th[1] * th[1] + th[2] * th[2];
-            double c[5];
-            coefficients(t2, coef, K, small2, c);
-            quat_to_R(q, R);
-            double ra[3], u[3];
-            for (int i = 0; i < 3; i++) {
-                ra[i] = R[3 * i] * a[0] + R[3 * i + 1] * a[1] + R[3 * i + 2] * a[2];
-                u[i] = R[3 * i] * th[0] + R[3 * i + 1] * th[1] + R[3 * i + 2] * th[2];
-            }
-            double alpha = (s[0] + 0.5 * d) * d;
-            for (int i = 0; i < 3; i++) {
-                s[1 + i] = ra[i] * alpha;
-                s[4 + i] = ra[i] * d;
-                out[O_P + i] += s[1 + i];
-                out[O_V + i] += s[4 + i];
-            }
-            for (int i = 0; i < 9; i++) {
-                out[O_JA + i] += alpha * R[i];
-                out[O_JA + 9 + i] += d * R[i];
-            }
-            out[O_SA2] += alpha * alpha / d;
-            out[O_SA] += alpha;
-            /* Y = c0 dt R + [g]x R + Cu th^T, g = B dt u, Cu = C dt u */
-            double c0dt = c[0] * d, g[3], Cu[3];
-            for (int i = 0; i < 3; i++) { g[i] = c[1] * d * u[i]; Cu[i] = c[2] * d * u[i]; }
-            double *Y = s + 7;
-            for (int i = 0; i < 3; i++) {
-                int j1 = (i + 1) % 3, j2 = (i + 2) % 3;
-                for (int j = 0; j < 3; j++)
-                    Y[3 * i + j] = c0dt * R[3 * i + j] + g[j1] * R[3 * j2 + j] - g[j2] * R[3 * j1 + j]
-                                   + Cu[i] * th[j];
-            }
-            for (int i = 0; i < 3; i++) s[16 + i] = u[i];
-            double B2 = c[1] * c[1];
-            double wa = d * (c[0] * c[0] + B2 * t2);
-            s[19] = wa;
-            s[20] = d * (c[2] * (2.0 * c[0] + c[2] * t2) - B2);
-            out[O_SWA] += wa;
-            /* q <- q * Exp(th): increment (cos(t/2), sin(t/2) th/t) */
-            double hs = 0.5 * c[4];
-            double w2 = c[3], x2 = hs * th[0], y2 = hs * th[1], z2 = hs * th[2];
-            double w1 = q[0], x1 = q[1], y1 = q[2], z1 = q[3];
-            q[0] = w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2;
-            q[1] = w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2;
-            q[2] = w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2;
-            q[3] = w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2;
-        }
-        quat_to_R(q, out + O_R);
-        /* backward pass: suffix sums p~ (pv[0..2]) and v~ (pv[3..5]) */
-        double pv[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
-        double *S = out + O_S, *cv = out + O_COVV, *M = out + O_M, *spv = out + O_SPV;
-        for (Py_ssize_t k = n - 1; k >= 0; k--) {
-            const double *s = scr + k * N_SCRATCH;
-            const double *Y = s + 7, *u = s + 16;
-            double wa = s[19], wb = s[20];
-            for (int j = 0; j < 9; j++) S[j] += Y[j];
-            for (int m = 0; m < 6; m++) {
-                double x = pv[m];
-                double *Sm = S + 9 * (m + 1);
-                for (int j = 0; j < 9; j++) Sm[j] += x * Y[j];
-            }
-            double V[9];
-            V[0] = u[0]; V[1] = u[1]; V[2] = u[2];
-            for (int r = 0; r < 2; r++) {
-                const double *x = pv + 3 * r;
-                V[3 + 3 * r] = x[1] * u[2] - x[2] * u[1];
-                V[4 + 3 * r] = x[2] * u[0] - x[0] * u[2];
-                V[5 + 3 * r] = x[0] * u[1] - x[1] * u[0];
-            }
-            for (int i = 0; i < 9; i++) {
-                double wv = wb * V[i];
-                for (int j = i; j < 9; j++) cv[9 * i + j] += wv * V[j];
-            }
-            for (int i = 0; i < 6; i++) {
-                double wx = wa * pv[i];
-                spv[i] += wx;
-                for (int j = i; j < 6; j++) M[6 * i + j] += wx * pv[j];
-            }
-            for (int i = 0; i < 6; i++) pv[i] += s[1 + i];
-        }
-        for (int i = 0; i < 9; i++)
-            for (int j = 0; j < i; j++) cv[9 * i + j] = cv[9 * j + i];
-        for (int i = 0; i < 6; i++)
-            for (int j = 0; j < i; j++) M[6 * i + j] = M[6 * j + i];
+        sums(acc, gyro, dt, n, bias, rotate, bRs, coef, K, small2, scr, out);
         Py_END_ALLOW_THREADS
     }
     PyBuffer_Release(&acc_b);
@@ -232,10 +240,74 @@ static PyObject *block_sums(PyObject *self, PyObject *args) {
     Py_RETURN_NONE;
 }
 
+/* window_sums: the sums of many windows of one sequence in one call. Window w holds the samples
+   [starts[w], starts[w+1]) (the last runs to n), integrated from the identity with its own bias
+   bias[6w .. 6w+5]; its sums go to out[N_OUT w .. N_OUT (w+1) - 1]. starts (int64) must be
+   strictly increasing in [0, n); scratch holds N_SCRATCH doubles per sample of the longest window. */
+static PyObject *window_sums(PyObject *self, PyObject *args) {
+    (void)self;
+    Py_buffer acc_b, gyro_b, dt_b, starts_b, bias_b, bRs_b, coef_b, scratch_b, out_b;
+    int K, rotate;
+    double small2;
+    if (!PyArg_ParseTuple(args, "y*y*y*y*y*py*y*idw*w*", &acc_b, &gyro_b, &dt_b, &starts_b,
+                          &bias_b, &rotate, &bRs_b, &coef_b, &K, &small2, &scratch_b, &out_b))
+        return NULL;
+    Py_ssize_t n = dt_b.len / (Py_ssize_t)sizeof(double);
+    Py_ssize_t nw = starts_b.len / (Py_ssize_t)sizeof(int64_t);
+    const char *bad = NULL;
+    const Py_buffer *all[9] = {&acc_b, &gyro_b, &dt_b, &starts_b, &bias_b,
+                               &bRs_b, &coef_b, &scratch_b, &out_b};
+    int misaligned = 0;
+    for (int b = 0; b < 9; b++) misaligned |= (uintptr_t)all[b]->buf % _Alignof(double) != 0;
+    if (misaligned) bad = "a buffer is not aligned to a double boundary (pass aligned float64)";
+    else if (n < 1) bad = "dt: no samples";
+    else if (dt_b.len % (Py_ssize_t)sizeof(double) != 0) bad = "dt: not a whole number of doubles";
+    else if (acc_b.len != 3 * dt_b.len || gyro_b.len != 3 * dt_b.len) bad = "acc/gyro: not (n, 3)";
+    else if (nw < 1 || starts_b.len % (Py_ssize_t)sizeof(int64_t) != 0) bad = "starts: not int64 (>= 1)";
+    else if (bias_b.len != 6 * nw * (Py_ssize_t)sizeof(double)) bad = "bias: not 6 doubles a window";
+    else if (bRs_b.len != 9 * (Py_ssize_t)sizeof(double)) bad = "bRs: not 9 doubles";
+    else if (coef_b.len != 5 * N_TERMS * (Py_ssize_t)sizeof(double)) bad = "coef: not 5x9";
+    else if (K < 1 || K > N_TERMS) bad = "K: not in 1..9";
+    else if (out_b.len != N_OUT * nw * (Py_ssize_t)sizeof(double)) bad = "out: wrong size";
+    if (bad == NULL) {
+        const int64_t *st = starts_b.buf;
+        Py_ssize_t longest = 0;
+        for (Py_ssize_t w = 0; w < nw && bad == NULL; w++) {
+            int64_t e = w + 1 < nw ? st[w + 1] : (int64_t)n;
+            if (st[w] < 0 || st[w] >= e || e > (int64_t)n) bad = "starts: not increasing in [0, n)";
+            else if (e - st[w] > longest) longest = (Py_ssize_t)(e - st[w]);
+        }
+        if (bad == NULL && scratch_b.len < N_SCRATCH * longest * (Py_ssize_t)sizeof(double))
+            bad = "scratch: too small";
+    }
+    if (bad == NULL) {
+        const double *acc = acc_b.buf, *gyro = gyro_b.buf, *dt = dt_b.buf, *bias = bias_b.buf;
+        const double *bRs = bRs_b.buf, *coef = coef_b.buf;
+        const int64_t *st = starts_b.buf;
+        double *scr = scratch_b.buf, *out = out_b.buf;
+        Py_BEGIN_ALLOW_THREADS
+        for (Py_ssize_t w = 0; w < nw; w++) {
+            Py_ssize_t s0 = (Py_ssize_t)st[w], e = w + 1 < nw ? (Py_ssize_t)st[w + 1] : n;
+            sums(acc + 3 * s0, gyro + 3 * s0, dt + s0, e - s0, bias + 6 * w, rotate, bRs, coef, K,
+                 small2, scr, out + N_OUT * w);
+        }
+        Py_END_ALLOW_THREADS
+    }
+    for (int b = 0; b < 9; b++) PyBuffer_Release((Py_buffer *)all[b]);
+    if (bad != NULL) {
+        PyErr_SetString(PyExc_ValueError, bad);
+        return NULL;
+    }
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef methods[] = {
     {"block_sums", block_sums, METH_VARARGS,
      "block_sums(acc, gyro, dt, bias, rotate, bRs, coef, K, small2, scratch, out) -> None\n\n"
      "Per-sample sums of one block of IMU samples (see liebridge/factors/_imu_kernel.py)."},
+    {"window_sums", window_sums, METH_VARARGS,
+     "window_sums(acc, gyro, dt, starts, bias, rotate, bRs, coef, K, small2, scratch, out) -> None\n\n"
+     "block_sums of every window [starts[w], starts[w+1]) of one sequence, one row of out each."},
     {NULL, NULL, 0, NULL},
 };
 
