@@ -1,4 +1,4 @@
-"""Smoke run of ``benchmarks/bench_imu_windows.py --quick``: runs, agrees with GTSAM, writes JSON."""
+"""Smoke run of ``benchmarks/bench_imu_windows.py --quick``: it runs, agrees with GTSAM; JSON."""
 
 from __future__ import annotations
 
