@@ -1,8 +1,8 @@
 """GTSAM factors in any convention, the optimizer and IMU preintegration (a façade).
 
 The code lives in :mod:`liebridge.gtsam` (``between``, ``prior``, ``optimize``) and
-:mod:`liebridge.imu` (``preintegrate``, ``preintegrate_windows``, ``ImuPreintegrator``, ``imu``, ``imu_kernel``); this module
-re-exports it under the import path of earlier releases.
+:mod:`liebridge.imu` (``preintegrate``, ``preintegrate_windows``, ``ImuPreintegrator``, ``imu``,
+``imu_kernel``); this module re-exports it under the import path of earlier releases.
 """
 
 from ..gtsam import ISAM2, OptimizeResult, between, optimize, prior
