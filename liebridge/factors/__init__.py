@@ -9,12 +9,14 @@ from ..gtsam import ISAM2, OptimizeResult, between, optimize, prior
 from ..imu import (
     ImuDelta,
     ImuPreintegrator,
+    PreintegratedCombined,
     PreintegratedImu,
     PreintegratedWindows,
     imu,
     imu_kernel,
     imu_residual,
     preintegrate,
+    preintegrate_combined,
     preintegrate_windows,
 )
 
@@ -23,6 +25,7 @@ __all__ = [
     "ImuDelta",
     "ImuPreintegrator",
     "OptimizeResult",
+    "PreintegratedCombined",
     "PreintegratedImu",
     "PreintegratedWindows",
     "between",
@@ -31,6 +34,7 @@ __all__ = [
     "imu_residual",
     "optimize",
     "preintegrate",
+    "preintegrate_combined",
     "preintegrate_windows",
     "prior",
 ]

@@ -5,6 +5,7 @@ the optional compiled ``_imu_ext`` for the per-sample sums); ``preintegration`` 
 ``factor`` is GTSAM's ``ImuFactor`` residual as a custom factor with analytic Jacobians.
 """
 
+from .combined import PreintegratedCombined, preintegrate_combined
 from .factor import imu, imu_residual
 from .preintegration import (
     ImuDelta,
@@ -18,11 +19,13 @@ from .windows import PreintegratedWindows, preintegrate_windows
 __all__ = [
     "ImuDelta",
     "ImuPreintegrator",
+    "PreintegratedCombined",
     "PreintegratedImu",
     "PreintegratedWindows",
     "imu",
     "imu_kernel",
     "imu_residual",
     "preintegrate",
+    "preintegrate_combined",
     "preintegrate_windows",
 ]
