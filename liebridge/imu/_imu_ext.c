@@ -363,6 +363,18 @@ static void combined_loop(const double *acc, const double *gyro, const double *d
     const double *bI = cv + 45; /* 6x6 */
     double x[9] = {0}, T = 0.0;
     double S[225] = {0}, Hba[27] = {0}, Hbg[27] = {0};
+    /* the structural non-zeros of F, row by row */
+    int nz[15][8], nnz[15];
+    for (int i = 0; i < 15; i++) {
+        int q = 0;
+        if (i < 9) { nz[i][q++] = 0; nz[i][q++] = 1; nz[i][q++] = 2; }
+        if (i < 3) { nz[i][q++] = 12; nz[i][q++] = 13; nz[i][q++] = 14; }
+        else if (i < 6) { nz[i][q++] = i; nz[i][q++] = i + 3; }
+        else if (i < 9) nz[i][q++] = i;
+        if (i >= 3 && i < 9) { nz[i][q++] = 9; nz[i][q++] = 10; nz[i][q++] = 11; }
+        if (i >= 9) nz[i][q++] = i;
+        nnz[i] = q;
+    }
     for (Py_ssize_t k = 0; k < n; k++) {
         double d = dt[k], d22 = 0.5 * d * d;
         double a[3], w[3], *th = x;
@@ -415,11 +427,6 @@ static void combined_loop(const double *acc, const double *gyro, const double *d
             }
         for (int i = 0; i < 27; i++) { Hba[i] = nHa[i]; Hbg[i] = nHg[i]; }
         /* S <- F S F^T, skipping zeros of F */
-        int nz[15][15], nnz[15];
-        for (int i = 0; i < 15; i++) {
-            nnz[i] = 0;
-            for (int m = 0; m < 15; m++) if (F[15 * i + m] != 0.0) nz[i][nnz[i]++] = m;
-        }
         double M[225];
         for (int i = 0; i < 15; i++)
             for (int j = 0; j < 15; j++) {
