@@ -115,3 +115,21 @@ def test_bad_input() -> None:
     r = preintegrate_combined(ACC[:10], GYRO[:10], DT[:10], bias=BIAS, params=combined_params())
     with pytest.raises(ValueError, match="read-only"):
         r.covariance[0, 0] = 1.0
+
+
+@pytest.mark.parametrize(
+    "mode", [gtsam.ImuFactorErrorMode.Logmap, gtsam.ImuFactorErrorMode.ComponentWise]
+)
+def test_residual_covariance_is_the_combined_factors_noise_model(mode) -> None:
+    """CombinedImuFactor's noise model is residualCovariance(), not preintMeasCov() (measured)."""
+    n = 2000
+    p = combined_params()
+    p.setImuFactorErrorMode(mode)
+    pim = gtsam_combined(p, BIAS, ACC[:n], GYRO[:n], DT[:n])
+    ours = preintegrate_combined(ACC[:n], GYRO[:n], DT[:n], bias=BIAS, params=p)
+    factor = gtsam.CombinedImuFactor(1, 2, 3, 4, 5, 6, pim)
+    R = factor.noiseModel().R()
+    noise_cov = np.linalg.inv(R.T @ R)
+    assert rel(noise_cov, pim.residualCovariance()) < 1e-9
+    assert rel(ours.residual_covariance, pim.residualCovariance()) < 1e-9
+    assert rel(pim.preintMeasCov(), pim.residualCovariance()) > 1e-2  # they are not the same

@@ -91,6 +91,24 @@ class PreintegratedCombined:
                 object.__setattr__(self, f.name, _readonly(getattr(self, f.name)))
         object.__setattr__(self, "delta_t", float(self.delta_t))
 
+    @property
+    def residual_covariance(self) -> FloatArray:
+        """The noise model of GTSAM 4.3's ``CombinedImuFactor``: ``residualCovariance()`` (15×15).
+
+        ``T S Σ S Tᵀ`` with ``Σ`` = :attr:`covariance`, ``S = diag(I₉, −I₆)`` (the residual's bias
+        part is ``b_i − b_j`` while ``Σ``'s bias columns follow GTSAM's ``F``) and
+        ``T = blockdiag(J_r(θ), ΔRᵀ, ΔRᵀ, I₆)`` (from the tangent chart of ``(θ, p, v)`` to the
+        residual's: right perturbation of ``ΔR``, body-frame ``p``, ``v``). Measured equal to
+        GTSAM's ``residualCovariance()`` to 2e-16 relative, in both error modes; it is *not*
+        ``preintMeasCov()`` (those differ in the sign of the bias cross-covariance and in ``T``).
+        """
+        T = np.eye(15)
+        T[0:3, 0:3] = so3.jr(self.preintegrated[0:3])
+        T[3:6, 3:6] = T[6:9, 6:9] = self.delta_R.T
+        T[9:15, 9:15] = -np.eye(6)  # T·S
+        C = T @ self.covariance @ T.T
+        return np.asarray(0.5 * (C + C.T))
+
 
 def _aligned(x: FloatArray) -> FloatArray:
     """``x`` as an aligned, C-contiguous float64 array (the compiled kernel reads raw doubles)."""
