@@ -6,6 +6,7 @@ the optional compiled ``_imu_ext`` for the per-sample sums); ``preintegration`` 
 """
 
 from .combined import PreintegratedCombined, preintegrate_combined
+from .combined_factor import combined_imu, combined_imu_residual
 from .factor import imu, imu_residual
 from .preintegration import (
     ImuDelta,
@@ -22,6 +23,8 @@ __all__ = [
     "PreintegratedCombined",
     "PreintegratedImu",
     "PreintegratedWindows",
+    "combined_imu",
+    "combined_imu_residual",
     "imu",
     "imu_kernel",
     "imu_residual",
