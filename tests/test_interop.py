@@ -145,6 +145,9 @@ POSE_FUNCS: dict[str, Callable[[Any], Any]] = {
     "imu.imu_residual": lambda X: lb.imu.imu_residual(
         X, np.zeros(3), T1, np.zeros(3), np.zeros(6), _pim(), jacobians=False
     )[0],
+    "imu.combined_imu_residual": lambda X: lb.imu.combined_imu_residual(
+        X, np.zeros(3), T1, np.zeros(3), np.zeros(6), np.zeros(6), _cpim(), jacobians=False
+    )[0],
 }
 
 
@@ -165,6 +168,19 @@ def _graph(X: Any) -> np.ndarray:
     g.add_prior(0, X, np.eye(6) * 1e-6)
     g.add_between(0, 1, se3.compose(se3.inverse(X), T1), COV)
     return np.asarray(g.graph.error(g.values))
+
+
+def _cpim() -> Any:
+    gtsam = pytest.importorskip("gtsam")
+    params = gtsam.PreintegrationCombinedParams.MakeSharedU(9.81)
+    n = 20
+    return lb.imu.preintegrate_combined(
+        np.tile([0.1, 0.0, 9.81], (n, 1)),
+        np.tile([0.0, 0.1, 0.2], (n, 1)),
+        np.full(n, 0.01),
+        bias=np.zeros(6),
+        params=params,
+    )
 
 
 def _pim() -> Any:
@@ -201,6 +217,7 @@ NOT_A_POSE = {
     "se3.vee": "X is a 4×4 twist matrix (se(3)), not a pose",
     "io.poses.to_matrix": "x is a row in a layout (the matrix layout reads arrays)",
     "imu.imu": "pose_i, pose_j are GTSAM keys",
+    "imu.combined_imu": "pose_i, pose_j are GTSAM keys",
     "interop.to_library": "T is liebridge's output; `like` is the library object",
     "Bundle.dim": "X is a block-diagonal bundle element (no library has a bundle object)",
     "Bundle.element": "X is a block-diagonal bundle element (no library has a bundle object)",

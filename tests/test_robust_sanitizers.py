@@ -84,6 +84,42 @@ for k in (0, 1, 2, 3, 5, 9, 10):
         assert "aligned" in str(exc), exc
     else:
         raise AssertionError(f"argument {k}: a misaligned buffer was accepted")
+# the window and combined kernels: valid calls, and bad windows refused before any read
+starts = np.array([0, 50, 51, 200], dtype=np.int64)
+wargs = [acc, gyro, dt, starts, np.tile(bias, (4, 1)), False, np.eye(3), coef, coef.shape[1],
+         1e-6, np.zeros((149, 21)), np.zeros((4, kernel._C_N_OUT))]
+ext.window_sums(*wargs)
+for k, bad_value in ((3, np.array([0, 50, 50], dtype=np.int64)),
+                     (3, np.array([0, 400], dtype=np.int64)),
+                     (10, np.zeros((148, 21))),
+                     (4, np.zeros((3, 6)))):
+    bad = list(wargs)
+    bad[k] = bad_value
+    if k == 3:
+        bad[4] = np.zeros((len(bad_value), 6))
+        bad[11] = np.zeros((len(bad_value), kernel._C_N_OUT))
+    try:
+        ext.window_sums(*bad)
+    except ValueError:
+        pass
+    else:
+        raise AssertionError(f"window_sums argument {k}: accepted {bad_value.shape}")
+kernel._imu_ext = ext
+from liebridge.imu import preintegrate_combined, preintegrate_windows
+w = preintegrate_windows(acc, gyro, dt, starts, bias=bias, params=p)
+np.testing.assert_allclose(w[2].covariance, preintegrate(acc[51:200], gyro[51:200], dt[51:200],
+                           bias=bias, params=p).covariance, rtol=1e-9, atol=1e-18)
+cp = gtsam.PreintegrationCombinedParams.MakeSharedU(9.81)
+c1 = preintegrate_combined(acc, gyro, dt, bias=bias, params=cp)
+c2 = preintegrate_combined(acc, gyro, dt, bias=bias, params=cp, compiled=False)
+np.testing.assert_allclose(c1.covariance, c2.covariance, rtol=1e-9, atol=1e-15)
+out = np.zeros(289)
+try:
+    ext.combined_integrate(acc, gyro, dt, bias, np.zeros(80), out)
+except ValueError:
+    pass
+else:
+    raise AssertionError("combined_integrate: a short covariance buffer was accepted")
 print("sanitized kernel: ok")
 """
 

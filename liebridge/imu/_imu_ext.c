@@ -74,6 +74,124 @@ static void coefficients(double t2, const double *coef, int K, double small2, do
     }
 }
 
+/* The sums of one block of n samples (the comment at the top of this file), written to out[N_OUT];
+   scr holds N_SCRATCH doubles per sample. */
+static void sums(const double *acc, const double *gyro, const double *dt, Py_ssize_t n,
+                 const double *bias, int rotate, const double *bRs, const double *coef, int K,
+                 double small2, double *scr, double *out) {
+    for (int i = 0; i < N_OUT; i++) out[i] = 0.0;
+    /* tau_k = sum_{j>k} dt_j */
+    double T = 0.0;
+    for (Py_ssize_t k = n - 1; k >= 0; k--) {
+        scr[k * N_SCRATCH] = T;
+        T += dt[k];
+    }
+    out[O_T] = T;
+    double q[4] = {1.0, 0.0, 0.0, 0.0};
+    double R[9];
+    for (Py_ssize_t k = 0; k < n; k++) {
+        double *s = scr + k * N_SCRATCH;
+        double d = dt[k];
+        double a[3], w[3], th[3];
+        for (int i = 0; i < 3; i++) {
+            a[i] = acc[3 * k + i] - bias[i];
+            w[i] = gyro[3 * k + i] - bias[3 + i];
+        }
+        if (rotate) {
+            double a2[3], w2[3];
+            for (int i = 0; i < 3; i++) {
+                a2[i] = bRs[3 * i] * a[0] + bRs[3 * i + 1] * a[1] + bRs[3 * i + 2] * a[2];
+                w2[i] = bRs[3 * i] * w[0] + bRs[3 * i + 1] * w[1] + bRs[3 * i + 2] * w[2];
+            }
+            for (int i = 0; i < 3; i++) { a[i] = a2[i]; w[i] = w2[i]; }
+        }
+        for (int i = 0; i < 3; i++) th[i] = w[i] * d;
+        double t2 = th[0] * th[0] + th[1] * th[1] + th[2] * th[2];
+        double c[5];
+        coefficients(t2, coef, K, small2, c);
+        quat_to_R(q, R);
+        double ra[3], u[3];
+        for (int i = 0; i < 3; i++) {
+            ra[i] = R[3 * i] * a[0] + R[3 * i + 1] * a[1] + R[3 * i + 2] * a[2];
+            u[i] = R[3 * i] * th[0] + R[3 * i + 1] * th[1] + R[3 * i + 2] * th[2];
+        }
+        double alpha = (s[0] + 0.5 * d) * d;
+        for (int i = 0; i < 3; i++) {
+            s[1 + i] = ra[i] * alpha;
+            s[4 + i] = ra[i] * d;
+            out[O_P + i] += s[1 + i];
+            out[O_V + i] += s[4 + i];
+        }
+        for (int i = 0; i < 9; i++) {
+            out[O_JA + i] += alpha * R[i];
+            out[O_JA + 9 + i] += d * R[i];
+        }
+        out[O_SA2] += alpha * alpha / d;
+        out[O_SA] += alpha;
+        /* Y = c0 dt R + [g]x R + Cu th^T, g = B dt u, Cu = C dt u */
+        double c0dt = c[0] * d, g[3], Cu[3];
+        for (int i = 0; i < 3; i++) { g[i] = c[1] * d * u[i]; Cu[i] = c[2] * d * u[i]; }
+        double *Y = s + 7;
+        for (int i = 0; i < 3; i++) {
+            int j1 = (i + 1) % 3, j2 = (i + 2) % 3;
+            for (int j = 0; j < 3; j++)
+                Y[3 * i + j] = c0dt * R[3 * i + j] + g[j1] * R[3 * j2 + j] - g[j2] * R[3 * j1 + j]
+                               + Cu[i] * th[j];
+        }
+        for (int i = 0; i < 3; i++) s[16 + i] = u[i];
+        double B2 = c[1] * c[1];
+        double wa = d * (c[0] * c[0] + B2 * t2);
+        s[19] = wa;
+        s[20] = d * (c[2] * (2.0 * c[0] + c[2] * t2) - B2);
+        out[O_SWA] += wa;
+        /* q <- q * Exp(th): increment (cos(t/2), sin(t/2) th/t) */
+        double hs = 0.5 * c[4];
+        double w2 = c[3], x2 = hs * th[0], y2 = hs * th[1], z2 = hs * th[2];
+        double w1 = q[0], x1 = q[1], y1 = q[2], z1 = q[3];
+        q[0] = w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2;
+        q[1] = w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2;
+        q[2] = w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2;
+        q[3] = w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2;
+    }
+    quat_to_R(q, out + O_R);
+    /* backward pass: suffix sums p~ (pv[0..2]) and v~ (pv[3..5]) */
+    double pv[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+    double *S = out + O_S, *cv = out + O_COVV, *M = out + O_M, *spv = out + O_SPV;
+    for (Py_ssize_t k = n - 1; k >= 0; k--) {
+        const double *s = scr + k * N_SCRATCH;
+        const double *Y = s + 7, *u = s + 16;
+        double wa = s[19], wb = s[20];
+        for (int j = 0; j < 9; j++) S[j] += Y[j];
+        for (int m = 0; m < 6; m++) {
+            double x = pv[m];
+            double *Sm = S + 9 * (m + 1);
+            for (int j = 0; j < 9; j++) Sm[j] += x * Y[j];
+        }
+        double V[9];
+        V[0] = u[0]; V[1] = u[1]; V[2] = u[2];
+        for (int r = 0; r < 2; r++) {
+            const double *x = pv + 3 * r;
+            V[3 + 3 * r] = x[1] * u[2] - x[2] * u[1];
+            V[4 + 3 * r] = x[2] * u[0] - x[0] * u[2];
+            V[5 + 3 * r] = x[0] * u[1] - x[1] * u[0];
+        }
+        for (int i = 0; i < 9; i++) {
+            double wv = wb * V[i];
+            for (int j = i; j < 9; j++) cv[9 * i + j] += wv * V[j];
+        }
+        for (int i = 0; i < 6; i++) {
+            double wx = wa * pv[i];
+            spv[i] += wx;
+            for (int j = i; j < 6; j++) M[6 * i + j] += wx * pv[j];
+        }
+        for (int i = 0; i < 6; i++) pv[i] += s[1 + i];
+    }
+    for (int i = 0; i < 9; i++)
+        for (int j = 0; j < i; j++) cv[9 * i + j] = cv[9 * j + i];
+    for (int i = 0; i < 6; i++)
+        for (int j = 0; j < i; j++) M[6 * i + j] = M[6 * j + i];
+}
+
 static PyObject *block_sums(PyObject *self, PyObject *args) {
     (void)self;
     Py_buffer acc_b, gyro_b, dt_b, bias_b, bRs_b, coef_b, scratch_b, out_b;
@@ -104,117 +222,7 @@ static PyObject *block_sums(PyObject *self, PyObject *args) {
         const double *bRs = bRs_b.buf, *coef = coef_b.buf;
         double *scr = scratch_b.buf, *out = out_b.buf;
         Py_BEGIN_ALLOW_THREADS
-        for (int i = 0; i < N_OUT; i++) out[i] = 0.0;
-        /* tau_k = sum_{j>k} dt_j */
-        double T = 0.0;
-        for (Py_ssize_t k = n - 1; k >= 0; k--) {
-            scr[k * N_SCRATCH] = T;
-            T += dt[k];
-        }
-        out[O_T] = T;
-        double q[4] = {1.0, 0.0, 0.0, 0.0};
-        double R[9];
-        for (Py_ssize_t k = 0; k < n; k++) {
-            double *s = scr + k * N_SCRATCH;
-            double d = dt[k];
-            double a[3], w[3], th[3];
-            for (int i = 0; i < 3; i++) {
-                a[i] = acc[3 * k + i] - bias[i];
-                w[i] = gyro[3 * k + i] - bias[3 + i];
-            }
-            if (rotate) {
-                double a2[3], w2[3];
-                for (int i = 0; i < 3; i++) {
-                    a2[i] = bRs[3 * i] * a[0] + bRs[3 * i + 1] * a[1] + bRs[3 * i + 2] * a[2];
-                    w2[i] = bRs[3 * i] * w[0] + bRs[3 * i + 1] * w[1] + bRs[3 * i + 2] * w[2];
-                }
-                for (int i = 0; i < 3; i++) { a[i] = a2[i]; w[i] = w2[i]; }
-            }
-            for (int i = 0; i < 3; i++) th[i] = w[i] * d;
-            double t2 = th[0] * th[0] + th[1] * th[1] + th[2] * th[2];
-            double c[5];
-            coefficients(t2, coef, K, small2, c);
-            quat_to_R(q, R);
-            double ra[3], u[3];
-            for (int i = 0; i < 3; i++) {
-                ra[i] = R[3 * i] * a[0] + R[3 * i + 1] * a[1] + R[3 * i + 2] * a[2];
-                u[i] = R[3 * i] * th[0] + R[3 * i + 1] * th[1] + R[3 * i + 2] * th[2];
-            }
-            double alpha = (s[0] + 0.5 * d) * d;
-            for (int i = 0; i < 3; i++) {
-                s[1 + i] = ra[i] * alpha;
-                s[4 + i] = ra[i] * d;
-                out[O_P + i] += s[1 + i];
-                out[O_V + i] += s[4 + i];
-            }
-            for (int i = 0; i < 9; i++) {
-                out[O_JA + i] += alpha * R[i];
-                out[O_JA + 9 + i] += d * R[i];
-            }
-            out[O_SA2] += alpha * alpha / d;
-            out[O_SA] += alpha;
-            /* Y = c0 dt R + [g]x R + Cu th^T, g = B dt u, Cu = C dt u */
-            double c0dt = c[0] * d, g[3], Cu[3];
-            for (int i = 0; i < 3; i++) { g[i] = c[1] * d * u[i]; Cu[i] = c[2] * d * u[i]; }
-            double *Y = s + 7;
-            for (int i = 0; i < 3; i++) {
-                int j1 = (i + 1) % 3, j2 = (i + 2) % 3;
-                for (int j = 0; j < 3; j++)
-                    Y[3 * i + j] = c0dt * R[3 * i + j] + g[j1] * R[3 * j2 + j] - g[j2] * R[3 * j1 + j]
-                                   + Cu[i] * th[j];
-            }
-            for (int i = 0; i < 3; i++) s[16 + i] = u[i];
-            double B2 = c[1] * c[1];
-            double wa = d * (c[0] * c[0] + B2 * t2);
-            s[19] = wa;
-            s[20] = d * (c[2] * (2.0 * c[0] + c[2] * t2) - B2);
-            out[O_SWA] += wa;
-            /* q <- q * Exp(th): increment (cos(t/2), sin(t/2) th/t) */
-            double hs = 0.5 * c[4];
-            double w2 = c[3], x2 = hs * th[0], y2 = hs * th[1], z2 = hs * th[2];
-            double w1 = q[0], x1 = q[1], y1 = q[2], z1 = q[3];
-            q[0] = w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2;
-            q[1] = w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2;
-            q[2] = w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2;
-            q[3] = w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2;
-        }
-        quat_to_R(q, out + O_R);
-        /* backward pass: suffix sums p~ (pv[0..2]) and v~ (pv[3..5]) */
-        double pv[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
-        double *S = out + O_S, *cv = out + O_COVV, *M = out + O_M, *spv = out + O_SPV;
-        for (Py_ssize_t k = n - 1; k >= 0; k--) {
-            const double *s = scr + k * N_SCRATCH;
-            const double *Y = s + 7, *u = s + 16;
-            double wa = s[19], wb = s[20];
-            for (int j = 0; j < 9; j++) S[j] += Y[j];
-            for (int m = 0; m < 6; m++) {
-                double x = pv[m];
-                double *Sm = S + 9 * (m + 1);
-                for (int j = 0; j < 9; j++) Sm[j] += x * Y[j];
-            }
-            double V[9];
-            V[0] = u[0]; V[1] = u[1]; V[2] = u[2];
-            for (int r = 0; r < 2; r++) {
-                const double *x = pv + 3 * r;
-                V[3 + 3 * r] = x[1] * u[2] - x[2] * u[1];
-                V[4 + 3 * r] = x[2] * u[0] - x[0] * u[2];
-                V[5 + 3 * r] = x[0] * u[1] - x[1] * u[0];
-            }
-            for (int i = 0; i < 9; i++) {
-                double wv = wb * V[i];
-                for (int j = i; j < 9; j++) cv[9 * i + j] += wv * V[j];
-            }
-            for (int i = 0; i < 6; i++) {
-                double wx = wa * pv[i];
-                spv[i] += wx;
-                for (int j = i; j < 6; j++) M[6 * i + j] += wx * pv[j];
-            }
-            for (int i = 0; i < 6; i++) pv[i] += s[1 + i];
-        }
-        for (int i = 0; i < 9; i++)
-            for (int j = 0; j < i; j++) cv[9 * i + j] = cv[9 * j + i];
-        for (int i = 0; i < 6; i++)
-            for (int j = 0; j < i; j++) M[6 * i + j] = M[6 * j + i];
+        sums(acc, gyro, dt, n, bias, rotate, bRs, coef, K, small2, scr, out);
         Py_END_ALLOW_THREADS
     }
     PyBuffer_Release(&acc_b);
@@ -232,10 +240,300 @@ static PyObject *block_sums(PyObject *self, PyObject *args) {
     Py_RETURN_NONE;
 }
 
+/* window_sums: the sums of many windows of one sequence in one call. Window w holds the samples
+   [starts[w], starts[w+1]) (the last runs to n), integrated from the identity with its own bias
+   bias[6w .. 6w+5]; its sums go to out[N_OUT w .. N_OUT (w+1) - 1]. starts (int64) must be
+   strictly increasing in [0, n); scratch holds N_SCRATCH doubles per sample of the longest window. */
+static PyObject *window_sums(PyObject *self, PyObject *args) {
+    (void)self;
+    Py_buffer acc_b, gyro_b, dt_b, starts_b, bias_b, bRs_b, coef_b, scratch_b, out_b;
+    int K, rotate;
+    double small2;
+    if (!PyArg_ParseTuple(args, "y*y*y*y*y*py*y*idw*w*", &acc_b, &gyro_b, &dt_b, &starts_b,
+                          &bias_b, &rotate, &bRs_b, &coef_b, &K, &small2, &scratch_b, &out_b))
+        return NULL;
+    Py_ssize_t n = dt_b.len / (Py_ssize_t)sizeof(double);
+    Py_ssize_t nw = starts_b.len / (Py_ssize_t)sizeof(int64_t);
+    const char *bad = NULL;
+    const Py_buffer *all[9] = {&acc_b, &gyro_b, &dt_b, &starts_b, &bias_b,
+                               &bRs_b, &coef_b, &scratch_b, &out_b};
+    int misaligned = 0;
+    for (int b = 0; b < 9; b++) misaligned |= (uintptr_t)all[b]->buf % _Alignof(double) != 0;
+    if (misaligned) bad = "a buffer is not aligned to a double boundary (pass aligned float64)";
+    else if (n < 1) bad = "dt: no samples";
+    else if (dt_b.len % (Py_ssize_t)sizeof(double) != 0) bad = "dt: not a whole number of doubles";
+    else if (acc_b.len != 3 * dt_b.len || gyro_b.len != 3 * dt_b.len) bad = "acc/gyro: not (n, 3)";
+    else if (nw < 1 || starts_b.len % (Py_ssize_t)sizeof(int64_t) != 0) bad = "starts: not int64 (>= 1)";
+    else if (bias_b.len != 6 * nw * (Py_ssize_t)sizeof(double)) bad = "bias: not 6 doubles a window";
+    else if (bRs_b.len != 9 * (Py_ssize_t)sizeof(double)) bad = "bRs: not 9 doubles";
+    else if (coef_b.len != 5 * N_TERMS * (Py_ssize_t)sizeof(double)) bad = "coef: not 5x9";
+    else if (K < 1 || K > N_TERMS) bad = "K: not in 1..9";
+    else if (out_b.len != N_OUT * nw * (Py_ssize_t)sizeof(double)) bad = "out: wrong size";
+    if (bad == NULL) {
+        const int64_t *st = starts_b.buf;
+        Py_ssize_t longest = 0;
+        for (Py_ssize_t w = 0; w < nw && bad == NULL; w++) {
+            int64_t e = w + 1 < nw ? st[w + 1] : (int64_t)n;
+            if (st[w] < 0 || st[w] >= e || e > (int64_t)n) bad = "starts: not increasing in [0, n)";
+            else if (e - st[w] > longest) longest = (Py_ssize_t)(e - st[w]);
+        }
+        if (bad == NULL && scratch_b.len < N_SCRATCH * longest * (Py_ssize_t)sizeof(double))
+            bad = "scratch: too small";
+    }
+    if (bad == NULL) {
+        const double *acc = acc_b.buf, *gyro = gyro_b.buf, *dt = dt_b.buf, *bias = bias_b.buf;
+        const double *bRs = bRs_b.buf, *coef = coef_b.buf;
+        const int64_t *st = starts_b.buf;
+        double *scr = scratch_b.buf, *out = out_b.buf;
+        Py_BEGIN_ALLOW_THREADS
+        for (Py_ssize_t w = 0; w < nw; w++) {
+            Py_ssize_t s0 = (Py_ssize_t)st[w], e = w + 1 < nw ? (Py_ssize_t)st[w + 1] : n;
+            sums(acc + 3 * s0, gyro + 3 * s0, dt + s0, e - s0, bias + 6 * w, rotate, bRs, coef, K,
+                 small2, scr, out + N_OUT * w);
+        }
+        Py_END_ALLOW_THREADS
+    }
+    for (int b = 0; b < 9; b++) PyBuffer_Release((Py_buffer *)all[b]);
+    if (bad != NULL) {
+        PyErr_SetString(PyExc_ValueError, bad);
+        return NULL;
+    }
+    Py_RETURN_NONE;
+}
+
+/* ----------------------------------------------------------------------------------------------
+ * combined_integrate: GTSAM's PreintegratedCombinedMeasurements (tangent preintegration, 15x15
+ * covariance) as one sequential loop. Mirrors GTSAM 4.3 TangentPreintegration::update /
+ * UpdatePreintegrated and PreintegratedCombinedMeasurements::integrateMeasurement exactly (the
+ * theta recursion theta += Jr(theta)^-1 w dt is nonlinear, so it stays sequential); the 15x15
+ * propagation F S F^T skips F's zero blocks. Output layout (doubles):
+ *   0..8 preintegrated (theta, p, v), 9 T, 10..234 cov (15x15, (theta, p, v, b_a, b_g)),
+ *   235..261 H_biasAcc (9x3), 262..288 H_biasOmega (9x3).
+ * Covariances: acc, gyro, int, bias_acc, bias_omega (3x3 each, row-major), bias_init (6x6).
+ */
+#define C_OUT 289
+
+static void mat3_mul(const double *A, const double *B, double *C) {
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            C[3 * i + j] = A[3 * i] * B[j] + A[3 * i + 1] * B[3 + j] + A[3 * i + 2] * B[6 + j];
+}
+
+static void mat3_inv(const double *A, double *X) {
+    double c00 = A[4] * A[8] - A[5] * A[7], c01 = A[5] * A[6] - A[3] * A[8];
+    double c02 = A[3] * A[7] - A[4] * A[6];
+    double det = A[0] * c00 + A[1] * c01 + A[2] * c02, id = 1.0 / det;
+    X[0] = c00 * id; X[1] = (A[2] * A[7] - A[1] * A[8]) * id; X[2] = (A[1] * A[5] - A[2] * A[4]) * id;
+    X[3] = c01 * id; X[4] = (A[0] * A[8] - A[2] * A[6]) * id; X[5] = (A[2] * A[3] - A[0] * A[5]) * id;
+    X[6] = c02 * id; X[7] = (A[1] * A[6] - A[0] * A[7]) * id; X[8] = (A[0] * A[4] - A[1] * A[3]) * id;
+}
+
+/* Exp(th) (R), right Jacobian Jr (dexp), and B, C, dB = B'/t, dC = C'/t */
+static void dexp_terms(const double th[3], double R[9], double Jr[9], double *Bo, double *Co,
+                       double *dBo, double *dCo) {
+    double t2 = th[0] * th[0] + th[1] * th[1] + th[2] * th[2], t = sqrt(t2);
+    double A, B, C, dB, dC;
+    if (t < 1e-2) {
+        A = 1.0 - t2 / 6.0 + t2 * t2 / 120.0 - t2 * t2 * t2 / 5040.0;
+        B = 0.5 - t2 / 24.0 + t2 * t2 / 720.0 - t2 * t2 * t2 / 40320.0;
+        C = 1.0 / 6.0 - t2 / 120.0 + t2 * t2 / 5040.0 - t2 * t2 * t2 / 362880.0;
+        dB = -1.0 / 12.0 + t2 / 180.0 - t2 * t2 / 6720.0;
+        dC = -1.0 / 60.0 + t2 / 1260.0 - t2 * t2 / 60480.0;
+    } else {
+        double st = sin(t), ct = cos(t), t4 = t2 * t2;
+        A = st / t;
+        B = (1.0 - ct) / t2;
+        C = (t - st) / (t2 * t);
+        dB = (t * st - 2.0 * (1.0 - ct)) / t4;
+        dC = (1.0 - ct) / t4 - 3.0 * (t - st) / (t4 * t);
+    }
+    double W[9] = {0, -th[2], th[1], th[2], 0, -th[0], -th[1], th[0], 0}, W2[9];
+    mat3_mul(W, W, W2);
+    for (int i = 0; i < 9; i++) {
+        double I = (i % 4 == 0) ? 1.0 : 0.0;
+        R[i] = I + A * W[i] + B * W2[i];
+        Jr[i] = I - B * W[i] + C * W2[i];
+    }
+    *Bo = B; *Co = C; *dBo = dB; *dCo = dC;
+}
+
+static void combined_loop(const double *acc, const double *gyro, const double *dt, Py_ssize_t n,
+                          const double *bias, const double *cv, double *out) {
+    const double *aCov = cv, *wCov = cv + 9, *iCov = cv + 18, *baCov = cv + 27, *bgCov = cv + 36;
+    const double *bI = cv + 45; /* 6x6 */
+    double x[9] = {0}, T = 0.0;
+    double S[225] = {0}, Hba[27] = {0}, Hbg[27] = {0};
+    /* the structural non-zeros of F, row by row */
+    int nz[15][8], nnz[15];
+    for (int i = 0; i < 15; i++) {
+        int q = 0;
+        if (i < 9) { nz[i][q++] = 0; nz[i][q++] = 1; nz[i][q++] = 2; }
+        if (i < 3) { nz[i][q++] = 12; nz[i][q++] = 13; nz[i][q++] = 14; }
+        else if (i < 6) { nz[i][q++] = i; nz[i][q++] = i + 3; }
+        else if (i < 9) nz[i][q++] = i;
+        if (i >= 3 && i < 9) { nz[i][q++] = 9; nz[i][q++] = 10; nz[i][q++] = 11; }
+        if (i >= 9) nz[i][q++] = i;
+        nnz[i] = q;
+    }
+    for (Py_ssize_t k = 0; k < n; k++) {
+        double d = dt[k], d22 = 0.5 * d * d;
+        double a[3], w[3], *th = x;
+        for (int i = 0; i < 3; i++) { a[i] = acc[3 * k + i] - bias[i]; w[i] = gyro[3 * k + i] - bias[3 + i]; }
+        double R[9], Jr[9], iJ[9], B, C, dB, dC;
+        dexp_terms(th, R, Jr, &B, &C, &dB, &dC);
+        mat3_inv(Jr, iJ);
+        double c[3];
+        for (int i = 0; i < 3; i++) c[i] = iJ[3 * i] * w[0] + iJ[3 * i + 1] * w[1] + iJ[3 * i + 2] * w[2];
+        /* H = d(Jr(th) c)/dth = B[c]x + (c x th) dB th^T + C((th.c) I + th c^T - 2 c th^T)
+               + (th x (th x c)) dC th^T ; w_tangent_H_theta = -Jr^-1 H */
+        double cxt[3] = {c[1] * th[2] - c[2] * th[1], c[2] * th[0] - c[0] * th[2], c[0] * th[1] - c[1] * th[0]};
+        double txc[3] = {-cxt[0], -cxt[1], -cxt[2]};
+        double ttc[3] = {th[1] * txc[2] - th[2] * txc[1], th[2] * txc[0] - th[0] * txc[2], th[0] * txc[1] - th[1] * txc[0]};
+        double tc = th[0] * c[0] + th[1] * c[1] + th[2] * c[2];
+        double Cc[9] = {0, -c[2], c[1], c[2], 0, -c[0], -c[1], c[0], 0};
+        double H[9], WH[9];
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++)
+                H[3 * i + j] = B * Cc[3 * i + j] + cxt[i] * dB * th[j]
+                    + C * ((i == j ? tc : 0.0) + th[i] * c[j] - 2.0 * c[i] * th[j]) + ttc[i] * dC * th[j];
+        mat3_mul(iJ, H, WH);
+        /* a_nav_H_theta = R [-a]x Jr */
+        double Am[9] = {0, a[2], -a[1], -a[2], 0, a[0], a[1], -a[0], 0}, RA[9], aH[9];
+        mat3_mul(R, Am, RA);
+        mat3_mul(RA, Jr, aH);
+        double an[3];
+        for (int i = 0; i < 3; i++) an[i] = R[3 * i] * a[0] + R[3 * i + 1] * a[1] + R[3 * i + 2] * a[2];
+        /* F (15x15) rows as sparse (col, value) lists */
+        double F[225] = {0};
+        for (int i = 0; i < 15; i++) F[16 * i] = 1.0;
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++) {
+                F[15 * i + j] -= WH[3 * i + j] * d;                 /* theta: I + w_t_H_th dt */
+                F[15 * (3 + i) + j] = aH[3 * i + j] * d22;          /* p wrt theta */
+                F[15 * (6 + i) + j] = aH[3 * i + j] * d;            /* v wrt theta */
+                F[15 * i + 12 + j] = iJ[3 * i + j] * d;             /* theta wrt omega (C) */
+                F[15 * (3 + i) + 9 + j] = R[3 * i + j] * d22;       /* p wrt acc (B) */
+                F[15 * (6 + i) + 9 + j] = R[3 * i + j] * d;         /* v wrt acc (B) */
+            }
+        for (int i = 0; i < 3; i++) F[15 * (3 + i) + 6 + i] = d;
+        /* bias Jacobians: H_new = A H - B (acc), A H - C (omega); A = F[0:9, 0:9] */
+        double nHa[27], nHg[27];
+        for (int i = 0; i < 9; i++)
+            for (int j = 0; j < 3; j++) {
+                double sa = 0.0, sg = 0.0;
+                for (int m = 0; m < 9; m++) { sa += F[15 * i + m] * Hba[3 * m + j]; sg += F[15 * i + m] * Hbg[3 * m + j]; }
+                nHa[3 * i + j] = sa - F[15 * i + 9 + j];
+                nHg[3 * i + j] = sg - F[15 * i + 12 + j];
+            }
+        for (int i = 0; i < 27; i++) { Hba[i] = nHa[i]; Hbg[i] = nHg[i]; }
+        /* S <- F S F^T, skipping zeros of F */
+        double M[225];
+        for (int i = 0; i < 15; i++)
+            for (int j = 0; j < 15; j++) {
+                double s = 0.0;
+                for (int q = 0; q < nnz[i]; q++) s += F[15 * i + nz[i][q]] * S[15 * nz[i][q] + j];
+                M[15 * i + j] = s;
+            }
+        for (int i = 0; i < 15; i++)
+            for (int j = i; j < 15; j++) {
+                double s = 0.0;
+                for (int q = 0; q < nnz[j]; q++) s += M[15 * i + nz[j][q]] * F[15 * j + nz[j][q]];
+                S[15 * i + j] = s;
+            }
+        for (int i = 0; i < 15; i++) for (int j = 0; j < i; j++) S[15 * i + j] = S[15 * j + i];
+        /* noise: G Q G^T with G = [[0, Cth, 0], [Bp, 0, I], [Bv, 0, 0]] (acc, gyro, int) plus
+           bias random walk and GTSAM's biasAccOmegaInt term with G0 = -[[0, Cth], [Bp, 0], [Bv, 0]] */
+        double Gm[9 * 6] = {0}; /* rows theta,p,v ; cols acc(3), omega(3) */
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++) {
+                Gm[6 * i + 3 + j] = iJ[3 * i + j] * d;
+                Gm[6 * (3 + i) + j] = R[3 * i + j] * d22;
+                Gm[6 * (6 + i) + j] = R[3 * i + j] * d;
+            }
+        double Q[36] = {0};
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++) { Q[6 * i + j] = aCov[3 * i + j]; Q[6 * (3 + i) + 3 + j] = wCov[3 * i + j]; }
+        for (int i = 0; i < 36; i++) Q[i] = (Q[i] + bI[i]) / d; /* same G for both: (-G) bI (-G)^T */
+        /* bInit cross blocks theta-p use bI off-diagonal blocks: included through the full 6x6 */
+        double GQ[54];
+        for (int i = 0; i < 9; i++)
+            for (int j = 0; j < 6; j++) {
+                double s = 0.0;
+                for (int m = 0; m < 6; m++) s += Gm[6 * i + m] * Q[6 * m + j];
+                GQ[6 * i + j] = s;
+            }
+        for (int i = 0; i < 9; i++)
+            for (int j = 0; j < 9; j++) {
+                double s = 0.0;
+                for (int m = 0; m < 6; m++) s += GQ[6 * i + m] * Gm[6 * j + m];
+                S[15 * i + j] += s;
+            }
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++) {
+                S[15 * (3 + i) + 3 + j] += d * iCov[3 * i + j];
+                S[15 * (9 + i) + 9 + j] += d * baCov[3 * i + j];
+                S[15 * (12 + i) + 12 + j] += d * bgCov[3 * i + j];
+            }
+        /* state update */
+        double wt[3];
+        for (int i = 0; i < 3; i++) wt[i] = c[i];
+        for (int i = 0; i < 3; i++) {
+            double pn = x[3 + i] + x[6 + i] * d + an[i] * d22;
+            double vn = x[6 + i] + an[i] * d;
+            x[i] += wt[i] * d;
+            x[3 + i] = pn;
+            x[6 + i] = vn;
+        }
+        T += d;
+    }
+    for (int i = 0; i < 9; i++) out[i] = x[i];
+    out[9] = T;
+    for (int i = 0; i < 225; i++) out[10 + i] = S[i];
+    for (int i = 0; i < 27; i++) { out[235 + i] = Hba[i]; out[262 + i] = Hbg[i]; }
+}
+
+static PyObject *combined_integrate(PyObject *self, PyObject *args) {
+    (void)self;
+    Py_buffer acc_b, gyro_b, dt_b, bias_b, cov_b, out_b;
+    if (!PyArg_ParseTuple(args, "y*y*y*y*y*w*", &acc_b, &gyro_b, &dt_b, &bias_b, &cov_b, &out_b))
+        return NULL;
+    Py_ssize_t n = dt_b.len / (Py_ssize_t)sizeof(double);
+    const char *bad = NULL;
+    const Py_buffer *all[6] = {&acc_b, &gyro_b, &dt_b, &bias_b, &cov_b, &out_b};
+    int misaligned = 0;
+    for (int b = 0; b < 6; b++) misaligned |= (uintptr_t)all[b]->buf % _Alignof(double) != 0;
+    if (misaligned) bad = "a buffer is not aligned to a double boundary (pass aligned float64)";
+    else if (n < 1 || dt_b.len % (Py_ssize_t)sizeof(double) != 0) bad = "dt: no samples";
+    else if (acc_b.len != 3 * dt_b.len || gyro_b.len != 3 * dt_b.len) bad = "acc/gyro: not (n, 3)";
+    else if (bias_b.len != 6 * (Py_ssize_t)sizeof(double)) bad = "bias: not 6 doubles";
+    else if (cov_b.len != 81 * (Py_ssize_t)sizeof(double)) bad = "cov: not 81 doubles";
+    else if (out_b.len != C_OUT * (Py_ssize_t)sizeof(double)) bad = "out: wrong size";
+    if (bad == NULL) {
+        const double *acc = acc_b.buf, *gyro = gyro_b.buf, *dt = dt_b.buf, *bias = bias_b.buf;
+        const double *cv = cov_b.buf;
+        double *out = out_b.buf;
+        Py_BEGIN_ALLOW_THREADS
+        combined_loop(acc, gyro, dt, n, bias, cv, out);
+        Py_END_ALLOW_THREADS
+    }
+    for (int b = 0; b < 6; b++) PyBuffer_Release((Py_buffer *)all[b]);
+    if (bad != NULL) {
+        PyErr_SetString(PyExc_ValueError, bad);
+        return NULL;
+    }
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef methods[] = {
     {"block_sums", block_sums, METH_VARARGS,
      "block_sums(acc, gyro, dt, bias, rotate, bRs, coef, K, small2, scratch, out) -> None\n\n"
      "Per-sample sums of one block of IMU samples (see liebridge/factors/_imu_kernel.py)."},
+    {"window_sums", window_sums, METH_VARARGS,
+     "window_sums(acc, gyro, dt, starts, bias, rotate, bRs, coef, K, small2, scratch, out) -> None\n\n"
+     "block_sums of every window [starts[w], starts[w+1]) of one sequence, one row of out each."},
+    {"combined_integrate", combined_integrate, METH_VARARGS,
+     "combined_integrate(acc, gyro, dt, bias, cov, out) -> None\n\n"
+     "GTSAM's PreintegratedCombinedMeasurements (tangent) over all samples; layout above."},
     {NULL, NULL, 0, NULL},
 };
 

@@ -17,3 +17,20 @@ def block_sums(
     /,
 ) -> None:
     """Write the per-sample sums of one block into ``out`` (C-contiguous float64 buffers)."""
+
+def window_sums(
+    acc: Any,
+    gyro: Any,
+    dt: Any,
+    starts: Any,
+    bias: Any,
+    rotate: bool,
+    bRs: Any,
+    coef: Any,
+    K: int,
+    small2: float,
+    scratch: Any,
+    out: Any,
+    /,
+) -> None:
+    """``block_sums`` of each window ``[starts[w], starts[w+1])``, into row ``w`` of ``out``."""

@@ -80,11 +80,13 @@ __all__ = [
     "BLOCK",
     "COMPILED",
     "Delta",
+    "Deltas",
     "Workspace",
     "compiled_applies",
     "compose",
     "integrate",
     "integrate_blocks",
+    "integrate_windows",
     "thread_workspace",
 ]
 
@@ -797,4 +799,169 @@ def check_delta_finite(
     raise ValueError(
         f"acc, gyro, dt, bias: finite inputs whose preintegration overflows float64 "
         f"({', '.join(bad) or 'delta_t'} not finite after {d.n} samples){sizes}"
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# many windows of one sequence (keyframe intervals)
+
+
+@dataclasses.dataclass(frozen=True)
+class Deltas:
+    """:class:`Delta` of ``m`` windows, stacked along a leading axis."""
+
+    delta_t: FloatArray  # (m,)
+    n: FloatArray  # (m,) samples per window (int64)
+    R: FloatArray  # (m, 3, 3)
+    p: FloatArray  # (m, 3)
+    v: FloatArray  # (m, 3)
+    cov: FloatArray  # (m, 9, 9)
+    J: FloatArray  # (m, 9, 6)
+
+
+def integrate_windows(
+    acc: FloatArray,
+    gyro: FloatArray,
+    dt: FloatArray,
+    starts: FloatArray,
+    bias: FloatArray,
+    P: Params,
+    *,
+    compiled: bool | None = None,
+) -> Deltas:
+    """Preintegrate every window ``[starts[w], starts[w+1])`` of one sequence, each from identity.
+
+    ``starts`` (m,) int64, strictly increasing in ``[0, N)`` (the last window runs to ``N``);
+    ``bias`` (m, 6), one estimate per window. Window ``w``'s numbers are those of
+    :func:`integrate_blocks` on its samples.
+
+    With the compiled kernel (:func:`compiled_applies`) all windows' per-sample sums come from one
+    C call (``window_sums``: the rotation prefix product restarts at every window start, the suffix
+    sums run within each window), and the assembly of the covariances and Jacobians from those sums
+    is batched over windows in numpy: no Python code runs per window. Otherwise (numpy kernel,
+    anisotropic noise, lever arm) each window goes through :func:`integrate_blocks`, a Python loop
+    over windows.
+    """
+    m, N = starts.shape[0], dt.shape[0]
+    ends = np.append(starts[1:], N)
+    use_c = compiled is not False and compiled_applies(P)
+    if compiled and not use_c:
+        raise ValueError(
+            "compiled=True: the compiled kernel is not built or does not cover these params "
+            "(it needs isotropic noise and no lever arm)"
+        )
+    if not use_c:
+        ds = []
+        for w, (s, e) in enumerate(zip(starts.tolist(), ends.tolist(), strict=True)):
+            try:
+                ds.append(
+                    integrate_blocks(acc[s:e], gyro[s:e], dt[s:e], bias[w], P, compiled=compiled)
+                )
+            except ValueError as exc:
+                raise ValueError(f"{exc} (window {w}: samples {s} to {e - 1})") from None
+        return Deltas(
+            delta_t=np.array([d.delta_t for d in ds]),
+            n=ends - starts,
+            R=np.stack([d.R for d in ds]),
+            p=np.stack([d.p for d in ds]),
+            v=np.stack([d.v for d in ds]),
+            cov=np.stack([d.cov for d in ds]),
+            J=np.stack([d.J for d in ds]),
+        )
+    assert _imu_ext is not None and P.gyro_var is not None
+    assert P.acc_var is not None and P.int_var is not None
+    ws = thread_workspace()
+    out = np.empty((m, _C_N_OUT))
+    bRs = P.body_R_sensor
+    longest = int((ends - starts).max())
+    with np.errstate(all="ignore"):  # an overflow is reported below, as one ValueError
+        _imu_ext.window_sums(
+            _c_buffer(acc),
+            _c_buffer(gyro),
+            _c_buffer(dt),
+            np.require(starts, dtype=np.int64, requirements=["C_CONTIGUOUS", "ALIGNED"]),
+            _c_buffer(bias),
+            bRs is not None,
+            _I3 if bRs is None else _c_buffer(bRs),
+            _COEF,
+            _COEF.shape[1],
+            series.SMALL_ANGLE**2,
+            ws.get("c_scratch", (longest, _C_N_SCRATCH)),
+            out,
+        )
+        d = _finish_windows(out, ends - starts, P)
+    bad = ~(
+        np.isfinite(d.cov).all(axis=(1, 2))
+        & np.isfinite(d.J).all(axis=(1, 2))
+        & np.isfinite(d.R).all(axis=(1, 2))
+        & np.isfinite(d.p).all(axis=1)
+        & np.isfinite(d.v).all(axis=1)
+        & np.isfinite(d.delta_t)
+    )
+    if bad.any():
+        w = int(np.argmax(bad))
+        s, e = int(starts[w]), int(ends[w])
+        try:
+            check_delta_finite(
+                Delta(float(d.delta_t[w]), e - s, d.R[w], d.p[w], d.v[w], d.cov[w], d.J[w]),
+                acc[s:e],
+                gyro[s:e],
+                dt[s:e],
+                bias[w],
+            )
+        except ValueError as exc:
+            raise ValueError(f"{exc} (window {w}: samples {s} to {e - 1})") from None
+    return d
+
+
+def _finish_windows(out: FloatArray, n: FloatArray, P: Params) -> Deltas:
+    """Batched :func:`_integrate_compiled` assembly: ``out`` (m, N_OUT) sums → :class:`Deltas`.
+
+    The same formulas as :func:`_gyro_bias_jacobian`, :func:`_gyro_cov_from_sums` and
+    :func:`_finish`, with a leading window axis.
+    """
+    assert P.gyro_var is not None and P.acc_var is not None and P.int_var is not None
+    m = out.shape[0]
+    RN = out[:, _C_R].reshape(m, 3, 3)
+    T = out[:, _C_T]
+    # gyroscope bias Jacobian (frame i), from S = Σ_k w_k Y_k, w ∈ {1, p̃, ṽ}
+    S = out[:, _C_S].reshape(m, 7, 3, 3)
+    Jg = np.empty((m, 9, 3))
+    np.negative(S[:, 0], out=Jg[:, 0:3])
+    Jg[:, 3:9] = _sum_hat_times(S[:, 1:7].reshape(m, 2, 3, 3, 3)).reshape(m, 6, 3)
+    bRs = P.body_R_sensor
+    if bRs is not None:
+        Jg = Jg @ bRs
+    # gyroscope covariance (frame i) from its sums
+    cov = out[:, _C_COVV].reshape(m, 9, 9) * _SIGN9
+    M = out[:, _C_M].reshape(m, 2, 3, 2, 3)
+    s = out[:, _C_SPV].reshape(m, 2, 3)
+    cov[:, 0:3, 0:3] += out[:, _C_SWA, None, None] * _I3
+    hats = np.einsum("ab,krb->kra", _HAT9, s).reshape(m, 6, 3)
+    cov[:, 3:9, 0:3] -= hats
+    cov[:, 0:3, 3:9] -= hats.transpose(0, 2, 1)
+    tr = np.trace(M, axis1=2, axis2=4)  # (m, 2, 2)
+    cov[:, 3:9, 3:9] += (tr[:, :, None, :, None] * _I3[None, None, :, None, :]).reshape(m, 6, 6)
+    cov[:, 3:9, 3:9] -= M.transpose(0, 1, 4, 3, 2).reshape(m, 6, 6)
+    cov *= P.gyro_var
+    # accelerometer and integration noise (isotropic), then the body chart
+    pp = P.acc_var * out[:, _C_SA2] + P.int_var * T
+    pv = P.acc_var * out[:, _C_SA]
+    vv = P.acc_var * T
+    cov[:, 3:6, 3:6] += pp[:, None, None] * _I3
+    cov[:, 3:6, 6:9] += pv[:, None, None] * _I3
+    cov[:, 6:9, 3:6] += pv[:, None, None] * _I3
+    cov[:, 6:9, 6:9] += vv[:, None, None] * _I3
+    C = np.einsum("kia,kxiyj,kjb->kxayb", RN, cov.reshape(m, 3, 3, 3, 3), RN, optimize=True)
+    C = C.reshape(m, 9, 9)
+    C = 0.5 * (C + C.transpose(0, 2, 1))
+    Ja = -out[:, _C_JA].reshape(m, 6, 3)
+    if bRs is not None:
+        Ja = Ja @ bRs
+    J = np.zeros((m, 9, 6))
+    J[:, 0:3, 3:6] = RN.transpose(0, 2, 1) @ Jg[:, 0:3]
+    J[:, 3:9, 0:3] = Ja
+    J[:, 3:9, 3:6] = Jg[:, 3:9]
+    return Deltas(
+        delta_t=T.copy(), n=n, R=RN.copy(), p=out[:, _C_P].copy(), v=out[:, _C_V].copy(), cov=C, J=J
     )
