@@ -214,7 +214,7 @@ def _chunk_size(chunk_size: Any) -> int:
 def _unscented(
     cov: FloatArray, Xa: FloatArray, a: Convention, b: Convention, n: int, so3: bool
 ) -> FloatArray:
-    """The unscented covariance conversion of a flat batch ``(N, n, n)`` at ``(N, k, k)``."""
+    """Convert a flat batch of covariances ``(N, n, n)`` at ``(N, k, k)`` by sigma points."""
     pts, w = cubature_rule_5(n)
     S = sqrt_psd(cov)  # (..., n, n), S Sᵀ = Σ
     deltas = np.einsum("...ij,kj->...ki", S, pts)  # (..., K, n)
