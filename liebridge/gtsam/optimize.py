@@ -302,6 +302,7 @@ def optimize(
         linear = split.linearize(current)
         new_err = err
         stop = False
+        lin_old: float | None = None
         for _try in range(_MAX_TRIES):
             damped = damping.damped(linear, lam)
             try:
@@ -310,7 +311,8 @@ def optimize(
                 delta = None
             success = False
             if delta is not None:
-                lin_old = float(linear.error(gtsam.VectorValues.Zero(delta)))
+                if lin_old is None:  # L(0) = ½‖b‖²: the same for every λ of this iteration
+                    lin_old = float(linear.error(gtsam.VectorValues.Zero(delta)))
                 lin_new = float(linear.error(delta))
                 lin_change = lin_old - lin_new
                 if lin_change >= 0:
