@@ -168,22 +168,25 @@ def _fast_table(path: PathLike, ncols: int) -> FloatArray | None:
     """
     if isinstance(path, int):
         return None
-    with open(path, "rb") as fh:
-        raw = fh.read()
-    try:
-        raw.decode("utf-8")
-    except UnicodeDecodeError:
-        return None
-    if raw.startswith(b"\xef\xbb\xbf"):
-        raw = raw[3:]
-    text = raw.replace(b",", b" ").replace(b"\t", b" ")
-    del raw
-    try:
-        with warnings.catch_warnings():  # "input contained no data": an empty table is fine
-            warnings.simplefilter("ignore", UserWarning)
-            data = np.loadtxt(_io.BytesIO(text), comments="#", ndmin=2, dtype=np.float64)
-    except ValueError:
-        return None
+    with warnings.catch_warnings():  # "input contained no data": an empty table is fine
+        warnings.simplefilter("ignore", UserWarning)
+        try:  # the file itself, read in chunks by numpy: memory ≈ the table
+            data = np.loadtxt(path, comments="#", ndmin=2, dtype=np.float64, encoding="utf-8")
+        except ValueError:  # commas, tabs, a BOM, not UTF-8 or a bad line: bytes, cleaned
+            with open(path, "rb") as fh:
+                raw = fh.read()
+            try:
+                raw.decode("utf-8")
+            except UnicodeDecodeError:
+                return None
+            if raw.startswith(b"\xef\xbb\xbf"):
+                raw = raw[3:]
+            text = raw.replace(b",", b" ").replace(b"\t", b" ")
+            del raw
+            try:
+                data = np.loadtxt(_io.BytesIO(text), comments="#", ndmin=2, dtype=np.float64)
+            except ValueError:
+                return None
     if data.size == 0:
         data = data.reshape(0, ncols)
     if data.shape[1] != ncols or not np.isfinite(data).all():
@@ -263,10 +266,18 @@ def read_tum(path: PathLike) -> tuple[FloatArray, FloatArray]:
     return _tum_poses(np.array(rows, dtype=np.float64).reshape(-1, 8))
 
 
+#: Rows converted per pass from quaternions to matrices (bounds the temporaries; issue 23).
+_POSE_CHUNK = 1 << 16
+
+
 def _tum_poses(data: FloatArray) -> tuple[FloatArray, FloatArray]:
-    q = data[:, 4:8] / np.linalg.norm(data[:, 4:8], axis=-1, keepdims=True)
-    x = np.concatenate([data[:, 1:4], q], axis=-1)
-    return data[:, 0].copy(), _layouts.to_matrix(x, layout="xyz_qxyzw")
+    T = np.empty((data.shape[0], 4, 4))
+    for lo in range(0, max(data.shape[0], 1), _POSE_CHUNK):
+        d = data[lo : lo + _POSE_CHUNK]
+        q = d[:, 4:8] / np.linalg.norm(d[:, 4:8], axis=-1, keepdims=True)
+        x = np.concatenate([d[:, 1:4], q], axis=-1)
+        T[lo : lo + _POSE_CHUNK] = _layouts.to_matrix(x, layout="xyz_qxyzw")
+    return data[:, 0].copy(), T
 
 
 def write_tum(path: PathLike, timestamps: Any, poses: Any) -> None:
@@ -318,16 +329,14 @@ def read_kitti(path: PathLike) -> FloatArray:
     what = "r11 r12 r13 tx r21 r22 r23 ty r31 r32 r33 tz"  # the 3x4 [R | t], row-major
     fast = _fast_table(path, 12)
     if fast is not None:  # one loadtxt pass (issue 23); rotations judged by their text below
-        R = fast.reshape(-1, 3, 4)[:, :, :3]
-        err = np.abs(np.einsum("nki,nkj->nij", R, R) - np.eye(3)).max(axis=(-1, -2), initial=0.0)
-        det = np.linalg.det(R) if R.shape[0] else np.zeros(0)
-        suspect = np.flatnonzero((err > _layouts.ROTATION_TOL) | (det < 0)).tolist()
+        errs, dets = _rotation_errors(fast.reshape(-1, 3, 4)[:, :, :3])
+        suspect = np.flatnonzero((errs > _layouts.ROTATION_TOL) | (dets < 0)).tolist()
         for r, (lineno, fields) in sorted(_data_line_text(path, suspect).items()):
             tol = _layouts.text_rotation_tol([fields[i] for i in (0, 1, 2, 4, 5, 6, 8, 9, 10)])
-            if err[r] > tol or det[r] < 0:
+            if errs[r] > tol or dets[r] < 0:
                 raise ValueError(
                     f"{path}:{lineno}: rotation block is not a rotation: max|RᵀR − I| = "
-                    f"{err[r]:.3g} (tolerance {tol:g}), det = {float(det[r]):.3g}"
+                    f"{errs[r]:.3g} (tolerance {tol:g}), det = {float(dets[r]):.3g}"
                 )
         return _kitti_poses(fast)
     rows = []
@@ -343,6 +352,17 @@ def read_kitti(path: PathLike) -> FloatArray:
             )
         rows.append(vals)
     return _kitti_poses(np.array(rows, dtype=np.float64).reshape(-1, 12))
+
+
+def _rotation_errors(R: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """``max|RᵀR − I|`` and ``det R`` per row of ``R`` (N, 3, 3), in bounded-memory chunks."""
+    err, det = np.zeros(R.shape[0]), np.zeros(R.shape[0])
+    for lo in range(0, R.shape[0], _POSE_CHUNK):
+        Rc = R[lo : lo + _POSE_CHUNK]
+        G = np.einsum("nki,nkj->nij", Rc, Rc) - np.eye(3)
+        err[lo : lo + _POSE_CHUNK] = np.abs(G).max(axis=(-1, -2))
+        det[lo : lo + _POSE_CHUNK] = np.linalg.det(Rc)
+    return err, det
 
 
 def _kitti_poses(data: FloatArray) -> FloatArray:
