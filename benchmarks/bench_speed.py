@@ -1,8 +1,8 @@
 """Issue 23 rows: where users spend time — files, huge batches, batched and single conversions.
 
 Each row is a ratio against what a user would otherwise run, timed in the same process,
-interleaved and repeated (median); memory rows run each reader in a fresh subprocess and report
-the peak resident memory above the interpreter's baseline (numpy and liebridge imported).
+interleaved and repeated (median); memory rows report the peak traced by ``tracemalloc``
+(Python and numpy allocations) while one call runs.
 
 * ``files``: ``read_tum``/``read_kitti`` vs ``numpy.loadtxt`` on the same file (``--lines``,
   default 10⁶), time and peak memory against the arrays returned;
@@ -36,28 +36,15 @@ from run import P_SWAP, covariances, interleaved, poses, single
 import liebridge as lb
 from liebridge.io import trajectory as tio
 
-_PEAK = """
-import resource, sys, numpy as np
-import liebridge.io.trajectory as tio
-base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-out = {what}
-arrays = out if isinstance(out, tuple) else (out,)
-peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-print((peak - base) * 1024, sum(a.nbytes for a in arrays))
-"""
 
-
-def _peak(what: str) -> tuple[int, int]:
-    root = str(Path(__file__).resolve().parents[1])
-    res = subprocess.run(
-        [sys.executable, "-c", _PEAK.format(what=what)],
-        capture_output=True,
-        text=True,
-        check=True,
-        cwd=root,
-    )
-    peak, returned = res.stdout.split()
-    return int(peak), int(returned)
+def _peak(fn: Any) -> tuple[int, int]:
+    """Traced peak bytes (Python and numpy allocations) while ``fn`` runs, bytes returned."""
+    tracemalloc.start()
+    out = fn()
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    arrays = out if isinstance(out, tuple) else (out,)
+    return peak, sum(a.nbytes for a in arrays)
 
 
 def files(lines: int, repeat: int) -> list[dict[str, Any]]:
@@ -68,18 +55,17 @@ def files(lines: int, repeat: int) -> list[dict[str, Any]]:
         tum, kitti = Path(d) / "t.txt", Path(d) / "k.txt"
         tio.write_tum(tum, np.arange(lines) * 0.01, T)
         tio.write_kitti(kitti, T)
-        for name, path, reader in (
-            ("read_tum", tum, "tio.read_tum"),
-            ("read_kitti", kitti, "tio.read_kitti"),
+        for name, path, fn in (
+            ("read_tum", tum, tio.read_tum),
+            ("read_kitti", kitti, tio.read_kitti),
         ):
-            fn = eval(reader, {"tio": tio})
             t = interleaved(
                 {"liebridge": lambda f=fn, p=path: f(p), "loadtxt": lambda p=path: np.loadtxt(p)},
                 repeat,
                 min_time=0.0,
             )
-            mem, returned = _peak(f"{reader}({str(path)!r})")
-            mem_np, _ = _peak(f"np.loadtxt({str(path)!r})")
+            mem, returned = _peak(lambda f=fn, p=path: f(p))
+            mem_np, _ = _peak(lambda p=path: np.loadtxt(p))
             med = {k: v["median_s"] for k, v in t.items()}
             rows.append(
                 {
@@ -201,24 +187,36 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--lines", type=int, default=None)
     ap.add_argument("--repeat", type=int, default=None)
+    ap.add_argument(
+        "--parts",
+        default="files,unscented,batched,single",
+        help="comma-separated; rows of other parts are kept from an existing --out file",
+    )
     args = ap.parse_args(argv)
+    parts = set(args.parts.split(","))
     q = args.quick
     repeat = args.repeat or (2 if q else 5)
     lines = args.lines or (2000 if q else 1_000_000)
     lscpu = subprocess.run(["lscpu"], capture_output=True, text=True, check=False).stdout
+    old = json.loads(Path(args.out).read_text()) if Path(args.out).is_file() else {}
     out = {
+        **old,
         "machine": [ln for ln in lscpu.splitlines() if ln.startswith(("Model name", "CPU(s)"))],
         "python": platform.python_version(),
         "numpy": np.__version__,
-        "files": files(lines, repeat),
-        "unscented": unscented(500 if q else 20_000, 0 if q else 1_000_000, repeat),
-        "batched": batched(2000 if q else 100_000, repeat),
-        "single": single(repeat),
     }
-    for r in out["single"]:  # run.py's own target is 2x; issue 23 asks for 1.3x
-        r["target"] = "<= 1.3x hand_gtsam (issue 23)"
-        r["met"] = bool(r["ratio_vs_hand_gtsam"] <= 1.3)
-        print(json.dumps(r), flush=True)
+    if "files" in parts:
+        out["files"] = files(lines, repeat)
+    if "unscented" in parts:
+        out["unscented"] = unscented(500 if q else 20_000, 0 if q else 1_000_000, repeat)
+    if "batched" in parts:
+        out["batched"] = batched(2000 if q else 100_000, repeat)
+    if "single" in parts:
+        out["single"] = single(repeat)
+        for r in out["single"]:  # run.py's own target is 2x; issue 23 asks for 1.3x
+            r["target"] = "<= 1.3x hand_gtsam (issue 23)"
+            r["met"] = bool(r["ratio_vs_hand_gtsam"] <= 1.3)
+            print(json.dumps(r), flush=True)
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Path(args.out).write_text(json.dumps(out, indent=2))
     return out
