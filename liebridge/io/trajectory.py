@@ -25,10 +25,12 @@ written with ``w ≥ 0``.
 
 from __future__ import annotations
 
+import io as _io
 import math
 import os
 import secrets
 import shutil
+import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager, suppress
 from typing import IO, Any
@@ -155,6 +157,66 @@ def _fmt(x: float) -> str:
     return repr(float(x))
 
 
+def _fast_table(path: PathLike, ncols: int) -> FloatArray | None:
+    """All data lines of ``path`` as a ``(N, ncols)`` table in one ``numpy.loadtxt`` pass.
+
+    Returns ``None`` whenever the file is anything but well formed UTF-8 with ``ncols`` finite
+    numbers on every data line (a header without ``#``, a bad field, a wrong count, NaN/Inf):
+    the caller then runs its line-by-line reader, which names the line and the fault exactly.
+    Memory: the file's bytes, one cleaned copy and the table (issue 23: 1.7 GB for a 10⁶-line
+    TUM file read line by line).
+    """
+    if isinstance(path, int):
+        return None
+    with warnings.catch_warnings():  # "input contained no data": an empty table is fine
+        warnings.simplefilter("ignore", UserWarning)
+        try:  # the file itself, read in chunks by numpy: memory ≈ the table
+            data = np.loadtxt(path, comments="#", ndmin=2, dtype=np.float64, encoding="utf-8")
+        except ValueError:  # commas, tabs, a BOM, not UTF-8 or a bad line: bytes, cleaned
+            with open(path, "rb") as fh:
+                raw = fh.read()
+            try:
+                raw.decode("utf-8")
+            except UnicodeDecodeError:
+                return None
+            if raw.startswith(b"\xef\xbb\xbf"):
+                raw = raw[3:]
+            text = raw.replace(b",", b" ").replace(b"\t", b" ")
+            del raw
+            try:
+                data = np.loadtxt(_io.BytesIO(text), comments="#", ndmin=2, dtype=np.float64)
+            except ValueError:
+                return None
+    if data.size == 0:
+        data = data.reshape(0, ncols)
+    if data.shape[1] != ncols or not np.isfinite(data).all():
+        return None
+    return data
+
+
+def _data_line_text(path: PathLike, rows: list[int]) -> dict[int, tuple[int, list[str]]]:
+    """``(line_number, fields)`` of the data lines numbered ``rows`` (0-based) of ``path``."""
+    wanted = set(rows)
+    out: dict[int, tuple[int, list[str]]] = {}
+    if not wanted:
+        return out
+    with open(path, "rb") as fh:
+        raw = fh.read()
+    if raw.startswith(b"\xef\xbb\xbf"):
+        raw = raw[3:]
+    r = 0
+    for k, line in enumerate(raw.split(b"\n"), start=1):
+        fields = line.split(b"#", 1)[0].replace(b",", b" ").split()
+        if not fields:
+            continue
+        if r in wanted:
+            out[r] = (k, [f.decode() for f in fields])
+            if len(out) == len(wanted):
+                break
+        r += 1
+    return out
+
+
 def read_tum(path: PathLike) -> tuple[FloatArray, FloatArray]:
     """Read a TUM trajectory file.
 
@@ -175,6 +237,19 @@ def read_tum(path: PathLike) -> tuple[FloatArray, FloatArray]:
         On a malformed line, naming the file and line number.
     """
     what = "timestamp tx ty tz qx qy qz qw"
+    fast = _fast_table(path, 8)
+    if fast is not None:  # one loadtxt pass (issue 23); quaternions judged by their text below
+        data = fast
+        err = np.abs(np.linalg.norm(data[:, 4:8], axis=-1) - 1.0)
+        suspect = np.flatnonzero(err > _layouts.QUATERNION_TOL).tolist()
+        for r, (lineno, fields) in sorted(_data_line_text(path, suspect).items()):
+            tol = _layouts.text_quaternion_tol(fields[4:8])
+            if err[r] > tol:
+                raise ValueError(
+                    f"{path}:{lineno}: quaternion norm off by {err[r]:.3g} (tolerance {tol:g} "
+                    f"for numbers printed with this precision)"
+                )
+        return _tum_poses(data)
     rows, linenos = [], []
     for lineno, fields in _data_lines(path):
         vals = _numbers(path, lineno, fields, 8, what)
@@ -188,10 +263,21 @@ def read_tum(path: PathLike) -> tuple[FloatArray, FloatArray]:
             )
         rows.append(vals)
         linenos.append(lineno)
-    data = np.array(rows, dtype=np.float64).reshape(-1, 8)
-    q = data[:, 4:8] / np.linalg.norm(data[:, 4:8], axis=-1, keepdims=True)
-    x = np.concatenate([data[:, 1:4], q], axis=-1)
-    return data[:, 0].copy(), _layouts.to_matrix(x, layout="xyz_qxyzw")
+    return _tum_poses(np.array(rows, dtype=np.float64).reshape(-1, 8))
+
+
+#: Rows converted per pass from quaternions to matrices (bounds the temporaries; issue 23).
+_POSE_CHUNK = 1 << 16
+
+
+def _tum_poses(data: FloatArray) -> tuple[FloatArray, FloatArray]:
+    T = np.empty((data.shape[0], 4, 4))
+    for lo in range(0, max(data.shape[0], 1), _POSE_CHUNK):
+        d = data[lo : lo + _POSE_CHUNK]
+        q = d[:, 4:8] / np.linalg.norm(d[:, 4:8], axis=-1, keepdims=True)
+        x = np.concatenate([d[:, 1:4], q], axis=-1)
+        T[lo : lo + _POSE_CHUNK] = _layouts.to_matrix(x, layout="xyz_qxyzw")
+    return data[:, 0].copy(), T
 
 
 def write_tum(path: PathLike, timestamps: Any, poses: Any) -> None:
@@ -241,6 +327,18 @@ def read_kitti(path: PathLike) -> FloatArray:
         printed precision), naming the file and line number.
     """
     what = "r11 r12 r13 tx r21 r22 r23 ty r31 r32 r33 tz"  # the 3x4 [R | t], row-major
+    fast = _fast_table(path, 12)
+    if fast is not None:  # one loadtxt pass (issue 23); rotations judged by their text below
+        errs, dets = _rotation_errors(fast.reshape(-1, 3, 4)[:, :, :3])
+        suspect = np.flatnonzero((errs > _layouts.ROTATION_TOL) | (dets < 0)).tolist()
+        for r, (lineno, fields) in sorted(_data_line_text(path, suspect).items()):
+            tol = _layouts.text_rotation_tol([fields[i] for i in (0, 1, 2, 4, 5, 6, 8, 9, 10)])
+            if errs[r] > tol or dets[r] < 0:
+                raise ValueError(
+                    f"{path}:{lineno}: rotation block is not a rotation: max|RᵀR − I| = "
+                    f"{errs[r]:.3g} (tolerance {tol:g}), det = {float(dets[r]):.3g}"
+                )
+        return _kitti_poses(fast)
     rows = []
     for lineno, fields in _data_lines(path):
         vals = _numbers(path, lineno, fields, 12, what)
@@ -253,7 +351,21 @@ def read_kitti(path: PathLike) -> FloatArray:
                 f"(tolerance {tol:g}), det = {float(np.linalg.det(R)):.3g}"
             )
         rows.append(vals)
-    data = np.array(rows, dtype=np.float64).reshape(-1, 12)
+    return _kitti_poses(np.array(rows, dtype=np.float64).reshape(-1, 12))
+
+
+def _rotation_errors(R: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """``max|RᵀR − I|`` and ``det R`` per row of ``R`` (N, 3, 3), in bounded-memory chunks."""
+    err, det = np.zeros(R.shape[0]), np.zeros(R.shape[0])
+    for lo in range(0, R.shape[0], _POSE_CHUNK):
+        Rc = R[lo : lo + _POSE_CHUNK]
+        G = np.einsum("nki,nkj->nij", Rc, Rc) - np.eye(3)
+        err[lo : lo + _POSE_CHUNK] = np.abs(G).max(axis=(-1, -2))
+        det[lo : lo + _POSE_CHUNK] = np.linalg.det(Rc)
+    return err, det
+
+
+def _kitti_poses(data: FloatArray) -> FloatArray:
     T = np.zeros((data.shape[0], 4, 4))
     T[:, :3, :] = data.reshape(-1, 3, 4)
     T[:, 3, 3] = 1.0
