@@ -38,17 +38,11 @@ from .. import _validate as validate
 from .._validate import FloatArray
 from ..lie import so3
 from . import kernel as _kernel
-from .inputs import read_bias, read_params, read_samples
+from .inputs import freeze_arrays, read_bias, read_params, read_samples
 
 __all__ = ["PreintegratedCombined", "preintegrate_combined"]
 
 _N_OUT = 289
-
-
-def _readonly(x: Any) -> FloatArray:
-    arr = np.array(x, dtype=np.float64, copy=True)
-    arr.flags.writeable = False
-    return arr
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -86,10 +80,7 @@ class PreintegratedCombined:
     n_samples: int = 0
 
     def __post_init__(self) -> None:
-        for f in dataclasses.fields(self):
-            if f.name not in ("delta_t", "n_samples"):
-                object.__setattr__(self, f.name, _readonly(getattr(self, f.name)))
-        object.__setattr__(self, "delta_t", float(self.delta_t))
+        freeze_arrays(self, scalars=("delta_t", "n_samples"))
 
     @property
     def residual_covariance(self) -> FloatArray:

@@ -176,3 +176,20 @@ def read_samples(acc: Any, gyro: Any, dt: Any) -> tuple[FloatArray, FloatArray, 
             f"dt: must be > 0, got dt[{i}] = {dt_[i]:.6g} ({int(bad.sum())} of {n} values ≤ 0)"
         )
     return acc_, gyro_, dt_
+
+
+def freeze_arrays(obj: Any, *, scalars: tuple[str, ...] = (), ints: tuple[str, ...] = ()) -> None:
+    """Make every array field of a frozen result dataclass a read-only float64 copy.
+
+    Fields named in ``scalars`` are left as they are (``delta_t`` is made a float), those in
+    ``ints`` become read-only int64 arrays. The result types of :mod:`liebridge.imu` share it.
+    """
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
+        if f.name in scalars:
+            if f.name == "delta_t":
+                object.__setattr__(obj, f.name, float(value))
+            continue
+        arr = np.array(value, dtype=np.int64 if f.name in ints else np.float64, copy=True)
+        arr.flags.writeable = False
+        object.__setattr__(obj, f.name, arr)

@@ -73,7 +73,7 @@ import numpy as np
 from .. import _validate as validate
 from .._validate import FloatArray
 from ..lie import so3
-from .inputs import read_bias, read_params, read_samples
+from .inputs import freeze_arrays, read_bias, read_params, read_samples
 from .kernel import Delta, check_delta_finite, compiled_applies, compose, integrate_blocks
 
 __all__ = ["ImuDelta", "ImuPreintegrator", "PreintegratedImu", "imu_kernel", "preintegrate"]
@@ -89,12 +89,6 @@ class ImuDelta(NamedTuple):
     delta_R: FloatArray
     delta_p: FloatArray
     delta_v: FloatArray
-
-
-def _readonly(x: Any) -> FloatArray:
-    arr = np.array(x, dtype=np.float64, copy=True)
-    arr.flags.writeable = False
-    return arr
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -139,10 +133,7 @@ class PreintegratedImu:
     n_samples: int = 0
 
     def __post_init__(self) -> None:
-        for f in dataclasses.fields(self):
-            if f.name not in ("delta_t", "n_samples"):
-                object.__setattr__(self, f.name, _readonly(getattr(self, f.name)))
-        object.__setattr__(self, "delta_t", float(self.delta_t))
+        freeze_arrays(self, scalars=("delta_t", "n_samples"))
 
     @property
     def bias_jacobian(self) -> FloatArray:

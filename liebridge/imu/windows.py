@@ -23,17 +23,11 @@ import numpy as np
 
 from .._validate import FloatArray
 from .factor import imu
-from .inputs import read_bias, read_params, read_samples
+from .inputs import freeze_arrays, read_bias, read_params, read_samples
 from .kernel import integrate_windows
 from .preintegration import PreintegratedImu
 
 __all__ = ["PreintegratedWindows", "preintegrate_windows"]
-
-
-def _readonly(x: Any, dtype: Any = np.float64) -> Any:
-    arr = np.array(x, dtype=dtype, copy=True)
-    arr.flags.writeable = False
-    return arr
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -78,9 +72,7 @@ class PreintegratedWindows:
     n_samples: Any
 
     def __post_init__(self) -> None:
-        for f in dataclasses.fields(self):
-            dtype = np.int64 if f.name in ("starts", "n_samples") else np.float64
-            object.__setattr__(self, f.name, _readonly(getattr(self, f.name), dtype))
+        freeze_arrays(self, ints=("starts", "n_samples"))
 
     def __len__(self) -> int:
         return int(self.starts.shape[0])
