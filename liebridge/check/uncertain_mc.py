@@ -79,6 +79,17 @@ def _samples(c: Convention, T: FloatArray, d: FloatArray) -> FloatArray:
     return c.retract(np.broadcast_to(T[..., None, :, :], (*d.shape[:-1], *T.shape[-2:])), d)
 
 
+def _joint_samples(
+    A: UncertainPose, B: UncertainPose, cross: Any, n: int, rng: np.random.Generator | None
+) -> tuple[Convention, FloatArray, FloatArray]:
+    """``n`` joint samples of two correlated uncertain poses (their convention, A_k, B_k)."""
+    _check_n(n)
+    c = _same(A, B)
+    d = _draw(_joint(A, B, cross), n, _rng(rng))
+    k = A.dim
+    return c, _samples(c, A.T, d[..., :k]), _samples(c, B.T, d[..., k:])
+
+
 def _result(c: Convention, TC: FloatArray, Y: FloatArray) -> UncertainPose:
     y = c.local(np.broadcast_to(TC[..., None, :, :], Y.shape), Y)
     return UncertainPose(TC, _cov(y), c)
@@ -93,11 +104,8 @@ def monte_carlo_compose(
     rng: np.random.Generator | None = None,
 ) -> UncertainPose:
     """Monte Carlo of ``compose(A, B, cross)``: samples ``A_k·B_k`` read at ``A.T·B.T``."""
-    _check_n(n)
-    c = _same(A, B)
-    d = _draw(_joint(A, B, cross), n, _rng(rng))
-    k = A.dim
-    Y = _samples(c, A.T, d[..., :k]) @ _samples(c, B.T, d[..., k:])
+    c, SA, SB = _joint_samples(A, B, cross, n, rng)
+    Y = SA @ SB
     return _result(c, np.asarray(A.T @ B.T), Y)
 
 
@@ -121,11 +129,8 @@ def monte_carlo_relative(
     rng: np.random.Generator | None = None,
 ) -> UncertainPose:
     """Monte Carlo of ``relative(A, B, cross)``: samples ``A_k⁻¹·B_k`` read at ``A.T⁻¹·B.T``."""
-    _check_n(n)
-    c = _same(A, B)
-    d = _draw(_joint(A, B, cross), n, _rng(rng))
-    k = A.dim
-    Y = np.asarray(np.linalg.inv(_samples(c, A.T, d[..., :k])) @ _samples(c, B.T, d[..., k:]))
+    c, SA, SB = _joint_samples(A, B, cross, n, rng)
+    Y = np.asarray(np.linalg.inv(SA) @ SB)
     TC = np.asarray(np.linalg.inv(A.T) @ B.T, dtype=np.float64)
     return _result(c, _clean(TC), _clean(Y))
 
