@@ -364,18 +364,7 @@ def check_rotation(R: FloatArray, name: str, tol: float = ROTATION_TOL) -> None:
     if R.size == 9 and _rotation_list_certified(R.ravel().tolist(), tol):
         return
     err, det = _rotation_residuals(R)
-    bad = ~(err <= tol)  # NaN counts as bad
-    if bad.any():
-        i = _batch_index(np.asarray(bad))
-        raise ValueError(
-            f"{name}: not a rotation at batch index {i}: max|RᵀR − I| = {float(err[i]):.3g} "
-            f"> tolerance {tol:g} (use liebridge.lie.so3.project to project explicitly)"
-        )
-    if (det < 0).any():
-        i = _batch_index(np.asarray(det < 0))
-        raise ValueError(
-            f"{name}: det(R) = {float(det[i]):.3g} < 0 at batch index {i} (a reflection)"
-        )
+    _raise_unless_rotations(err, det, tol, name, None)
 
 
 def checked_rotation(arr: FloatArray, name: str, tol: float = ROTATION_TOL) -> FloatArray:
@@ -504,15 +493,35 @@ def _orthonormal_residuals(A: FloatArray) -> tuple[FloatArray, FloatArray]:
 
 def _check_orthonormal(A: FloatArray, name: str, tol: float, what: str) -> None:
     err, det = _orthonormal_residuals(A)
-    bad = ~(err <= tol)
+    _raise_unless_rotations(err, det, tol, name, what)
+
+
+def _raise_unless_rotations(
+    err: FloatArray, det: FloatArray, tol: float, name: str, what: str | None
+) -> None:
+    """One error for the first element that is not orthonormal, or is a reflection.
+
+    ``what`` names a block of a larger element (``"its rotation block"``); None for a rotation
+    matrix itself, whose message also points to ``so3.project``.
+    """
+    bad = ~(err <= tol)  # NaN counts as bad
     if bad.any():
         i = _batch_index(np.asarray(bad))
+        if what is None:
+            raise ValueError(
+                f"{name}: not a rotation at batch index {i}: max|RᵀR − I| = {float(err[i]):.3g} "
+                f"> tolerance {tol:g} (use liebridge.lie.so3.project to project explicitly)"
+            )
         raise ValueError(
             f"{name}: {what} is not a rotation at batch index {i}: max|RᵀR − I| = "
             f"{float(err[i]):.3g} > tolerance {tol:g}"
         )
     if (det < 0).any():
         i = _batch_index(np.asarray(det < 0))
+        if what is None:
+            raise ValueError(
+                f"{name}: det(R) = {float(det[i]):.3g} < 0 at batch index {i} (a reflection)"
+            )
         raise ValueError(f"{name}: {what} has det {float(det[i]):.3g} < 0 at batch index {i}")
 
 
