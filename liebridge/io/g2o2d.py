@@ -83,14 +83,11 @@ def _unsym(lam: FloatArray, order: tuple[tuple[int, int], ...]) -> FloatArray:
 
 
 def _positive_definite(lam: FloatArray) -> npt.NDArray[np.bool_]:
-    ok = np.zeros(lam.shape[:-2], dtype=bool)
-    for idx in np.ndindex(lam.shape[:-2]):
-        try:
-            np.linalg.cholesky(lam[idx])
-            ok[idx] = True
-        except np.linalg.LinAlgError:
-            pass
-    return ok
+    """Whether each symmetric ``lam[...]`` (..., 3, 3) is positive definite (one batched call)."""
+    if lam.shape[0] == 0:
+        return np.ones(lam.shape[:-2], dtype=bool)
+    with np.errstate(invalid="ignore", over="ignore"):
+        return np.asarray(np.linalg.eigvalsh(lam)[..., 0] > 0.0)
 
 
 def pose2_matrix(xytheta: Any) -> FloatArray:
