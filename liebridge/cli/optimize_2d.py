@@ -143,7 +143,7 @@ def plot_2d(
 def run(args: argparse.Namespace, path: Path, params: Any, plt: Any, t_start: float) -> int:
     """Read, optimize and report a 2-D graph (the 3-D path's output lines, for SE(2))."""
     from ..conventions import convert_covariance
-    from ..gtsam import optimize
+    from ..gtsam import from_values, optimize
     from ..io import g2o2d
 
     conv_name = "gtsam_pose2" if args.convention in (None, "gtsam") else args.convention
@@ -192,7 +192,7 @@ def run(args: argparse.Namespace, path: Path, params: Any, plt: Any, t_start: fl
     print(f"iterations: {result.iterations} (converged: {'yes' if result.converged else 'no'})")
     timings = [f"read {t_read:.2f} s", f"optimize {result.seconds:.2f} s"]
     keys = [int(k) for k in g.vertex_ids]
-    X = np.stack([np.asarray(result.values.atPose2(k).matrix()) for k in keys])
+    X = from_values(result.values, keys, group="se2")
     cov = None
     if args.marginals is not None or (args.plot is not None and n <= PLOT_ELLIPSES_MAX):
         t0 = time.perf_counter()
