@@ -29,7 +29,7 @@ from liebridge.lie import quaternion as Q
 from liebridge.lie import so3
 
 EULER = ("euler_zyx", "euler_rpy")
-STATES = [c.name for c in C.STATE_PRESETS]
+STATES = [c.name for c in C.STATE_PRESETS_15]
 
 
 def _euler_conv(kind: str, chart: str = "so3xr3_body", order: str = "rot_first") -> C.Convention:

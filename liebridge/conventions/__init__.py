@@ -65,14 +65,19 @@ from .presets import (
     StorageLayout,
 )
 from .registry import ConventionLike, get, matching_presets, names
+from .sphere import Sphere
 from .state_presets import (
     BASALT,
+    FASTLIO,
+    FASTLIO_IMU,
     GTSAM_COMBINED,
     GTSAM_IMU_KEYS,
     KIMERA,
+    MOLA,
     OPENVINS,
     ORBSLAM3,
     STATE_PRESETS,
+    STATE_PRESETS_15,
     VINS,
 )
 
@@ -85,6 +90,8 @@ __all__ = [
     "CERES_POSE",
     "CERES_QUATERNION",
     "COLMAP_SIM3",
+    "FASTLIO",
+    "FASTLIO_IMU",
     "G2O",
     "G2O_EXPMAP",
     "G2O_SE2",
@@ -106,6 +113,7 @@ __all__ = [
     "MANIF",
     "MANIF_SE2",
     "MANIF_SE23",
+    "MOLA",
     "MR_BODY",
     "MR_SPACE",
     "OPENVINS",
@@ -123,6 +131,7 @@ __all__ = [
     "SOPHUS_SE2",
     "SOPHUS_SIM3",
     "STATE_PRESETS",
+    "STATE_PRESETS_15",
     "SYMFORCE",
     "SYMFORCE_POSE2",
     "THESEUS",
@@ -134,6 +143,7 @@ __all__ = [
     "ConventionNotDetected",
     "Embed",
     "NavChart",
+    "Sphere",
     "StorageLayout",
     "Vector",
     "convert_covariance",

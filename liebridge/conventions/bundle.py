@@ -23,6 +23,7 @@ The canonical tangent of a bundle is the concatenation of its blocks' canonical 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -31,6 +32,7 @@ import numpy as np
 from .. import _validate as validate
 from .._validate import FloatArray
 from .convention import GROUP_DIMS, Convention
+from .sphere import Sphere
 
 
 @dataclass(frozen=True)
@@ -49,7 +51,9 @@ class Vector:
         return f"r{self.n}"
 
 
-Block = Convention | Vector
+Block = Convention | Vector | Sphere
+#: Blocks stored as ``[[I, x], [0, 1]]`` (their part is the vector ``x``).
+_VECTOR_LIKE = (Vector, Sphere)
 
 
 def _tdim(b: Block) -> int:
@@ -57,7 +61,7 @@ def _tdim(b: Block) -> int:
 
 
 def _mdim(b: Block) -> int:
-    return b.n + 1 if isinstance(b, Vector) else GROUP_DIMS[b.group][1]
+    return b.n + 1 if isinstance(b, _VECTOR_LIKE) else GROUP_DIMS[b.group][1]
 
 
 @dataclass(frozen=True)
@@ -101,8 +105,10 @@ class Bundle(Convention):
         if len(set(names)) != len(names):
             raise ValueError(f"Bundle {self.name!r}: block names must be distinct, got {names}")
         for n, b in self.blocks:
-            if isinstance(b, Bundle) or not isinstance(b, Convention | Vector):
-                raise TypeError(f"Bundle {self.name!r}: block {n!r} must be a Convention or Vector")
+            if isinstance(b, Bundle) or not isinstance(b, Convention | Vector | Sphere):
+                raise TypeError(
+                    f"Bundle {self.name!r}: block {n!r} must be a Convention, Vector or Sphere"
+                )
             if isinstance(b, Convention) and b.embed is not None:
                 raise ValueError(f"Bundle {self.name!r}: block {n!r} has an embedding")
         t = m = 0
@@ -135,7 +141,7 @@ class Bundle(Convention):
     def describe(self) -> str:
         """One line: name and blocks."""
         parts = ", ".join(
-            f"{n}: {b.name if isinstance(b, Convention) else b.group}" for n, b in self.blocks
+            f"{n}: {b.group if isinstance(b, Vector) else b.name}" for n, b in self.blocks
         )
         return f"{self.name} (bundle): {parts}" + (f", order={self.perm}" if self.perm else "")
 
@@ -165,16 +171,21 @@ class Bundle(Convention):
         arrs = {n: validate.as_float_array(parts[n], n) for n, _ in self.blocks}
         batch = validate.batch_shape(
             *(
-                (n, a.shape[:-1] if isinstance(b, Vector) else a.shape[:-2])
+                (n, a.shape[:-1] if isinstance(b, _VECTOR_LIKE) else a.shape[:-2])
                 for (n, b), a in zip(self.blocks, arrs.values(), strict=True)
             )
         )
         N = self.matrix_size
         X = np.zeros((*batch, N, N))
         for (n, b), ms in zip(self.blocks, self._mslices, strict=True):
-            if isinstance(b, Vector):
+            if isinstance(b, _VECTOR_LIKE):
+                x = (
+                    b.vector(arrs[n], n)
+                    if isinstance(b, Sphere)
+                    else validate.vector(arrs[n], n, b.n)
+                )
                 X[..., ms.start : ms.start + b.n, ms.start : ms.start + b.n] = np.eye(b.n)
-                X[..., ms.start : ms.start + b.n, ms.stop - 1] = validate.vector(arrs[n], n, b.n)
+                X[..., ms.start : ms.start + b.n, ms.stop - 1] = x
                 X[..., ms.stop - 1, ms.stop - 1] = 1.0
             else:
                 X[..., ms, ms] = b.element(arrs[n], n)
@@ -186,7 +197,7 @@ class Bundle(Convention):
         out = {}
         for (n, b), ms in zip(self.blocks, self._mslices, strict=True):
             blk = X[..., ms, ms]
-            out[n] = np.array(blk[..., :-1, -1] if isinstance(b, Vector) else blk)
+            out[n] = np.array(blk[..., :-1, -1] if isinstance(b, _VECTOR_LIKE) else blk)
         return out
 
     def element(self, X: Any, name: str = "X") -> FloatArray:
@@ -284,7 +295,67 @@ class Bundle(Convention):
 
     def exactly_linear_to(self, other: Bundle, linear: Any) -> bool:
         """Whether every block pair is exactly linear (``linear(a, b)`` per convention pair)."""
+        # S² charts here are all the geodesic exponential in orthonormal bases: linear (a
+        # 2×2 rotation) between any two of them, below an angle of π
         return all(
-            isinstance(a, Vector) or linear(a, b)
+            isinstance(a, _VECTOR_LIKE) or linear(a, b)
             for (_, a), (_, b) in zip(self.blocks, other.blocks, strict=True)
         )
+
+    # ----------------------------------------------------------------- sub-states
+    def _keep(self, keep: Sequence[str]) -> tuple[list[int], list[int]]:
+        """Kept block indices (bundle order) and kept tangent entries (this bundle's order)."""
+        names = [n for n, _ in self.blocks]
+        unknown = [k for k in keep if k not in names]
+        if unknown or not keep or len(set(keep)) != len(keep):
+            raise ValueError(
+                f"{self.name}: keep must name distinct blocks of {names}, got {list(keep)}"
+            )
+        blocks = [i for i, n in enumerate(names) if n in keep]
+        concat = {j for i in blocks for j in range(*self._tslices[i].indices(self.dim()))}
+        order = self.perm if self.perm is not None else tuple(range(self.dim()))
+        return blocks, [k for k, c in enumerate(order) if c in concat]
+
+    def sub(
+        self, keep: Sequence[str], name: str | None = None, source: str = "", notes: str = ""
+    ) -> Bundle:
+        """Return the bundle of the blocks named in ``keep``, with this bundle's charts and order.
+
+        Its tangent is the entries of this bundle's tangent that belong to the kept blocks, in
+        the order they have here; its blocks keep this bundle's block order. With
+        :meth:`marginal` and :meth:`sub_element` it carries part of a larger state (FAST-LIO's
+        IMU part of its 23-dimensional state) into any bundle of the same blocks.
+        """
+        blocks, entries = self._keep(keep)
+        kept = [self.blocks[i] for i in blocks]
+        order = self.perm if self.perm is not None else tuple(range(self.dim()))
+        # renumber the kept concatenated entries 0..m-1 in concatenation order
+        cat = sorted(order[k] for k in entries)
+        rank = {c: r for r, c in enumerate(cat)}
+        perm = [rank[order[k]] for k in entries]
+        return Bundle.of(
+            name or f"{self.name}[{','.join(n for n, _ in kept)}]",
+            kept,
+            order=None if perm == list(range(len(perm))) else perm,
+            source=source or self.source,
+            notes=notes,
+        )
+
+    def marginal(self, cov: Any, keep: Sequence[str]) -> FloatArray:
+        """Covariance ``(..., m, m)`` of the kept blocks' tangent (in :meth:`sub`'s order).
+
+        Exact, not an approximation: each block of a bundle is retracted by its own entries
+        only, so the kept blocks' perturbation is the kept entries of the tangent, and the
+        marginal of a Gaussian is its sub-matrix. False: the marginal needs a Schur complement
+        (that is the *conditional* covariance, or the marginal of an information matrix).
+        """
+        _, entries = self._keep(keep)
+        arr = validate.covariance(cov, "cov", self.dim())
+        return np.asarray(arr[..., entries, :][..., :, entries], dtype=np.float64)
+
+    def sub_element(self, X: Any, keep: Sequence[str]) -> FloatArray:
+        """Return the element of :meth:`sub` (the kept diagonal blocks of ``X``)."""
+        blocks, _ = self._keep(keep)
+        arr = self.element(X)
+        idx = [j for i in blocks for j in range(*self._mslices[i].indices(self.matrix_size))]
+        return np.asarray(arr[..., idx, :][..., :, idx], dtype=np.float64)

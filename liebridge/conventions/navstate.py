@@ -56,6 +56,7 @@ class NavChart(Convention):
 
     pose: Convention | None = None
     velocity: str = "world"
+    perm: tuple[int, ...] | None = None
 
     @classmethod
     def of(
@@ -65,8 +66,14 @@ class NavChart(Convention):
         velocity: VelocityFrame,
         source: str = "",
         notes: str = "",
+        order: list[int] | None = None,
     ) -> NavChart:
-        """Build the chart (``pose`` an SE(3) convention, ``velocity`` ``"body"``/``"world"``)."""
+        """Build the chart (``pose`` an SE(3) convention, ``velocity`` ``"body"``/``"world"``).
+
+        ``order``: an optional tangent permutation, entry ``k`` of this chart's tangent is entry
+        ``order[k]`` of ``(pose tangent, δv)`` (MOLA's ``(θ, v, p)``: ``[0, 1, 2, 6, 7, 8, 3, 4,
+        5]`` with a rotation-first pose).
+        """
         return cls(
             name=name,
             side=pose.side,
@@ -79,6 +86,7 @@ class NavChart(Convention):
             group="se23",
             pose=pose,
             velocity=velocity,
+            perm=tuple(order) if order is not None else None,
         )
 
     def __post_init__(self) -> None:
@@ -90,8 +98,13 @@ class NavChart(Convention):
                 f"coordinates (not Euler angles), got {p!r}"
             )
         validate.option(self.velocity, "velocity", ("body", "world"))
+        if self.perm is not None and sorted(self.perm) != list(range(9)):
+            raise ValueError(f"NavChart {self.name!r}: order must be a permutation of range(9)")
+        perm = "" if self.perm is None else f"@{self.perm}"
         object.__setattr__(
-            self, "_key", (f"nav:{p.side}", p.order, f"{p.chart}+v_{self.velocity}", p.rotation)
+            self,
+            "_key",
+            (f"nav:{p.side}", p.order, f"{p.chart}+v_{self.velocity}{perm}", p.rotation),
         )
 
     @property
@@ -108,15 +121,29 @@ class NavChart(Convention):
         return (
             f"{self.name} (se23 navigation chart): pose {self._p.describe()}; "
             f"velocity increment in the {self.velocity} frame"
+            + (f"; tangent order {list(self.perm)} of (pose, δv)" if self.perm else "")
         )
+
+    def _to_concat(self, d: FloatArray) -> FloatArray:
+        if self.perm is None:
+            return d
+        out = np.empty(d.shape)
+        out[..., list(self.perm)] = d
+        return out
+
+    def _P(self) -> FloatArray:
+        """``P`` with ``d_(pose, δv) = P d``."""
+        P = np.eye(9)
+        return P if self.perm is None else np.ascontiguousarray(P[:, list(self.perm)])
 
     # ----------------------------------------------------------------- retraction
     def _increment(self, d: Any, so3: bool, name: str = "d") -> FloatArray:
         arr = validate.vector(d, name, 9)
-        self._p._increment(arr[..., :6], False, name)
+        self._p._increment(self._to_concat(arr)[..., :6], False, name)
         return arr
 
     def _retract(self, X: FloatArray, d: FloatArray) -> FloatArray:
+        d = self._to_concat(d)
         T2 = self._p._retract(_pose(X), d[..., :6])
         dv = d[..., 6:]
         v = X[..., :3, 4]
@@ -134,7 +161,8 @@ class NavChart(Convention):
             dv = _mv(np.swapaxes(X[..., :3, :3], -1, -2), dv)
         batch = np.broadcast_shapes(d.shape[:-1], dv.shape[:-1])
         parts = [np.broadcast_to(d, (*batch, 6)), np.broadcast_to(dv, (*batch, 3))]
-        return np.concatenate(parts, axis=-1)
+        out = np.concatenate(parts, axis=-1)
+        return out if self.perm is None else np.asarray(out[..., list(self.perm)], np.float64)
 
     # ----------------------------------------------------------------- first-order maps
     def _blocks(self, X: FloatArray, A: FloatArray, vel: FloatArray) -> FloatArray:
@@ -146,12 +174,14 @@ class NavChart(Convention):
     def _to_canonical(self, X: FloatArray) -> FloatArray:
         R = X[..., :3, :3]
         vel = np.broadcast_to(np.eye(3), R.shape) if self.velocity == "body" else R.swapaxes(-1, -2)
-        return self._blocks(X, self._p._to_canonical(_pose(X)), vel)
+        M = self._blocks(X, self._p._to_canonical(_pose(X)), vel)
+        return M if self.perm is None else np.asarray(M @ self._P(), dtype=np.float64)
 
     def _from_canonical(self, X: FloatArray) -> FloatArray:
         R = X[..., :3, :3]
         vel = np.broadcast_to(np.eye(3), R.shape) if self.velocity == "body" else R
-        return self._blocks(X, self._p._from_canonical(_pose(X)), vel)
+        M = self._blocks(X, self._p._from_canonical(_pose(X)), vel)
+        return M if self.perm is None else np.asarray(self._P().T @ M, dtype=np.float64)
 
     def _local_jacobian(self, X: FloatArray, Y: FloatArray) -> FloatArray:
         A = self._p._local_jacobian(_pose(X), _pose(Y))
@@ -159,7 +189,11 @@ class NavChart(Convention):
             vel = np.swapaxes(X[..., :3, :3], -1, -2) @ Y[..., :3, :3]
         else:
             vel = np.broadcast_to(np.eye(3), (*A.shape[:-2], 3, 3))
-        return self._blocks(X, A, vel)
+        J = self._blocks(X, A, vel)
+        if self.perm is None:
+            return J
+        P = self._P()
+        return np.asarray(P.T @ J @ P, dtype=np.float64)
 
 
 def nav_state(R_world_body: Any, p_world: Any, v_world: Any) -> FloatArray:

@@ -25,6 +25,7 @@ from .bundle import Bundle, Vector
 from .convention import Convention
 from .navstate import NavChart
 from .presets import GTSAM, GTSAM_NAVSTATE
+from .sphere import Sphere
 
 _BIAS_BLOCKS: list[tuple[str, Vector]] = [("b_a", Vector(3)), ("b_g", Vector(3))]
 #: Tangent permutation for (nav 9, δb_g, δb_a) — the gyroscope bias first.
@@ -195,8 +196,120 @@ ORBSLAM3 = _state(
 )
 """ORB-SLAM3 inertial vertices: (θ, p, v, b_g, b_a), right rotation, body p, world v."""
 
-#: The 15-dimensional whole-state presets, in registry order.
-STATE_PRESETS: tuple[Bundle, ...] = (
+# ----------------------------------------------------------------------------- FAST-LIO
+_FASTLIO_REF = "hku-mars/FAST_LIO @ 1087a72497d19c3ac19a608b89e28b5e62b00e2a"
+#: FAST-LIO's gravity: MTK ``S2<double, 98090, 10000, 1>``, length den/num = 9.809, S2_typ 1.
+FASTLIO_GRAVITY = Sphere(length=98090 / 10000, basis="mtk_x", name="fastlio_gravity")
+_FASTLIO_NAV = NavChart.of(
+    "fastlio_nav",
+    Convention(
+        name="fastlio_pose",
+        side="right",
+        order="trans_first",
+        chart="so3xr3_world",
+        rotation="exp",
+        quat_order="xyzw",
+    ),
+    "world",
+)
+_FASTLIO_EXTRINSIC = Convention(
+    name="fastlio_extrinsic",
+    side="right",
+    order="rot_first",
+    chart="so3xr3_world",
+    rotation="exp",
+    quat_order="xyzw",
+)
+#: Block concatenation: nav (δp 0-2, δθ 3-5, δv 6-8), b_a 9-11, b_g 12-14, T_imu_lidar
+#: (δθ_LI 15-17, δt_LI 18-20), gravity 21-22; FAST-LIO's order (p, R, R_LI, t_LI, v, bg, ba, g):
+_FASTLIO_ORDER = [*range(6), *range(15, 21), 6, 7, 8, 12, 13, 14, 9, 10, 11, 21, 22]
+_FASTLIO_SOURCE = (
+    f"S {_FASTLIO_REF}: include/use-ikfom.hpp (MTK_BUILD_MANIFOLD(state_ikfom, pos, rot, "
+    "offset_R_L_I, offset_T_L_I, vel, bg, ba, grav); typedef MTK::S2<double, 98090, 10000, 1> "
+    "S2; df_dx's blocks (12, 3) ∂vel/∂rot, (12, 18) ∂vel/∂ba, (12, 21) ∂vel/∂grav, (3, 15) "
+    "∂rot/∂bg confirm the offsets 0, 3, 6, 9, 12, 15, 18, 21), "
+    "include/IKFoM_toolkit/mtk/types/SOn.hpp (SO3::boxplus: *this = *this * exp(vec); "
+    "boxminus: log(other.conjugate() * *this)), include/IKFoM_toolkit/mtk/types/S2.hpp "
+    "(S2::boxplus: vec = Exp(S2_Bx δ)·vec; boxminus; S2_Bx), "
+    "include/IKFoM_toolkit/mtk/src/mtkmath.hpp (MTK::exp with scale ½: the unit quaternion of "
+    "the rotation vector), include/IKFoM_toolkit/mtk/types/vect.hpp (vect: added)"
+)
+FASTLIO = Bundle.of(
+    "fastlio",
+    [
+        ("nav", _FASTLIO_NAV),
+        *_BIAS_BLOCKS,
+        ("T_imu_lidar", _FASTLIO_EXTRINSIC),
+        ("gravity", FASTLIO_GRAVITY),
+    ],
+    order=_FASTLIO_ORDER,
+    source=_FASTLIO_SOURCE,
+    notes=(
+        "FAST-LIO's 23-dimensional error state of state_ikfom, "
+        "d = (δp, δθ, δθ_LI, δt_LI, δv, δb_g, δb_a, δg): pos + δp (world), rot·Exp(δθ) "
+        "(right, rot = R_world_imu), offset_R_L_I·Exp(δθ_LI) and offset_T_L_I + δt_LI (the "
+        "lidar in the IMU frame, T_imu_lidar), vel + δv (world), biases added, and the gravity "
+        "g (world frame, ‖g‖ = 9.809) moved as Exp(S2_Bx(g)·δg)·g with MTK's S2_typ-1 basis. "
+        "False: FAST-LIO's error state is 24-dimensional with a 3-vector gravity (it is 23: "
+        "gravity is on S², 2 entries; the 24 rows of get_f/df_dx are the process model's); "
+        "false: the pose chart is SE(3)'s T·Exp(ξ) (rotation and position are perturbed "
+        "separately, position in the world frame); false: δg is the direction of motion of g "
+        "(it is the rotation axis S2_Bx·δg, perpendicular to it)."
+    ),
+)
+"""FAST-LIO(2) ``state_ikfom``: 23-dim (p, θ, θ_LI, t_LI, v, b_g, b_a, g ∈ S²)."""
+
+FASTLIO_IMU = FASTLIO.sub(
+    ["nav", "b_a", "b_g"],
+    name="fastlio_imu",
+    source=_FASTLIO_SOURCE,
+    notes=(
+        "The IMU part of fastlio: d = (δp, δθ, δv, δb_g, δb_a), FAST-LIO's charts and relative "
+        "order (pos + δp world, rot·Exp(δθ), vel + δv world, biases added). Its covariance is "
+        "FASTLIO.marginal(P, ['nav', 'b_a', 'b_g']) (the rows/columns 0-5, 12-20 of FAST-LIO's "
+        "P; exact, each block is retracted by its own entries), its element "
+        "FASTLIO.sub_element(X, [...]); it converts to every 15-dimensional preset. False: "
+        "FAST-LIO's (p, R, v, bg, ba) block reordered is OpenVINS's or GTSAM's covariance (the "
+        "rotation error is right, the position error world-frame: convert it)."
+    ),
+)
+"""FAST-LIO's IMU sub-state (p, θ, v, b_g, b_a): 15-dim, converts to the other 15-dim presets."""
+
+# ----------------------------------------------------------------------------- MOLA
+_MOLA_REF = "MOLAorg/mola_imu_preintegration @ 467fc53c1bcb7a22983b5c95f41d66de7a5209ba"
+MOLA = NavChart.of(
+    "mola",
+    Convention(
+        name="mola_pose",
+        side="right",
+        order="rot_first",
+        chart="so3xr3_world",
+        rotation="exp",
+        quat_order="wxyz",
+    ),
+    "world",
+    order=[0, 1, 2, 6, 7, 8, 3, 4, 5],
+    source=(
+        f"S {_MOLA_REF}: include/mola_imu_preintegration/ImuPreintegrator.h "
+        "(PreintegrationCovariance 9×9 'ordered as [theta(3), v(3), p(3)]'; 'Only the noise of "
+        "the raw readings is propagated here; bias uncertainty is handled by the estimator via "
+        "the Jacobians'), src/ImuPreintegrator.cpp (integrate_measurement: A = [[ΔR_incᵀ, 0, "
+        "0], [−ΔR a^ dt, I, 0], [−½ΔR a^ dt², I dt, I]], Bg = [Jr dt; 0; 0], Ba = [0; ΔR dt; "
+        "½ΔR dt²]; bias_corrected: deltaRij·Exp(dR_dbg δb_g), deltaVij + ..., deltaPij + ...)"
+    ),
+    notes=(
+        "MOLA's preintegrated IMU measurement (ΔR_ij, Δv_ij, Δp_ij) (element nav_state(ΔR_ij, "
+        "Δp_ij, Δv_ij), in the body frame of i) and its covariance: d = (δθ, δv, δp), "
+        "ΔR·Exp(δθ) (right), Δv + δv, Δp + δp (additive). 9-dimensional: MOLA propagates no "
+        "bias covariance (there is no 15-dim MOLA state to convert). False: the order is "
+        "GTSAM's (θ, p, v) (it is (θ, v, p)); false: δp, δv are rotated by ΔR as in GTSAM's "
+        "NavState.retract (they are added)."
+    ),
+)
+"""MOLA's preintegrated-IMU covariance chart: 9-dim (θ, v, p), right rotation, additive v, p."""
+
+#: The 15-dimensional whole-state presets (every pair converts), in registry order.
+STATE_PRESETS_15: tuple[Bundle, ...] = (
     GTSAM_COMBINED,
     GTSAM_IMU_KEYS,
     OPENVINS,
@@ -204,4 +317,9 @@ STATE_PRESETS: tuple[Bundle, ...] = (
     BASALT,
     ORBSLAM3,
     KIMERA,
+    FASTLIO_IMU,
 )
+#: Every whole-state preset in the registry: the 15-dimensional ones, MOLA's 9-dimensional
+#: chart (an SE₂(3) convention: it converts to ``gtsam_navstate``, ``manif_se23``, every
+#: ``NavChart``) and FAST-LIO's 23-dimensional state.
+STATE_PRESETS: tuple[Convention, ...] = (*STATE_PRESETS_15, MOLA, FASTLIO)

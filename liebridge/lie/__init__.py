@@ -7,7 +7,7 @@ order is GTSAM's (``Rot2`` θ; ``Pose2`` (vx, vy, ω); ``Rot3`` ω; ``Pose3`` (�
 storage ``order``.
 """
 
-from . import quaternion, se2, se3, se23, sim3, so2, so3
+from . import quaternion, s2, se2, se3, se23, sim3, so2, so3
 from .series import SMALL_ANGLE
 
-__all__ = ["SMALL_ANGLE", "quaternion", "se2", "se3", "se23", "sim3", "so2", "so3"]
+__all__ = ["SMALL_ANGLE", "quaternion", "s2", "se2", "se3", "se23", "sim3", "so2", "so3"]

@@ -1,0 +1,167 @@
+"""The unit sphere S² (directions, gravity): geodesic exp/log, the tangent bases of two libraries.
+
+S² is not a group; its charts are the Riemannian exponential at a point ``n`` (a unit
+3-vector) read in an orthonormal basis of the tangent plane ``n^⊥``. Everything here is batched
+``(..., 3)`` and works on unit vectors:
+
+* ``exp(n, w) = cos‖w‖ n + sin‖w‖ w/‖w‖`` for ``w ⟂ n`` (the point at angle ``‖w‖`` along the
+  great circle leaving ``n`` in the direction ``w``), and ``log(n, m)`` its inverse,
+  ``θ/sin θ (m − (n·m) n)``, ``θ = atan2(‖n × m‖, n·m)`` (``m ≠ −n``);
+* ``dlog(n, m)``: the 3×3 derivative of ``log(n, ·)`` at ``m``;
+* ``unit3_basis(n)``: GTSAM's ``Unit3::basis()`` (gtsam/geometry/Unit3.cpp, GTSAM 4.3: the axis
+  of ``n``'s smallest absolute component ``a``, ``b1 = normalize(n × a)``, ``b2 = n × b1``;
+  measured against the GTSAM 4.3 wheel in the tests). ``Unit3.retract(v) = exp(n, B v)`` and
+  ``Unit3.localCoordinates(m) = Bᵀ log(n, m)``;
+* ``mtk_basis(n, axis)``: MTK/IKFoM's ``S2::S2_Bx`` (IKFoM_toolkit/mtk/types/S2.hpp, as vendored
+  in hku-mars/FAST_LIO ``include/IKFoM_toolkit``), the first two columns of the rotation taking
+  the coordinate axis ``S2_typ`` (1 = x, 2 = y, 3 = z) to ``n``. MTK's ``boxplus(δ)`` rotates the
+  stored vector by ``Exp(B δ)`` (``B δ`` is a rotation *axis*, perpendicular to ``n``), so it
+  moves ``n`` along ``(B δ) × n = −[n]ₓ B δ``: MTK's chart is ``exp`` read in the basis
+  ``−[n]ₓ B``. False: MTK's ``δ`` is the direction of motion (it is the axis; the motion is
+  rotated by 90° from it).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .. import _validate as validate
+from .._validate import FloatArray
+
+__all__ = ["dlog", "exp", "log", "mtk_basis", "unit3_basis", "unit_vector"]
+
+#: MTK's ``tolerance<double>()`` (mtk/src/mtkmath.hpp): its basis switches branch there.
+MTK_TOLERANCE = 1e-11
+#: Below this angle ``θ/sin θ`` and its derivative use their Taylor series.
+_SMALL = 1e-3
+
+
+def unit_vector(n: Any, name: str = "n", tol: float = validate.ROTATION_TOL) -> FloatArray:
+    """Validate ``(..., 3)`` unit vectors (``| ‖n‖ − 1 | ≤ tol``), naming the batch index."""
+    arr = validate.vector(n, name, 3)
+    err = np.abs(np.linalg.norm(arr, axis=-1) - 1.0)
+    bad = err > tol
+    if bad.any():
+        i = tuple(int(k) for k in np.argwhere(bad)[0]) if bad.ndim else ()
+        raise ValueError(
+            f"{name}: not a unit vector at batch index {i}: | ‖n‖ − 1 | = {float(err[i]):.3g} "
+            f"(tolerance {tol:g})"
+        )
+    return arr
+
+
+def _dot(a: FloatArray, b: FloatArray) -> FloatArray:
+    return np.asarray(np.einsum("...i,...i->...", a, b), dtype=np.float64)
+
+
+def exp(n: Any, w: Any) -> FloatArray:
+    """Geodesic exponential at ``n`` of the tangent vector ``w`` (``(..., 3)``, ``w ⟂ n``)."""
+    n = unit_vector(n)
+    w = validate.vector(w, "w", 3)
+    t = np.linalg.norm(w, axis=-1)
+    small = t < _SMALL
+    ts = np.where(small, 1.0, t)
+    sinc = np.where(small, 1.0 - t**2 / 6.0 + t**4 / 120.0, np.sin(ts) / ts)
+    return np.asarray(np.cos(t)[..., None] * n + sinc[..., None] * w, dtype=np.float64)
+
+
+def _angle(n: FloatArray, m: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    c = _dot(n, m)
+    s = np.linalg.norm(np.cross(n, m), axis=-1)
+    return np.arctan2(s, c), c, s
+
+
+def _check_not_antipodal(theta: FloatArray, name: str) -> None:
+    bad = theta > np.pi - 1e-6
+    if bad.any():
+        i = tuple(int(k) for k in np.argwhere(bad)[0]) if bad.ndim else ()
+        raise ValueError(
+            f"{name}: the two directions are antipodal at batch index {i} (angle "
+            f"{float(theta[i]):.9g} rad): the logarithm of S² is undefined there"
+        )
+
+
+def log(n: Any, m: Any) -> FloatArray:
+    """Inverse of :func:`exp`: the ``w ⟂ n``, ``‖w‖ < π``, with ``exp(n, w) = m``."""
+    n, m = unit_vector(n), unit_vector(m, "m")
+    theta, c, s = _angle(n, m)
+    _check_not_antipodal(theta, "log")
+    small = theta < _SMALL
+    ss = np.where(small, 1.0, s)
+    k = np.where(small, 1.0 + theta**2 / 6.0 + 7.0 * theta**4 / 360.0, theta / ss)
+    return np.asarray(k[..., None] * (m - c[..., None] * n), dtype=np.float64)
+
+
+def dlog(n: Any, m: Any) -> FloatArray:
+    """``∂ log(n, m)/∂m`` (``(..., 3, 3)``), to be applied to tangent directions at ``m``.
+
+    With ``c = n·m``, ``θ = acos c``, ``k = θ/sin θ``:
+    ``k (I − n nᵀ) − k'(θ)/sin θ · (m − c n) nᵀ``, ``k'/sin θ = (sin θ − θ cos θ)/sin³θ``
+    (series ``1/3 + 2θ²/15`` near 0).
+    """
+    n, m = unit_vector(n), unit_vector(m, "m")
+    theta, c, s = _angle(n, m)
+    _check_not_antipodal(theta, "dlog")
+    small = theta < _SMALL
+    ss = np.where(small, 1.0, s)
+    k = np.where(small, 1.0 + theta**2 / 6.0 + 7.0 * theta**4 / 360.0, theta / ss)
+    kp = np.where(small, 1.0 / 3.0 + 2.0 * theta**2 / 15.0, (s - theta * c) / ss**3)
+    P = np.eye(3) - n[..., :, None] * n[..., None, :]
+    r = m - c[..., None] * n
+    return np.asarray(
+        k[..., None, None] * P - kp[..., None, None] * r[..., :, None] * n[..., None, :],
+        dtype=np.float64,
+    )
+
+
+def unit3_basis(n: Any) -> FloatArray:
+    """GTSAM's ``Unit3::basis()`` at unit ``n``: ``(..., 3, 2)``, columns ``(b1, b2)``."""
+    n = unit_vector(n)
+    a = np.abs(n)
+    mx, my, mz = a[..., 0], a[..., 1], a[..., 2]
+    axis = np.zeros(n.shape)
+    use_x = (mx <= my) & (mx <= mz)
+    use_y = ~use_x & (my <= mx) & (my <= mz)
+    axis[..., 0] = use_x
+    axis[..., 1] = use_y
+    axis[..., 2] = ~use_x & ~use_y
+    B1 = np.cross(n, axis)
+    b1 = B1 / np.linalg.norm(B1, axis=-1, keepdims=True)
+    b2 = np.cross(n, b1)
+    return np.asarray(np.stack([b1, b2], axis=-1), dtype=np.float64)
+
+
+def mtk_basis(n: Any, axis: int, length: float = 1.0) -> FloatArray:
+    """MTK's ``S2::S2_Bx`` for ``S2_typ = axis`` (1, 2, 3) at the stored vector ``length · n``.
+
+    ``(..., 3, 2)``. Transcribed from IKFoM_toolkit/mtk/types/S2.hpp; in unit terms, for
+    ``S2_typ = 1`` (FAST-LIO's gravity, ``S2<double, 98090, 10000, 1>``) and ``n₀ + 1 > tol``:
+    ``b1 = (−n₁, 1 − n₁²/(1 + n₀), −n₁n₂/(1 + n₀))``, ``b2 = (−n₂, −n₁n₂/(1 + n₀),
+    1 − n₂²/(1 + n₀))``; at ``n = −axis`` MTK's fixed fallback ``b1 = (0, 0, 1)``,
+    ``b2 = (0, −1, 0)`` (a valid basis only for ``S2_typ = 1``: raised for the others).
+    """
+    if axis not in (1, 2, 3):
+        raise ValueError(f"axis: MTK's S2_typ is 1, 2 or 3, got {axis!r}")
+    n = unit_vector(n)
+    i = axis - 1
+    j, k = [(1, 2), (0, 2), (0, 1)][i]
+    ni, nj, nk = n[..., i], n[..., j], n[..., k]
+    regular = length * ni + length > MTK_TOLERANCE
+    den = np.where(regular, 1.0 + ni, 1.0)
+    B = np.zeros((*n.shape, 2))
+    # S2_Bx: rows (j, k) are I − [n_j, n_k]ᵀ[n_j, n_k]/(1 + n_i); row i is −(n_j, n_k)
+    B[..., i, 0], B[..., i, 1] = -nj, -nk
+    B[..., j, 0], B[..., j, 1] = 1.0 - nj * nj / den, -nj * nk / den
+    B[..., k, 0], B[..., k, 1] = -nj * nk / den, 1.0 - nk * nk / den
+    fallback = np.zeros((3, 2))
+    fallback[1, 1], fallback[2, 0] = -1.0, 1.0
+    B = np.where(regular[..., None, None], B, fallback)
+    if axis != 1 and not regular.all():
+        idx = tuple(int(q) for q in np.argwhere(~regular)[0]) if regular.ndim else ()
+        raise ValueError(
+            f"n: at batch index {idx} the direction is −axis {axis}, where MTK's S2_Bx "
+            f"(S2_typ {axis}) falls back to a basis that is not tangent to the sphere"
+        )
+    return np.asarray(B, dtype=np.float64)
