@@ -195,10 +195,12 @@ def _markdown_one(c: Convention) -> str:
     """One preset as markdown: its table row (the README's columns) and its full text."""
     if isinstance(c, Bundle):  # whole states have no row in the one-chart table
         return "\n".join([f"### `{c.name}`", "", "```text", _describe_one(c), "```"])
-    row = next(r for r in rows() if r["name"] == c.name)
+    row = _row(c)  # any registered preset (rows() lists the SE(3) ones only)
     cells = [f"`{row[k]}`" if k != "evidence" else row[k].replace("|", "\\|") for k in COLUMNS]
     text = _describe_one(c).split("\n")
-    matrix = [line for line in text[5:]]
+    # the header lines ("key: value") end where the printed matrix starts
+    k = next((i for i, line in enumerate(text) if line.lstrip().startswith("[[")), len(text))
+    matrix = text[k:]
     lines = [
         f"### `{c.name}`",
         "",
@@ -206,7 +208,7 @@ def _markdown_one(c: Convention) -> str:
         "|" + "|".join("---" for _ in COLUMNS) + "|",
         "| " + " | ".join(cells) + " |",
         "",
-        *(f"- **{line.partition(': ')[0]}**: {line.partition(': ')[2]}" for line in text[1:5]),
+        *(f"- **{line.partition(': ')[0]}**: {line.partition(': ')[2]}" for line in text[1:k]),
     ]
     if matrix:
         lines += ["", "```text", *matrix, "```"]

@@ -28,6 +28,7 @@ from .._validate import FloatArray
 from .bundle import Bundle
 from .convention import Convention
 from .cubature import cubature_rule_5, sqrt_psd
+from .navstate import NavChart, nav_exactly_linear
 from .registry import ConventionLike, get
 from .unchecked import tangent_map as unchecked_map
 
@@ -74,6 +75,8 @@ def is_exactly_linear(src: ConventionLike, dst: ConventionLike) -> bool:
     _check_groups(a, b)
     if isinstance(a, Bundle) and isinstance(b, Bundle):
         return a.exactly_linear_to(b, is_exactly_linear)
+    if isinstance(a, NavChart) or isinstance(b, NavChart):  # decided by the pose charts
+        return nav_exactly_linear(a, b, is_exactly_linear)
     if _chart_family(a) != _chart_family(b):
         return False
     if a.is_euler or b.is_euler:  # absolute angles: linear only between two Euler orders

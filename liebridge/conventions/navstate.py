@@ -26,6 +26,7 @@ block diagonal: the pose convention's own map to ``(ω, v)`` (to first order ``X
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -214,3 +215,33 @@ def nav_state(R_world_body: Any, p_world: Any, v_world: Any) -> FloatArray:
     X[..., :3, 4] = v
     X[..., 3, 3] = X[..., 4, 4] = 1.0
     return X
+
+
+def _pose_part(c: Convention) -> Convention | None:
+    """Return the SE(3) chart a navigation chart moves ``(R, p)`` by (None: coupled SE₂(3))."""
+    if isinstance(c, NavChart):
+        return c._p
+    if c.group != "se23" or c.chart == "se23":
+        return None
+    return Convention(
+        name=f"{c.name}_pose",
+        side=c.side,
+        order="rot_first",
+        chart="so3xr3_body" if c.chart == "split_body" else "so3xr3_world",
+        rotation=c.rotation,
+        quat_order=c.quat_order,
+    )
+
+
+def nav_exactly_linear(a: Convention, b: Convention, linear: Callable[[Any, Any], bool]) -> bool:
+    """Whether two SE₂(3) charts, one at least a :class:`NavChart`, convert exactly linearly.
+
+    The velocity increment (body ``R·δv`` or world ``δv``) is always linear; the pose parts
+    decide (``linear`` is :func:`~liebridge.conventions.is_exactly_linear` on SE(3)). A
+    ``NavChart`` field ``chart`` names only the velocity frame: comparing it alone would call a
+    coupled-SE(3) pose (``gtsam_imu_keys``) exactly linear to a split one (false).
+    """
+    pa, pb = _pose_part(a), _pose_part(b)
+    if pa is None or pb is None:
+        return False
+    return bool(linear(pa, pb))

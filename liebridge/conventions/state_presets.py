@@ -269,8 +269,9 @@ FASTLIO_IMU = FASTLIO.sub(
         "FASTLIO.marginal(P, ['nav', 'b_a', 'b_g']) (the rows/columns 0-5, 12-20 of FAST-LIO's "
         "P; exact, each block is retracted by its own entries), its element "
         "FASTLIO.sub_element(X, [...]); it converts to every 15-dimensional preset. False: "
-        "FAST-LIO's (p, R, v, bg, ba) block reordered is OpenVINS's or GTSAM's covariance (the "
-        "rotation error is right, the position error world-frame: convert it)."
+        "FAST-LIO's (p, R, v, bg, ba) block reordered is GTSAM's covariance (GTSAM's δp, δv "
+        "are body-frame: convert it). Into OpenVINS (right rotation, world p and v) the "
+        "first-order map is the reordering (Cayley and exp agree to second order)."
     ),
 )
 """FAST-LIO's IMU sub-state (p, θ, v, b_g, b_a): 15-dim, converts to the other 15-dim presets."""
