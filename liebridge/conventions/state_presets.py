@@ -1,8 +1,8 @@
-"""Presets of whole IMU states: 15-dimensional (R, p, v, b_a, b_g) conventions of VIO/LIO systems.
+"""Presets of whole IMU states: the (R, p, v, b_a, b_g) conventions of VIO/LIO systems.
 
-Every preset here is a :class:`~liebridge.conventions.Bundle` of the same three blocks, so any two
-convert into each other (``convert_covariance``, linear or unscented, ``convert_information``,
-``convert_jacobian``, ``tangent_map``):
+The 15-dimensional presets (:data:`STATE_PRESETS_15`) are :class:`~liebridge.conventions.Bundle`
+s of the same three blocks, so any two convert into each other (``convert_covariance``, linear
+or unscented, ``convert_information``, ``convert_jacobian``, ``tangent_map``):
 
 * ``nav``: an SE₂(3) chart of ``(R_world_body, p_world, v_world)``, the 5×5 extended pose
   (GTSAM's ``NavState`` chart or a :class:`~liebridge.conventions.navstate.NavChart`);
@@ -11,12 +11,16 @@ convert into each other (``convert_covariance``, linear or unscented, ``convert_
 An element is the 13×13 block-diagonal matrix ``Bundle.assemble(nav=X, b_a=..., b_g=...)``
 (``X`` from :func:`~liebridge.conventions.navstate.nav_state`). The tangent is the system's own
 order (a permutation of ``(nav tangent, δb_a, δb_g)``). The 9-dimensional states are the SE₂(3)
-presets ``gtsam_navstate`` and ``manif_se23`` (and any ``NavChart``); a 15×15 covariance given to
-one of them is refused, and so is a 9×9 given to a 15-dimensional state.
+presets ``gtsam_navstate``, ``manif_se23`` and ``mola`` (and any ``NavChart``); a 15×15
+covariance given to one of them is refused, and so is a 9×9 given to a 15-dimensional state.
 
-See ``docs/navigation-states.md`` for the table with sources. Not provided (not verified in
-their source in time): MOLA; FAST-LIO's ``state_ikfom`` is a 23-dimensional error state
-(p, R, R_LI, t_LI, v, b_g, b_a, g ∈ S²) whose S² gravity chart is outside this model.
+``fastlio`` is FAST-LIO's 23-dimensional ``state_ikfom`` (the same three blocks, the
+lidar-IMU extrinsic and the gravity on S², a :class:`~liebridge.conventions.sphere.Sphere`); it
+converts to bundles of the same blocks, and its IMU part (``FASTLIO.marginal``,
+``FASTLIO.sub_element``, the preset ``fastlio_imu``) to every 15-dimensional preset. ``mola`` is
+MOLA's 9-dimensional preintegrated-IMU chart (MOLA propagates no bias covariance).
+
+See ``docs/navigation-states.md`` for the table with sources.
 """
 
 from __future__ import annotations
