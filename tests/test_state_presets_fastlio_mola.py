@@ -19,6 +19,8 @@ import itertools
 import gtsam
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 import liebridge as lb
 from liebridge import conventions as C
@@ -584,3 +586,51 @@ def test_markdown_of_a_group_preset_is_one_table(
     assert main(["conventions", name, "--format", "markdown"]) == 0
     out = capsys.readouterr().out
     assert f"| `{name}` |" in out and "- **source**:" in out and "**[[" not in out
+
+
+def test_group_all_lists_the_whole_state_presets() -> None:
+    from liebridge.cli.table import render
+
+    for fmt in ("table", "markdown"):
+        text = render(fmt, "all")
+        for c in C.STATE_PRESETS:
+            assert f"{c.name} ({c.dim()})" in text
+        assert "fastlio (23)" in text and "mola (9)" in text and "openvins (15)" in text
+
+
+@given(
+    n=st.tuples(*(st.floats(-1.0, 1.0) for _ in range(3))).filter(
+        lambda v: 0.1 < float(np.linalg.norm(v))
+    ),
+    d=st.tuples(st.floats(-2.0, 2.0), st.floats(-2.0, 2.0)),
+)
+@pytest.mark.parametrize("basis", ["gtsam", "mtk_x"])
+def test_sphere_round_trip_hypothesis(
+    basis: str, n: tuple[float, ...], d: tuple[float, float]
+) -> None:
+    sph = C.Sphere(G_LEN, basis)
+    g = G_LEN * np.array(n) / np.linalg.norm(n)
+    if basis == "mtk_x" and g[0] < -0.999 * G_LEN:
+        g = -g  # MTK's basis switches to its fallback at −x (continuous elsewhere)
+    h = sph.retract(g, d)
+    assert abs(np.linalg.norm(h) - G_LEN) < 1e-12
+    np.testing.assert_allclose(sph.local(g, h), d, atol=1e-9)
+
+
+@pytest.mark.parametrize("angle", [0.0, 1e-12, 1e-6, 1.0, np.pi - 1e-6])
+def test_sphere_edge_angles_and_batches(angle: float) -> None:
+    rng = np.random.default_rng(31)
+    for basis in SPHERE_BASES:
+        sph = C.Sphere(G_LEN, basis)
+        g = G_LEN * np.array([0.3, -0.2, -0.93]) / np.linalg.norm([0.3, -0.2, -0.93])
+        d = angle * np.array([0.6, 0.8])
+        h = sph.retract(g, d)
+        np.testing.assert_allclose(np.arccos(np.clip(h @ g / G_LEN**2, -1, 1)), angle, atol=1e-7)
+        np.testing.assert_allclose(sph.local(g, h), d, atol=1e-6 if angle > 3 else 1e-12)
+    sph = C.Sphere(G_LEN, "mtk_x")
+    gs = G_LEN * _unit(rng, 2, 3)
+    ds = rng.normal(size=(2, 3, 2))
+    hs = sph.retract(gs, ds)
+    assert hs.shape == (2, 3, 3)
+    np.testing.assert_allclose(sph.retract(gs[1, 2], ds[1, 2]), hs[1, 2], atol=1e-15)
+    np.testing.assert_allclose(sph.local(gs, hs), ds, atol=1e-9)

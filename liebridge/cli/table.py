@@ -11,7 +11,7 @@ import json
 import re
 from typing import Any
 
-from ..conventions import ALL_PRESETS, GROUP_NAMES, PRESETS, Bundle, Convention
+from ..conventions import ALL_PRESETS, GROUP_NAMES, PRESETS, STATE_PRESETS, Bundle, Convention
 from ._common import option_value
 
 __all__ = ["add_parser", "evidence_summary", "render", "rows"]
@@ -153,7 +153,13 @@ def _markdown(group: str | None = None) -> str:
     for g in GROUP_TITLES:
         if any(c.group == g for c in ALL_PRESETS):
             out += [f"#### {GROUP_TITLES[g]}", "", *_markdown_rows(g), ""]
-    return "\n".join([*out, LEGEND, "", GROUP_LEGEND])
+    return "\n".join([*out, LEGEND, "", GROUP_LEGEND, "", _states_line()])
+
+
+def _states_line() -> str:
+    """List the whole-state presets (bundles of several blocks; ``mola``: an SE₂(3) chart)."""
+    names = ", ".join(f"{c.name} ({c.dim()})" for c in STATE_PRESETS)
+    return f"Whole IMU states (`liebridge conventions NAME`: blocks, order, sources): {names}."
 
 
 def _text_rows(group: str | None) -> list[str]:
@@ -171,7 +177,7 @@ def _text(group: str | None = None) -> str:
     for g in GROUP_TITLES:
         if any(c.group == g for c in ALL_PRESETS):
             out += [GROUP_TITLES[g], *_text_rows(g), ""]
-    return "\n".join(out).rstrip()
+    return "\n".join([*out, _states_line()]).rstrip()
 
 
 def render(fmt: str = "table", group: str | None = None) -> str:
