@@ -2,12 +2,15 @@
 
 A :class:`Bundle` is a :class:`~liebridge.conventions.Convention` of a product group: each block is
 a convention of one group (e.g. ``gtsam_navstate`` for (R, p, v), ``gtsam`` for a pose, a rotation
-convention) or a plain vector (:class:`Vector`, e.g. an IMU bias, perturbed additively). The
-tangent is the concatenation of the blocks' tangents, optionally reordered by ``order`` (a
-permutation: entry ``k`` of the bundle's tangent is entry ``order[k]`` of the concatenation).
+convention), a plain vector (:class:`Vector`, e.g. an IMU bias, perturbed additively) or a
+direction of fixed length (:class:`~liebridge.conventions.sphere.Sphere`, S²: FAST-LIO's
+gravity, stored like a vector, tangent of 2). The tangent is the concatenation of the blocks'
+tangents, optionally reordered by ``order`` (a permutation: entry ``k`` of the bundle's tangent
+is entry ``order[k]`` of the concatenation). :meth:`Bundle.sub`, :meth:`Bundle.marginal` and
+:meth:`Bundle.sub_element` carry some of the blocks into a smaller bundle.
 
 An element is one block-diagonal matrix ``(..., N, N)``: each group block as its own matrix, a
-vector ``b`` as ``[[I, b], [0, 1]]`` (the translation group); :meth:`Bundle.assemble` and
+vector ``b`` (or a sphere's ``g``) as ``[[I, b], [0, 1]]``; :meth:`Bundle.assemble` and
 :meth:`Bundle.split` build and read it. So a bundle goes through every conversion
 (``tangent_map``, ``convert_covariance`` linear and unscented, ``convert_information``,
 ``convert_jacobian``, ``check.monte_carlo_covariance``) on the same code path as a single group.

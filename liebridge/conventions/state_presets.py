@@ -236,7 +236,9 @@ _FASTLIO_SOURCE = (
     "boxminus: log(other.conjugate() * *this)), include/IKFoM_toolkit/mtk/types/S2.hpp "
     "(S2::boxplus: vec = Exp(S2_Bx δ)·vec; boxminus; S2_Bx), "
     "include/IKFoM_toolkit/mtk/src/mtkmath.hpp (MTK::exp with scale ½: the unit quaternion of "
-    "the rotation vector), include/IKFoM_toolkit/mtk/types/vect.hpp (vect: added)"
+    "the rotation vector), include/IKFoM_toolkit/mtk/types/vect.hpp (vect: added), "
+    "src/laserMapping.cpp (pointBodyToWorld: rot·(offset_R_L_I·p + offset_T_L_I) + pos, so "
+    "rot = R_world_imu and (offset_R_L_I, offset_T_L_I) = T_imu_lidar)"
 )
 FASTLIO = Bundle.of(
     "fastlio",
