@@ -377,11 +377,13 @@ def test_fastlio_round_trips_and_monte_carlo_against_gtsam_charts() -> None:
         np.broadcast_to(np.eye(23), (3, 23, 23)),
         atol=1e-12,
     )
+    small = _cov(rng, 23, 0.003)  # linear: not exact (split vs coupled SE(3) extrinsic)
     for src, dst in itertools.permutations([C.FASTLIO, GTSAM23]):
-        mc = monte_carlo_covariance(P[0], S[0], src, dst, n=20_000, rng=rng)
-        lin = lb.convert_covariance(P[0], S[0], src, dst)
+        mc = monte_carlo_covariance(small, S[0], src, dst, n=20_000, rng=rng)
+        lin = lb.convert_covariance(small, S[0], src, dst)
         Li = np.linalg.inv(np.linalg.cholesky(lin))
         assert np.abs(Li @ mc @ Li.T - np.eye(23)).max() < 0.06
+        mc = monte_carlo_covariance(P[0], S[0], src, dst, n=20_000, rng=rng)  # σ_θ ≈ 0.1 rad
         uns = lb.convert_covariance(P[0], S[0], src, dst, method="unscented")
         Lu = np.linalg.inv(np.linalg.cholesky(uns))
         assert np.abs(Lu @ mc @ Lu.T - np.eye(23)).max() < 0.06
@@ -634,3 +636,16 @@ def test_sphere_edge_angles_and_batches(angle: float) -> None:
     assert hs.shape == (2, 3, 3)
     np.testing.assert_allclose(sph.retract(gs[1, 2], ds[1, 2]), hs[1, 2], atol=1e-15)
     np.testing.assert_allclose(sph.local(gs, hs), ds, atol=1e-9)
+
+
+@pytest.mark.parametrize("name", STATES15)
+def test_mola_monte_carlo_to_every_15_dim_presets_nav_chart(name: str) -> None:
+    rng = np.random.default_rng(40 + STATES15.index(name))
+    X = C.nav_state(so3.exp(rng.normal(size=3)), rng.normal(size=3) * 30, rng.normal(size=3))
+    nav = C.get(name).blocks[0][1]
+    cov = _cov(rng, 9, 0.02)
+    for src, dst in ((C.MOLA, nav), (nav, C.MOLA)):
+        mc = monte_carlo_covariance(cov, X, src, dst, n=20_000, rng=rng)
+        uns = lb.convert_covariance(cov, X, src, dst, method="unscented")
+        Li = np.linalg.inv(np.linalg.cholesky(uns))
+        assert np.abs(Li @ mc @ Li.T - np.eye(9)).max() < 0.06
