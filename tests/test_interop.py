@@ -223,6 +223,9 @@ NOT_A_POSE = {
     "Bundle.element": "X is a block-diagonal bundle element (no library has a bundle object)",
     "Bundle.split": "X is a block-diagonal bundle element (no library has a bundle object)",
     "NavChart.dim": "X is ignored: a navigation chart's tangent always has 9 entries",
+    "Bundle.sub_element": "X is a block-diagonal bundle element (no library has a bundle object)",
+    "Sphere.dim": "X is ignored: the tangent of S² always has 2 entries",
+    "Sphere.element": "X is a [[I, g], [0, 1]] S² block of a bundle (no library has one)",
 }
 PUBLIC = [
     ("se3", "liebridge.lie.se3"),
