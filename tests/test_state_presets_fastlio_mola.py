@@ -210,6 +210,10 @@ def test_sphere_bad_input() -> None:
         sph.local([0, 0, -G_LEN], [0, 0, G_LEN])
     with pytest.raises(ValueError, match="basis"):
         C.Sphere(1.0, "mtk_w")
+    with pytest.raises(ValueError, match=r"w: not tangent at n .* batch index \(1,\)"):
+        s2.exp([[0, 0, 1.0], [0, 0, 1.0]], [[0.1, 0, 0], [0.1, 0, 0.2]])
+    with pytest.raises(ValueError, match=r"n: not a unit vector at batch index \(\)"):
+        s2.log([0, 0, 2.0], [0, 0, 1.0])
     with pytest.raises(ValueError, match="length must be positive"):
         C.Sphere(-1.0)
 

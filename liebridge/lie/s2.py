@@ -61,6 +61,13 @@ def exp(n: Any, w: Any) -> FloatArray:
     n = unit_vector(n)
     w = validate.vector(w, "w", 3)
     t = np.linalg.norm(w, axis=-1)
+    off = np.abs(_dot(n, w))
+    bad = off > 1e-9 * (1.0 + t)
+    if bad.any():
+        i = tuple(int(k) for k in np.argwhere(bad)[0]) if bad.ndim else ()
+        raise ValueError(
+            f"w: not tangent at n (w ⟂ n) at batch index {i}: |n·w| = {float(off[i]):.3g}"
+        )
     small = t < _SMALL
     ts = np.where(small, 1.0, t)
     sinc = np.where(small, 1.0 - t**2 / 6.0 + t**4 / 120.0, np.sin(ts) / ts)
