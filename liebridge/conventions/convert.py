@@ -108,8 +108,7 @@ def _compiled_plan(src: Any, dst: Any) -> _Plan | None:
         return None
     plan: _Plan | None = None
     simple = (
-        _convert_ext is not None
-        and a.group in ("se3", "so3")
+        a.group in ("se3", "so3")
         and b.group in ("se3", "so3")
         and not (a.is_euler or b.is_euler or isinstance(a, Bundle) or isinstance(b, Bundle))
         and a.embed is None
