@@ -45,17 +45,21 @@ static inline double horner(const double *c, double t2) {
     return acc;
 }
 
-/* series.py: sinc, one_minus_cos_over_t2, t_minus_sin_over_t3, jinv_coeff */
-static inline double coef_A(const Coef *C, double t) {
-    return t < C->small ? horner(C->c[0], t * t) : sin(t) / t;
-}
-static inline double coef_B(const Coef *C, double t) {
-    if (t < C->small) return horner(C->c[1], t * t);
-    double h = sin(0.5 * t) / t;
-    return 2.0 * (h * h);
-}
-static inline double coef_C(const Coef *C, double t) {
-    return t < C->small ? horner(C->c[2], t * t) : (t - sin(t)) / (t * t * t);
+/* series.py: sinc, one_minus_cos_over_t2, t_minus_sin_over_t3, jinv_coeff (the closed forms as
+   there; exp_coefs evaluates A, B, C from one sin/cos pair of the half angle, sin t = 2 sh ch) */
+static inline void exp_coefs(const Coef *C, double t, double *A, double *B, double *Cc) {
+    if (t < C->small) {
+        double t2 = t * t;
+        *A = horner(C->c[0], t2);
+        *B = horner(C->c[1], t2);
+        if (Cc) *Cc = horner(C->c[2], t2);
+        return;
+    }
+    double h = 0.5 * t, sh = sin(h), ch = cos(h); /* one sincos */
+    double it = 1.0 / t, st = 2.0 * sh * ch, q = sh * it;
+    *A = st * it;
+    *B = 2.0 * (q * q);
+    if (Cc) *Cc = (t - st) * (it * it * it);
 }
 static inline double coef_D(const Coef *C, double t) {
     if (t < C->small) return horner(C->c[3], t * t);
@@ -120,9 +124,12 @@ static inline void so3_log(const Coef *C, const double *R, int s, double *w) {
     double r20 = R[2 * s], r21 = R[2 * s + 1], r22 = R[2 * s + 2];
     double s0 = 0.5 * (r21 - r12), s1 = 0.5 * (r02 - r20), s2 = 0.5 * (r10 - r01);
     double c = 0.5 * (r00 + r11 + r22 - 1.0);
-    double theta = atan2(sqrt(s0 * s0 + s1 * s1 + s2 * s2), c);
+    double y = sqrt(s0 * s0 + s1 * s1 + s2 * s2);
+    double theta = atan2(y, c);
     if (!(c < -0.5)) { /* generic and small angles: w = theta / sin(theta) s */
-        double k = 1.0 / coef_A(C, theta);
+        /* sin(atan2(y, c)) = y / hypot(y, c): no second transcendental call (cos theta >= -1/2) */
+        double k = theta < C->small ? 1.0 / horner(C->c[0], theta * theta)
+                                    : theta * sqrt(y * y + c * c) / y;
         w[0] = s0 * k;
         w[1] = s1 * k;
         w[2] = s2 * k;
@@ -150,15 +157,18 @@ static inline int tangent_ok(const double *x, int n, double maxc) {
     return fabs(x[0]) <= maxc && fabs(x[1]) <= maxc && fabs(x[2]) <= maxc;
 }
 
-static Py_ssize_t run(int op, const Coef *C, const double *x, double *out, Py_ssize_t N,
-                      double tol, double maxc) {
+static inline __attribute__((always_inline)) Py_ssize_t run_op(int op, const Coef *C,
+                                                               const double *x, double *out,
+                                                               Py_ssize_t N, double tol,
+                                                               double maxc) {
     static const int in_size[5] = {3, 9, 6, 16, 16}, out_size[5] = {9, 3, 16, 6, 36};
     const int is = in_size[op], os = out_size[op];
     for (Py_ssize_t e = 0; e < N; e++, x += is, out += os) {
         if (op == 0) {
             if (!tangent_ok(x, 3, maxc)) return e;
-            double t = sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
-            poly(x, coef_A(C, t), coef_B(C, t), out, 3);
+            double t = sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]), A, B;
+            exp_coefs(C, t, &A, &B, NULL);
+            poly(x, A, B, out, 3);
         } else if (op == 1) {
             if (!rotation_ok(x, 3, tol)) return e;
             so3_log(C, x, 3, out);
@@ -166,7 +176,8 @@ static Py_ssize_t run(int op, const Coef *C, const double *x, double *out, Py_ss
             if (!tangent_ok(x, 6, maxc)) return e;
             double w0 = x[0], w1 = x[1], w2 = x[2], v0 = x[3], v1 = x[4], v2 = x[5];
             double t = sqrt(w0 * w0 + w1 * w1 + w2 * w2);
-            double A = coef_A(C, t), B = coef_B(C, t), Cc = coef_C(C, t);
+            double A, B, Cc;
+            exp_coefs(C, t, &A, &B, &Cc);
             poly(x, A, B, out, 4);
             double Bw0 = B * w0, Bw1 = B * w1, Bw2 = B * w2;
             double Cd = Cc * (w0 * v0 + w1 * v1 + w2 * v2);
@@ -206,9 +217,22 @@ static Py_ssize_t run(int op, const Coef *C, const double *x, double *out, Py_ss
                 out[30 + c] = t0 * v1 - t1 * v0;
             }
         }
-        if (!finite_n(out, os)) return e;
+        /* so3.exp/log: finite by construction from certified input (|R_ij| <= 1, |w| <= pi) */
+        if (op != 0 && op != 1 && !finite_n(out, os)) return e;
     }
     return -1;
+}
+
+/* one copy of the loop per op (op constant inside: no dispatch per element) */
+static Py_ssize_t run(int op, const Coef *C, const double *x, double *out, Py_ssize_t N,
+                      double tol, double maxc) {
+    switch (op) {
+    case 0: return run_op(0, C, x, out, N, tol, maxc);
+    case 1: return run_op(1, C, x, out, N, tol, maxc);
+    case 2: return run_op(2, C, x, out, N, tol, maxc);
+    case 3: return run_op(3, C, x, out, N, tol, maxc);
+    default: return run_op(4, C, x, out, N, tol, maxc);
+    }
 }
 
 static int get_buffer(PyObject *obj, Py_buffer *view, int writable) {
