@@ -36,7 +36,13 @@
 
 #define MAXN 6
 
+#if defined(__GNUC__) || defined(__clang__)
 #define INLINE static inline __attribute__((always_inline))
+#elif defined(_MSC_VER)
+#define INLINE static __forceinline
+#else
+#define INLINE static inline
+#endif
 #define NPRIM 5 /* I, R, R^T, hat(t) R, -R^T hat(t): tangent_maps.PRIMITIVES */
 
 /* a tangent map as a grid of 3x3 blocks, block (i, j) = sum_p c[i][j][p] P_p(X) */

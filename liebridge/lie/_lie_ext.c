@@ -33,6 +33,13 @@
 #include <string.h>
 
 #define NS 9 /* terms of each series */
+#if defined(__GNUC__) || defined(__clang__)
+#define INLINE static inline __attribute__((always_inline))
+#elif defined(_MSC_VER)
+#define INLINE static __forceinline
+#else
+#define INLINE static inline
+#endif
 
 typedef struct {
     double c[4][NS];
@@ -157,10 +164,8 @@ static inline int tangent_ok(const double *x, int n, double maxc) {
     return fabs(x[0]) <= maxc && fabs(x[1]) <= maxc && fabs(x[2]) <= maxc;
 }
 
-static inline __attribute__((always_inline)) Py_ssize_t run_op(int op, const Coef *C,
-                                                               const double *x, double *out,
-                                                               Py_ssize_t N, double tol,
-                                                               double maxc) {
+INLINE Py_ssize_t run_op(int op, const Coef *C, const double *x, double *out, Py_ssize_t N,
+                         double tol, double maxc) {
     static const int in_size[5] = {3, 9, 6, 16, 16}, out_size[5] = {9, 3, 16, 6, 36};
     const int is = in_size[op], os = out_size[op];
     for (Py_ssize_t e = 0; e < N; e++, x += is, out += os) {
