@@ -68,11 +68,11 @@ static inline void exp_coefs(const Coef *C, double t, double *A, double *B, doub
     *B = 2.0 * (q * q);
     if (Cc) *Cc = (t - st) * (it * it * it);
 }
-static inline double coef_D(const Coef *C, double t) {
+/* D(t) = 1/t^2 - cot(t/2)/(2t) with cot(t/2) given (see so3_log: from R, no trig call) */
+static inline double coef_D(const Coef *C, double t, double cot_half) {
     if (t < C->small) return horner(C->c[3], t * t);
-    return 1.0 / (t * t) - cos(0.5 * t) / (2.0 * t * sin(0.5 * t));
+    return 1.0 / (t * t) - cot_half / (2.0 * t);
 }
-
 /* ||R^T R - I||_F <= tol and det R > 0 (R with row stride s) */
 static inline int rotation_ok(const double *R, int s, double tol) {
     double r00 = R[0], r01 = R[1], r02 = R[2];
@@ -124,8 +124,10 @@ static inline void poly(const double *w, double a, double b, double *R, int s) {
     R[2 * s + 1] = p12 + aw0;
 }
 
-/* so3._log of R (row stride s) into w */
-static inline void so3_log(const Coef *C, const double *R, int s, double *w) {
+/* so3._log of R (row stride s) into w; *cot_half = cot(theta/2) from y = |vee(R - R^T)/2|,
+   c = (tr R - 1)/2 and r = hypot(y, c) (cos theta = c/r, sin theta = y/r): (r + c)/y for c >= 0,
+   y/(r - c) otherwise, sums of two non-negative terms (no cancellation); 0 at theta = pi. */
+static inline void so3_log(const Coef *C, const double *R, int s, double *w, double *cot_half) {
     double r00 = R[0], r01 = R[1], r02 = R[2];
     double r10 = R[s], r11 = R[s + 1], r12 = R[s + 2];
     double r20 = R[2 * s], r21 = R[2 * s + 1], r22 = R[2 * s + 2];
@@ -133,6 +135,10 @@ static inline void so3_log(const Coef *C, const double *R, int s, double *w) {
     double c = 0.5 * (r00 + r11 + r22 - 1.0);
     double y = sqrt(s0 * s0 + s1 * s1 + s2 * s2);
     double theta = atan2(y, c);
+    if (cot_half) {
+        double r = sqrt(y * y + c * c);
+        *cot_half = c >= 0.0 ? (r + c) / y : y / (r - c);
+    }
     if (!(c < -0.5)) { /* generic and small angles: w = theta / sin(theta) s */
         /* sin(atan2(y, c)) = y / hypot(y, c): no second transcendental call (cos theta >= -1/2) */
         double k = theta < C->small ? 1.0 / horner(C->c[0], theta * theta)
@@ -176,7 +182,7 @@ INLINE Py_ssize_t run_op(int op, const Coef *C, const double *x, double *out, Py
             poly(x, A, B, out, 3);
         } else if (op == 1) {
             if (!rotation_ok(x, 3, tol)) return e;
-            so3_log(C, x, 3, out);
+            so3_log(C, x, 3, out, NULL);
         } else if (op == 2) { /* se3._exp_block */
             if (!tangent_ok(x, 6, maxc)) return e;
             double w0 = x[0], w1 = x[1], w2 = x[2], v0 = x[3], v1 = x[4], v2 = x[5];
@@ -194,10 +200,11 @@ INLINE Py_ssize_t run_op(int op, const Coef *C, const double *x, double *out, Py
         } else if (op == 3) { /* se3._log_block */
             if (!pose_ok(x, tol)) return e;
             double w[3];
-            so3_log(C, x, 4, w);
+            double cot_half;
+            so3_log(C, x, 4, w, &cot_half);
             double w0 = w[0], w1 = w[1], w2 = w[2];
             double t0 = x[3], t1 = x[7], t2 = x[11];
-            double D = coef_D(C, sqrt(w0 * w0 + w1 * w1 + w2 * w2));
+            double D = coef_D(C, sqrt(w0 * w0 + w1 * w1 + w2 * w2), cot_half);
             double c0 = w1 * t2 - w2 * t1, c1 = w2 * t0 - w0 * t2, c2 = w0 * t1 - w1 * t0;
             out[0] = w0;
             out[1] = w1;
