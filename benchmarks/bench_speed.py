@@ -8,11 +8,20 @@ interleaved and repeated (median); memory rows report the peak traced by ``trace
   default 10⁶), time and peak memory against the arrays returned;
 * ``unscented``: ``convert_covariance(method="unscented")`` chunked (default) vs one pass, at
   ``--uns-n`` (default 20,000) covariances, time and traced peak; then 10⁶ chunked;
-* ``batched``: ``convert_covariance`` gtsam→barfoot at 10⁵ poses vs the vectorised numpy a user
-  would write (``M @ Σ @ Mᵀ``, ``M = P·Ad``), and one memory pass (copy of input + output);
-* ``single``: the same for one pose vs ``P @ gtsam.Pose3(T).AdjointMap()`` (``run.single``).
+* ``batched`` (``batched_all``; ``batched`` keeps the headline gtsam→barfoot covariance row):
+  every batched conversion at 10⁵ poses — ``convert_covariance`` gtsam→barfoot and gtsam→ros,
+  ``convert_information``, ``tangent_map``, ``convert_jacobian`` on either side — as liebridge
+  runs it (the compiled pass where built), its numpy fallback, the vectorised numpy a user would
+  write (``_hand_maps``: the map block by block, then batched matmuls) and one memory pass (a
+  copy of every input and of an output-sized array); targets ≥ 1.5× faster than the hand numpy
+  and ≤ 3× a memory pass;
+* ``single`` (and ``single_more``): one pose vs the same expression with GTSAM's ``Pose3``
+  (``run.single``: ``P @ gtsam.Pose3(T).AdjointMap()``), target ≤ 1.3×;
+* ``kernels``: ``se3.exp/log/adjoint``, ``so3.exp/log`` at 10⁶, compiled and numpy, against one
+  memory pass (target ≤ 3×). jaxlie is not installed here: not compared.
 
-Usage: ``python benchmarks/bench_speed.py [--quick] [--out benchmarks/results/speed.json]``.
+Usage: ``python benchmarks/bench_speed.py [--quick] [--parts batched,single,kernels]
+[--out benchmarks/results/speed.json]`` (rows of parts not run are kept from ``--out``).
 """
 
 from __future__ import annotations
