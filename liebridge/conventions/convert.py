@@ -18,6 +18,7 @@ for a large covariance there :func:`convert_covariance` offers ``method="unscent
 
 from __future__ import annotations
 
+import functools
 import re
 import types
 from typing import Any, Literal
@@ -79,8 +80,6 @@ COMPILED = _convert_ext is not None
 
 #: ``(grid_pose, grid_pose_2, grid_rot, grid_rot_2, rotation tolerance)``, see _convert_ext.c
 _Plan = tuple[Any, Any, Any, Any, float]
-#: Plans by the ``(src, dst)`` arguments as given (names or Conventions); None: numpy only.
-_PLANS: dict[tuple[Any, Any], _Plan | None] = {}
 
 
 def _grids(a: Convention, b: Convention, so3: bool) -> tuple[Any, Any]:
@@ -93,20 +92,18 @@ def _compiled_plan(src: Any, dst: Any) -> _Plan | None:
 
     The kernel covers the SE(3)/SO(3) conventions whose map is the closed-form grid of
     ``tangent_maps.py`` (not Euler angles, embeddings or bundles). Anything the kernel does not
-    cover, including an unknown name, gets None: the numpy path then raises its usual error.
+    cover, including an unknown name or an unhashable argument, gets None: the numpy path then
+    raises its usual error. Plans are memoized (a bounded cache: they depend only on the pair).
     """
-    key = (src, dst)
     try:
-        return _PLANS[key]
-    except KeyError:
-        pass
-    except TypeError:  # unhashable arguments: the numpy path says what is wrong
-        return None
-    try:
-        a, b = get(src), get(dst)
+        return _plan_for(src, dst)
     except (TypeError, ValueError):
         return None
-    plan: _Plan | None = None
+
+
+@functools.lru_cache(maxsize=1024)
+def _plan_for(src: Any, dst: Any) -> _Plan | None:
+    a, b = get(src), get(dst)
     simple = (
         a.group in ("se3", "so3")
         and b.group in ("se3", "so3")
@@ -114,13 +111,12 @@ def _compiled_plan(src: Any, dst: Any) -> _Plan | None:
         and a.embed is None
         and b.embed is None
     )
-    if simple:
-        pose = a.group == "se3" and b.group == "se3"  # else X must be a rotation (_element)
-        p1, p2 = _grids(a, b, False) if pose else (None, None)
-        r1, r2 = _grids(a, b, True)
-        plan = (p1, p2, r1, r2, validate.ROTATION_TOL)
-    _PLANS[key] = plan
-    return plan
+    if not simple:
+        return None
+    pose = a.group == "se3" and b.group == "se3"  # else X must be a rotation (_element)
+    p1, p2 = _grids(a, b, False) if pose else (None, None)
+    r1, r2 = _grids(a, b, True)
+    return (p1, p2, r1, r2, validate.ROTATION_TOL)
 
 
 def _map_shape(X: FloatArray) -> tuple[int, ...] | None:
