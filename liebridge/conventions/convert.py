@@ -121,9 +121,10 @@ def _plan_for(src: Any, dst: Any) -> _Plan | None:
 
 def _map_shape(X: FloatArray) -> tuple[int, ...] | None:
     """``X``'s batch shape + ``(n, n)`` for a pose or rotation array, else None."""
-    if X.ndim < 2:
+    k = X.shape[-1] if X.ndim >= 2 else 0
+    if (k != 4 and k != 3) or X.shape[-2] != k:
         return None
-    n = 6 if X.shape[-1] == 4 else 3
+    n = 6 if k == 4 else 3
     return (*X.shape[:-2], n, n)
 
 

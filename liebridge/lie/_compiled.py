@@ -35,13 +35,13 @@ except ImportError:  # pragma: no cover - the build skips it where no C compiler
 COMPILED = _lie_ext is not None
 
 SO3_EXP, SO3_LOG, SE3_EXP, SE3_LOG, SE3_ADJOINT = range(5)
-#: Per op: number of core input axes and the core output shape.
-_CORE: dict[int, tuple[int, tuple[int, ...]]] = {
-    SO3_EXP: (1, (3, 3)),
-    SO3_LOG: (2, (3,)),
-    SE3_EXP: (1, (4, 4)),
-    SE3_LOG: (2, (6,)),
-    SE3_ADJOINT: (2, (6, 6)),
+#: Per op: the core input shape and the core output shape.
+_CORE: dict[int, tuple[tuple[int, ...], tuple[int, ...]]] = {
+    SO3_EXP: ((3,), (3, 3)),
+    SO3_LOG: ((3, 3), (3,)),
+    SE3_EXP: ((6,), (4, 4)),
+    SE3_LOG: ((4, 4), (6,)),
+    SE3_ADJOINT: ((4, 4), (6, 6)),
 }
 #: The Maclaurin coefficients of series.py's sinc, (1 − cos θ)/θ², (θ − sin θ)/θ³, D(θ).
 _COEF = np.ascontiguousarray(
@@ -56,8 +56,9 @@ def run(op: int, x: object) -> FloatArray | None:
     """Evaluate kernel ``op`` on ``x`` in C, or return None (then the numpy kernel decides)."""
     if _lie_ext is None or type(x) is not np.ndarray:
         return None
-    k, core = _CORE[op]
-    if x.ndim < k:
+    core_in, core = _CORE[op]
+    k = len(core_in)
+    if x.shape[x.ndim - k :] != core_in or x.ndim < k:
         return None
     out = np.empty((*x.shape[: x.ndim - k], *core))
     r = _lie_ext.kernel(op, x, out, _COEF, SMALL_ANGLE, validate.ROTATION_TOL, _MAX_COMPONENT)
