@@ -18,7 +18,9 @@ for a large covariance there :func:`convert_covariance` offers ``method="unscent
 
 from __future__ import annotations
 
+import functools
 import re
+import types
 from typing import Any, Literal
 
 import numpy as np
@@ -30,6 +32,7 @@ from .convention import Convention
 from .cubature import cubature_rule_5, sqrt_psd
 from .navstate import NavChart, nav_exactly_linear
 from .registry import ConventionLike, get
+from .tangent_maps import pair_map_coefficients
 from .unchecked import tangent_map as unchecked_map
 
 __all__ = [
@@ -61,6 +64,69 @@ def _element(a: Convention, b: Convention, X: Any, name: str = "X") -> FloatArra
     """Validate ``X`` as an element of the (common) group of ``a`` and ``b``."""
     _check_groups(a, b)
     return (b if a.group == "se3" else a).element(X, name)
+
+
+# --------------------------------------------------------------------------------------------
+# the compiled validate-and-convert pass (optional; built from _convert_ext.c with the package)
+
+_convert_ext: types.ModuleType | None
+try:
+    from . import _convert_ext
+except ImportError:  # pragma: no cover - the build skips it where no C compiler is found
+    _convert_ext = None
+
+#: Whether the compiled pass was built (``liebridge/conventions/_convert_ext.c``). Without it the
+#: same numbers come from numpy (``benchmarks/bench_speed.py`` measures both).
+COMPILED = _convert_ext is not None
+
+#: ``(grid_pose, grid_pose_2, grid_rot, grid_rot_2, rotation tolerance)``, see _convert_ext.c
+_Plan = tuple[Any, Any, Any, Any, float]
+
+
+def _grids(a: Convention, b: Convention, so3: bool) -> tuple[Any, Any]:
+    t = pair_map_coefficients(a, b, so3)
+    return t[0], (t[1] if len(t) > 1 else None)
+
+
+def _compiled_plan(src: Any, dst: Any) -> _Plan | None:
+    """Return the compiled kernel's plan for ``tangent_map(·, src, dst)``, or None (numpy only).
+
+    The kernel covers the SE(3)/SO(3) conventions whose map is the closed-form grid of
+    ``tangent_maps.py`` (not Euler angles, embeddings or bundles). Anything the kernel does not
+    cover, including an unknown name or an unhashable argument, gets None: the numpy path then
+    raises its usual error. Plans are memoized (a bounded cache: they depend only on the pair).
+    """
+    try:
+        return _plan_for(src, dst)
+    except (TypeError, ValueError):
+        return None
+
+
+@functools.lru_cache(maxsize=1024)
+def _plan_for(src: Any, dst: Any) -> _Plan | None:
+    a, b = get(src), get(dst)
+    simple = (
+        a.group in ("se3", "so3")
+        and b.group in ("se3", "so3")
+        and not (a.is_euler or b.is_euler or isinstance(a, Bundle) or isinstance(b, Bundle))
+        and a.embed is None
+        and b.embed is None
+    )
+    if not simple:
+        return None
+    pose = a.group == "se3" and b.group == "se3"  # else X must be a rotation (_element)
+    p1, p2 = _grids(a, b, False) if pose else (None, None)
+    r1, r2 = _grids(a, b, True)
+    return (p1, p2, r1, r2, validate.ROTATION_TOL)
+
+
+def _map_shape(X: FloatArray) -> tuple[int, ...] | None:
+    """``X``'s batch shape + ``(n, n)`` for a pose or rotation array, else None."""
+    k = X.shape[-1] if X.ndim >= 2 else 0
+    if (k != 4 and k != 3) or X.shape[-2] != k:
+        return None
+    n = 6 if k == 4 else 3
+    return (*X.shape[:-2], n, n)
 
 
 def is_exactly_linear(src: ConventionLike, dst: ConventionLike) -> bool:
@@ -99,6 +165,13 @@ def tangent_map(X: Any, src: ConventionLike, dst: ConventionLike) -> FloatArray:
     ndarray, shape (..., 6, 6) or (..., 3, 3)
         ``M = ∂/∂d dst.local(X, src.retract(X, d)) |_{d=0}``, closed form.
     """
+    if _convert_ext is not None and type(X) is np.ndarray:
+        plan = _compiled_plan(src, dst)
+        shape = _map_shape(X)
+        if plan is not None and shape is not None:
+            out = np.empty(shape)
+            if _convert_ext.transform(0, plan, X, None, out) == -1:
+                return out
     a, b = get(src), get(dst)
     return validate.finite_output(unchecked_map(_element(a, b, X), a, b), "tangent_map")
 
@@ -156,7 +229,25 @@ def convert_covariance(
     Returns
     -------
     ndarray, shape (..., n, n)
+
+    Notes
+    -----
+    Where the compiled pass is built (:data:`COMPILED`), ``method="linear"`` on float64 arrays
+    with equal batch shapes validates and converts each element in one C loop; an element it
+    cannot certify sends the whole call through the numpy path, which accepts it or raises the
+    same error as without the compiled pass.
     """
+    if (
+        _convert_ext is not None
+        and method == "linear"
+        and type(cov) is np.ndarray
+        and type(X) is np.ndarray
+    ):
+        plan = _compiled_plan(src, dst)
+        if plan is not None:
+            res = np.empty(cov.shape)
+            if _convert_ext.transform(1, plan, X, cov, res) == -1:
+                return res
     if method != "linear" and method != "unscented":  # "Linear", " unscented": as all options
         method = validate.option(method, "method", ("linear", "unscented"))
     a, b = get(src), get(dst)
@@ -239,6 +330,12 @@ def convert_information(info: Any, X: Any, src: ConventionLike, dst: ConventionL
     ``M⁻¹ = tangent_map(X, dst, src)`` in closed form.
     Works for singular (rank-deficient) information: nothing is inverted.
     """
+    if _convert_ext is not None and type(info) is np.ndarray and type(X) is np.ndarray:
+        plan = _compiled_plan(dst, src)  # M⁻¹ = tangent_map(X, dst, src)
+        if plan is not None:
+            out = np.empty(info.shape)
+            if _convert_ext.transform(2, plan, X, info, out) == -1:
+                return out
     a, b = get(src), get(dst)
     Xa = _element(a, b, X)
     n = a.dim(Xa)
@@ -274,6 +371,10 @@ def convert_jacobian(
     -------
     ndarray, shape (..., m, n)
     """
+    if _convert_ext is not None and type(J) is np.ndarray and J.ndim >= 2:
+        out = _jacobian_compiled(J, src, dst, at_input, at_output)
+        if out is not None:
+            return out
     a, b = get(src), get(dst)
     Jm = validate.as_float_array(J, "J")
     if Jm.ndim < 2:
@@ -296,3 +397,32 @@ def convert_jacobian(
             raise ValueError(f"J: {Jm.shape[-2]} rows, but the output tangent has {Mo.shape[-1]}")
         Jm = Mo @ Jm
     return validate.finite_output(np.asarray(Jm, dtype=np.float64), "convert_jacobian")
+
+
+def _jacobian_compiled(
+    J: FloatArray, src: Any, dst: Any, at_input: Any, at_output: Any
+) -> FloatArray | None:
+    """:func:`convert_jacobian` by the compiled pass, or None (then numpy decides)."""
+    assert _convert_ext is not None
+    if at_input is None and at_output is None:
+        return None
+    if at_input is not None:
+        if type(at_input) is not np.ndarray:
+            return None
+        plan = _compiled_plan(dst, src)  # M(X)⁻¹ = tangent_map(X, dst, src)
+        if plan is None:
+            return None
+        out = np.empty(J.shape)
+        if _convert_ext.transform(3, plan, at_input, J, out) != -1:
+            return None
+        J = out
+    if at_output is not None:
+        if type(at_output) is not np.ndarray:
+            return None
+        plan = _compiled_plan(src, dst)
+        if plan is None:
+            return None
+        out = np.empty(J.shape)
+        if _convert_ext.transform(4, plan, at_output, J, out) != -1:
+            return None
+    return out

@@ -293,3 +293,32 @@ def pair_tangent_map(src: Convention, dst: Convention, so3: bool) -> _GridMap | 
             )
         _PAIR_MAPS[key] = m
     return m
+
+
+#: Order of the primitives in :func:`pair_map_coefficients` (and in ``_convert_ext.c``).
+PRIMITIVES = ("I", "R", "Rt", "tR", "mRtt")
+
+
+def _grid_coefficients(m: _GridMap) -> FloatArray:
+    """Return a grid as an array ``(blocks, blocks, 5)``: coefficients of :data:`PRIMITIVES`."""
+    nb = len(m.grid)
+    C = np.zeros((nb, nb, len(PRIMITIVES)))
+    for bi, row in enumerate(m.grid):
+        for bj, block in enumerate(row):
+            for prim, coef in block:
+                C[bi, bj, PRIMITIVES.index(prim)] += coef
+    return C
+
+
+def pair_map_coefficients(src: Convention, dst: Convention, so3: bool) -> tuple[FloatArray, ...]:
+    """Return the pair map of :func:`pair_tangent_map` as coefficient grids (compiled kernel).
+
+    Block ``(i, j)`` (3×3) of ``M`` is ``Σ_p C[i, j, p] · P_p(X)`` over the primitives
+    ``I, R, Rᵀ, hat(t)·R, −Rᵀ·hat(t)`` (:data:`PRIMITIVES`). One grid, or two (``M = M₁(X) ·
+    M₂(X)``) when neither factor is constant. ``_convert_ext.c`` evaluates them element by
+    element.
+    """
+    m = pair_tangent_map(src, dst, so3)
+    if isinstance(m, _ProductMap):
+        return (_grid_coefficients(m.A), _grid_coefficients(m.B))
+    return (_grid_coefficients(m),)

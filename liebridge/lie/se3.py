@@ -27,8 +27,8 @@ import numpy as np
 
 from .. import _validate as validate
 from .._validate import FloatArray
+from . import _compiled, so3
 from . import _matrix_group as _mg
-from . import so3
 from .series import (
     jinv_coeff,
     one_minus_cos_over_t2,
@@ -211,6 +211,9 @@ def exp(xi: Any) -> FloatArray:
 
     ``Exp(ξ) = [[Exp(ω), V(ω) v], [0, 1]]`` with ``V = so3.jl``. GTSAM ``Pose3.Expmap``.
     """
+    out = _compiled.run(_compiled.SE3_EXP, xi)  # the compiled pass where built, else None
+    if out is not None:
+        return out
     return validate.finite_output(_exp(validate.tangent(xi, "xi", 6)), "se3.exp")
 
 
@@ -220,6 +223,9 @@ def log(T: Any) -> FloatArray:
     ``ω = so3.log(R)``, ``v = V(ω)⁻¹ t`` with ``V⁻¹ = so3.jl_inv`` (finite up to θ = π).
     GTSAM ``Pose3.Logmap``.
     """
+    out = _compiled.run(_compiled.SE3_LOG, T)  # the compiled pass where built, else None
+    if out is not None:
+        return out
     return validate.finite_output(_log(validate.pose(T, "T")), "se3.log")
 
 
@@ -244,6 +250,9 @@ def adjoint(T: Any) -> FloatArray:
     Defining identity: ``T·Exp(ξ)·T⁻¹ = Exp(Ad_T ξ)``; ``Ad_{T1 T2} = Ad_{T1} Ad_{T2}``.
     GTSAM ``Pose3.AdjointMap``.
     """
+    out = _compiled.run(_compiled.SE3_ADJOINT, T)  # the compiled pass where built, else None
+    if out is not None:
+        return out
     return validate.finite_output(_adjoint(validate.pose(T, "T")), "se3.adjoint")
 
 

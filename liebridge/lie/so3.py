@@ -21,6 +21,7 @@ import numpy as np
 
 from .. import _validate as validate
 from .._validate import FloatArray
+from . import _compiled
 from .series import jinv_coeff, one_minus_cos_over_t2, sinc, t_minus_sin_over_t3
 
 __all__ = [
@@ -138,6 +139,9 @@ def exp(w: Any) -> FloatArray:
 
     ``Exp(ω) = I + (sin θ/θ) hat(ω) + ((1 − cos θ)/θ²) hat(ω)²``, Taylor series near 0.
     """
+    out = _compiled.run(_compiled.SO3_EXP, w)  # the compiled pass where built, else None
+    if out is not None:
+        return out
     return validate.finite_output(_exp(validate.tangent(w, "w", 3)), "so3.exp")
 
 
@@ -186,6 +190,9 @@ def log(R: Any) -> FloatArray:
     at θ = π exactly both ``±π u`` are logarithms and the one with the sign of that column is
     returned. Raises ``ValueError`` on a non-rotation (see :mod:`liebridge._validate`).
     """
+    out = _compiled.run(_compiled.SO3_LOG, R)
+    if out is not None:
+        return out
     return _log(validate.rotation(R, "R"))
 
 
