@@ -304,192 +304,253 @@ static PyObject *window_sums(PyObject *self, PyObject *args) {
 /* ----------------------------------------------------------------------------------------------
  * combined_integrate: GTSAM's PreintegratedCombinedMeasurements (tangent preintegration, 15x15
  * covariance) as one sequential loop. Mirrors GTSAM 4.3 TangentPreintegration::update /
- * UpdatePreintegrated and PreintegratedCombinedMeasurements::integrateMeasurement exactly (the
- * theta recursion theta += Jr(theta)^-1 w dt is nonlinear, so it stays sequential); the 15x15
- * propagation F S F^T skips F's zero blocks. Output layout (doubles):
+ * UpdatePreintegrated and PreintegratedCombinedMeasurements::integrateMeasurement (the theta
+ * recursion theta += Jr(theta)^-1 w dt is nonlinear, so it stays sequential). Per sample, with
+ * A = I + dt d(Jr^-1 w)/dtheta, C = Jr^-1 dt, M = R [-a]x Jr dt, Bv = R dt, h = dt/2:
+ *   theta' = A theta + C b_g + nu,   X = M theta + Bv b_a + eta,   v' = v + X,
+ *   p' = p + dt v + h X + iota,      b_a' = b_a + w_a,             b_g' = b_g + w_g
+ * (GTSAM's F: its p row is h times its v row plus dt v, and the acc noise enters p as h times v).
+ * The covariance is propagated in 3x3 blocks that use this structure: Cov(theta, b_a) = 0 and
+ * Cov(b_a, b_g) = 0 stay zero, Cov(b_a, b_a) = T Q_ba and Cov(b_g, b_g) = T Q_bg are closed form,
+ * and p, v are integrators, so F P F^T is about 600 multiply-adds instead of ~6,750 (the Python
+ * loop in combined.py is the dense reference). Output layout (doubles):
  *   0..8 preintegrated (theta, p, v), 9 T, 10..234 cov (15x15, (theta, p, v, b_a, b_g)),
  *   235..261 H_biasAcc (9x3), 262..288 H_biasOmega (9x3).
- * Covariances: acc, gyro, int, bias_acc, bias_omega (3x3 each, row-major), bias_init (6x6).
+ * Covariances `cv`: acc, gyro, int, bias_acc, bias_omega (3x3 each, row-major; 45 doubles).
  */
 #define C_OUT 289
+#define C_COV 45
 
-static void mat3_mul(const double *A, const double *B, double *C) {
+/* O = A B, O += A B, O = A B^T, O += A B^T (3x3, row-major) */
+static inline void m3(const double *restrict A, const double *restrict B, double *restrict O) {
     for (int i = 0; i < 3; i++)
         for (int j = 0; j < 3; j++)
-            C[3 * i + j] = A[3 * i] * B[j] + A[3 * i + 1] * B[3 + j] + A[3 * i + 2] * B[6 + j];
+            O[3 * i + j] = A[3 * i] * B[j] + A[3 * i + 1] * B[3 + j] + A[3 * i + 2] * B[6 + j];
 }
-
-static void mat3_inv(const double *A, double *X) {
-    double c00 = A[4] * A[8] - A[5] * A[7], c01 = A[5] * A[6] - A[3] * A[8];
-    double c02 = A[3] * A[7] - A[4] * A[6];
-    double det = A[0] * c00 + A[1] * c01 + A[2] * c02, id = 1.0 / det;
-    X[0] = c00 * id; X[1] = (A[2] * A[7] - A[1] * A[8]) * id; X[2] = (A[1] * A[5] - A[2] * A[4]) * id;
-    X[3] = c01 * id; X[4] = (A[0] * A[8] - A[2] * A[6]) * id; X[5] = (A[2] * A[3] - A[0] * A[5]) * id;
-    X[6] = c02 * id; X[7] = (A[1] * A[6] - A[0] * A[7]) * id; X[8] = (A[0] * A[4] - A[1] * A[3]) * id;
+static inline void m3_acc(const double *restrict A, const double *restrict B, double *restrict O) {
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            O[3 * i + j] += A[3 * i] * B[j] + A[3 * i + 1] * B[3 + j] + A[3 * i + 2] * B[6 + j];
 }
-
-/* Exp(th) (R), right Jacobian Jr (dexp), and B, C, dB = B'/t, dC = C'/t */
-static void dexp_terms(const double th[3], double R[9], double Jr[9], double *Bo, double *Co,
-                       double *dBo, double *dCo) {
-    double t2 = th[0] * th[0] + th[1] * th[1] + th[2] * th[2], t = sqrt(t2);
-    double A, B, C, dB, dC;
-    if (t < 1e-2) {
-        A = 1.0 - t2 / 6.0 + t2 * t2 / 120.0 - t2 * t2 * t2 / 5040.0;
-        B = 0.5 - t2 / 24.0 + t2 * t2 / 720.0 - t2 * t2 * t2 / 40320.0;
-        C = 1.0 / 6.0 - t2 / 120.0 + t2 * t2 / 5040.0 - t2 * t2 * t2 / 362880.0;
-        dB = -1.0 / 12.0 + t2 / 180.0 - t2 * t2 / 6720.0;
-        dC = -1.0 / 60.0 + t2 / 1260.0 - t2 * t2 / 60480.0;
-    } else {
-        double st = sin(t), ct = cos(t), t4 = t2 * t2;
-        A = st / t;
-        B = (1.0 - ct) / t2;
-        C = (t - st) / (t2 * t);
-        dB = (t * st - 2.0 * (1.0 - ct)) / t4;
-        dC = (1.0 - ct) / t4 - 3.0 * (t - st) / (t4 * t);
-    }
-    double W[9] = {0, -th[2], th[1], th[2], 0, -th[0], -th[1], th[0], 0}, W2[9];
-    mat3_mul(W, W, W2);
-    for (int i = 0; i < 9; i++) {
-        double I = (i % 4 == 0) ? 1.0 : 0.0;
-        R[i] = I + A * W[i] + B * W2[i];
-        Jr[i] = I - B * W[i] + C * W2[i];
-    }
-    *Bo = B; *Co = C; *dBo = dB; *dCo = dC;
+static inline void m3t(const double *restrict A, const double *restrict B, double *restrict O) {
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            O[3 * i + j] = A[3 * i] * B[3 * j] + A[3 * i + 1] * B[3 * j + 1] + A[3 * i + 2] * B[3 * j + 2];
 }
+static inline void m3t_acc(const double *restrict A, const double *restrict B, double *restrict O) {
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            O[3 * i + j] += A[3 * i] * B[3 * j] + A[3 * i + 1] * B[3 * j + 1] + A[3 * i + 2] * B[3 * j + 2];
+}
+/* the upper triangle of A B^T added to O (O's lower triangle is not read nor written) */
+static inline void m3t_upper_acc(const double *restrict A, const double *restrict B, double *restrict O) {
+    for (int i = 0; i < 3; i++)
+        for (int j = i; j < 3; j++)
+            O[3 * i + j] += A[3 * i] * B[3 * j] + A[3 * i + 1] * B[3 * j + 1] + A[3 * i + 2] * B[3 * j + 2];
+}
+static inline void mirror3(double *O) { O[3] = O[1]; O[6] = O[2]; O[7] = O[5]; }
 
+/* The loop. Block names: P<row><col> = Cov(row, col) of the state before the sample, rows/cols
+   t = theta, g = b_g, a = b_a, p, v; Cov(a, a) = T Qa and Cov(g, g) = T Qg are not stored. */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) \
+    && !defined(LIEBRIDGE_NO_CLONES)
+/* one build for every x86-64 CPU; the x86-64-v3 clone (AVX2, FMA) is chosen at load time */
+__attribute__((target_clones("arch=x86-64-v3", "default")))
+#endif
 static void combined_loop(const double *acc, const double *gyro, const double *dt, Py_ssize_t n,
                           const double *bias, const double *cv, double *out) {
-    const double *aCov = cv, *wCov = cv + 9, *iCov = cv + 18, *baCov = cv + 27, *bgCov = cv + 36;
-    const double *bI = cv + 45; /* 6x6 */
+    const double *aCov = cv, *wCov = cv + 9, *iCov = cv + 18, *Qa = cv + 27, *Qg = cv + 36;
     double x[9] = {0}, T = 0.0;
-    double S[225] = {0}, Hba[27] = {0}, Hbg[27] = {0};
-    /* the structural non-zeros of F, row by row */
-    int nz[15][8], nnz[15];
-    for (int i = 0; i < 15; i++) {
-        int q = 0;
-        if (i < 9) { nz[i][q++] = 0; nz[i][q++] = 1; nz[i][q++] = 2; }
-        if (i < 3) { nz[i][q++] = 12; nz[i][q++] = 13; nz[i][q++] = 14; }
-        else if (i < 6) { nz[i][q++] = i; nz[i][q++] = i + 3; }
-        else if (i < 9) nz[i][q++] = i;
-        if (i >= 3 && i < 9) { nz[i][q++] = 9; nz[i][q++] = 10; nz[i][q++] = 11; }
-        if (i >= 9) nz[i][q++] = i;
-        nnz[i] = q;
-    }
+    double Ptt[9] = {0}, Ptg[9] = {0}, Ptv[9] = {0}, Ptp[9] = {0}, Pgv[9] = {0}, Pgp[9] = {0};
+    double Pav[9] = {0}, Pap[9] = {0}, Pvv[9] = {0}, Ppv[9] = {0}, Ppp[9] = {0};
+    double Hav[9] = {0}, Hap[9] = {0}, Hgt[9] = {0}, Hgp[9] = {0}, Hgv[9] = {0};
     for (Py_ssize_t k = 0; k < n; k++) {
-        double d = dt[k], d22 = 0.5 * d * d;
-        double a[3], w[3], *th = x;
-        for (int i = 0; i < 3; i++) { a[i] = acc[3 * k + i] - bias[i]; w[i] = gyro[3 * k + i] - bias[3 + i]; }
-        double R[9], Jr[9], iJ[9], B, C, dB, dC;
-        dexp_terms(th, R, Jr, &B, &C, &dB, &dC);
-        mat3_inv(Jr, iJ);
-        double c[3];
-        for (int i = 0; i < 3; i++) c[i] = iJ[3 * i] * w[0] + iJ[3 * i + 1] * w[1] + iJ[3 * i + 2] * w[2];
-        /* H = d(Jr(th) c)/dth = B[c]x + (c x th) dB th^T + C((th.c) I + th c^T - 2 c th^T)
-               + (th x (th x c)) dC th^T ; w_tangent_H_theta = -Jr^-1 H */
-        double cxt[3] = {c[1] * th[2] - c[2] * th[1], c[2] * th[0] - c[0] * th[2], c[0] * th[1] - c[1] * th[0]};
-        double txc[3] = {-cxt[0], -cxt[1], -cxt[2]};
-        double ttc[3] = {th[1] * txc[2] - th[2] * txc[1], th[2] * txc[0] - th[0] * txc[2], th[0] * txc[1] - th[1] * txc[0]};
-        double tc = th[0] * c[0] + th[1] * c[1] + th[2] * c[2];
-        double Cc[9] = {0, -c[2], c[1], c[2], 0, -c[0], -c[1], c[0], 0};
-        double H[9], WH[9];
-        for (int i = 0; i < 3; i++)
-            for (int j = 0; j < 3; j++)
-                H[3 * i + j] = B * Cc[3 * i + j] + cxt[i] * dB * th[j]
-                    + C * ((i == j ? tc : 0.0) + th[i] * c[j] - 2.0 * c[i] * th[j]) + ttc[i] * dC * th[j];
-        mat3_mul(iJ, H, WH);
-        /* a_nav_H_theta = R [-a]x Jr */
-        double Am[9] = {0, a[2], -a[1], -a[2], 0, a[0], a[1], -a[0], 0}, RA[9], aH[9];
-        mat3_mul(R, Am, RA);
-        mat3_mul(RA, Jr, aH);
-        double an[3];
-        for (int i = 0; i < 3; i++) an[i] = R[3 * i] * a[0] + R[3 * i + 1] * a[1] + R[3 * i + 2] * a[2];
-        /* F (15x15) rows as sparse (col, value) lists */
-        double F[225] = {0};
-        for (int i = 0; i < 15; i++) F[16 * i] = 1.0;
-        for (int i = 0; i < 3; i++)
-            for (int j = 0; j < 3; j++) {
-                F[15 * i + j] -= WH[3 * i + j] * d;                 /* theta: I + w_t_H_th dt */
-                F[15 * (3 + i) + j] = aH[3 * i + j] * d22;          /* p wrt theta */
-                F[15 * (6 + i) + j] = aH[3 * i + j] * d;            /* v wrt theta */
-                F[15 * i + 12 + j] = iJ[3 * i + j] * d;             /* theta wrt omega (C) */
-                F[15 * (3 + i) + 9 + j] = R[3 * i + j] * d22;       /* p wrt acc (B) */
-                F[15 * (6 + i) + 9 + j] = R[3 * i + j] * d;         /* v wrt acc (B) */
-            }
-        for (int i = 0; i < 3; i++) F[15 * (3 + i) + 6 + i] = d;
-        /* bias Jacobians: H_new = A H - B (acc), A H - C (omega); A = F[0:9, 0:9] */
-        double nHa[27], nHg[27];
-        for (int i = 0; i < 9; i++)
-            for (int j = 0; j < 3; j++) {
-                double sa = 0.0, sg = 0.0;
-                for (int m = 0; m < 9; m++) { sa += F[15 * i + m] * Hba[3 * m + j]; sg += F[15 * i + m] * Hbg[3 * m + j]; }
-                nHa[3 * i + j] = sa - F[15 * i + 9 + j];
-                nHg[3 * i + j] = sg - F[15 * i + 12 + j];
-            }
-        for (int i = 0; i < 27; i++) { Hba[i] = nHa[i]; Hbg[i] = nHg[i]; }
-        /* S <- F S F^T, skipping zeros of F */
-        double M[225];
-        for (int i = 0; i < 15; i++)
-            for (int j = 0; j < 15; j++) {
-                double s = 0.0;
-                for (int q = 0; q < nnz[i]; q++) s += F[15 * i + nz[i][q]] * S[15 * nz[i][q] + j];
-                M[15 * i + j] = s;
-            }
-        for (int i = 0; i < 15; i++)
-            for (int j = i; j < 15; j++) {
-                double s = 0.0;
-                for (int q = 0; q < nnz[j]; q++) s += M[15 * i + nz[j][q]] * F[15 * j + nz[j][q]];
-                S[15 * i + j] = s;
-            }
-        for (int i = 0; i < 15; i++) for (int j = 0; j < i; j++) S[15 * i + j] = S[15 * j + i];
-        /* noise: G Q G^T with G = [[0, Cth, 0], [Bp, 0, I], [Bv, 0, 0]] (acc, gyro, int) plus
-           bias random walk and GTSAM's biasAccOmegaInt term with G0 = -[[0, Cth], [Bp, 0], [Bv, 0]] */
-        double Gm[9 * 6] = {0}; /* rows theta,p,v ; cols acc(3), omega(3) */
-        for (int i = 0; i < 3; i++)
-            for (int j = 0; j < 3; j++) {
-                Gm[6 * i + 3 + j] = iJ[3 * i + j] * d;
-                Gm[6 * (3 + i) + j] = R[3 * i + j] * d22;
-                Gm[6 * (6 + i) + j] = R[3 * i + j] * d;
-            }
-        double Q[36] = {0};
-        for (int i = 0; i < 3; i++)
-            for (int j = 0; j < 3; j++) { Q[6 * i + j] = aCov[3 * i + j]; Q[6 * (3 + i) + 3 + j] = wCov[3 * i + j]; }
-        for (int i = 0; i < 36; i++) Q[i] = (Q[i] + bI[i]) / d; /* same G for both: (-G) bI (-G)^T */
-        /* bInit cross blocks theta-p use bI off-diagonal blocks: included through the full 6x6 */
-        double GQ[54];
-        for (int i = 0; i < 9; i++)
-            for (int j = 0; j < 6; j++) {
-                double s = 0.0;
-                for (int m = 0; m < 6; m++) s += Gm[6 * i + m] * Q[6 * m + j];
-                GQ[6 * i + j] = s;
-            }
-        for (int i = 0; i < 9; i++)
-            for (int j = 0; j < 9; j++) {
-                double s = 0.0;
-                for (int m = 0; m < 6; m++) s += GQ[6 * i + m] * Gm[6 * j + m];
-                S[15 * i + j] += s;
-            }
-        for (int i = 0; i < 3; i++)
-            for (int j = 0; j < 3; j++) {
-                S[15 * (3 + i) + 3 + j] += d * iCov[3 * i + j];
-                S[15 * (9 + i) + 9 + j] += d * baCov[3 * i + j];
-                S[15 * (12 + i) + 12 + j] += d * bgCov[3 * i + j];
-            }
-        /* state update */
-        double wt[3];
-        for (int i = 0; i < 3; i++) wt[i] = c[i];
+        const double d = dt[k], h = 0.5 * d, d22 = h * d;
+        const double *th = x;
+        double a[3], w[3];
         for (int i = 0; i < 3; i++) {
-            double pn = x[3 + i] + x[6 + i] * d + an[i] * d22;
-            double vn = x[6 + i] + an[i] * d;
-            x[i] += wt[i] * d;
-            x[3 + i] = pn;
-            x[6 + i] = vn;
+            a[i] = acc[3 * k + i] - bias[i];
+            w[i] = gyro[3 * k + i] - bias[3 + i];
+        }
+        /* Exp(th) = I + A1 W + B W^2, Jr = I - B W + C W^2, Jr^-1 = I + W/2 + D W^2; dB, dC are
+           B'/t, C'/t (the same branches as the Python reference) */
+        double t2 = th[0] * th[0] + th[1] * th[1] + th[2] * th[2];
+        double A1, B, C, dB, dC, D;
+        if (t2 < 1e-4) {
+            double t4 = t2 * t2, t6 = t4 * t2;
+            A1 = 1.0 - t2 / 6.0 + t4 / 120.0 - t6 / 5040.0;
+            B = 0.5 - t2 / 24.0 + t4 / 720.0 - t6 / 40320.0;
+            C = 1.0 / 6.0 - t2 / 120.0 + t4 / 5040.0 - t6 / 362880.0;
+            dB = -1.0 / 12.0 + t2 / 180.0 - t4 / 6720.0;
+            dC = -1.0 / 60.0 + t2 / 1260.0 - t4 / 60480.0;
+            D = 1.0 / 12.0 + t2 / 720.0 + t4 / 30240.0 + t6 / 1209600.0;
+        } else {
+            double t = sqrt(t2), st = sin(t), ct = cos(t), t4 = t2 * t2, omc = 1.0 - ct;
+            A1 = st / t;
+            B = omc / t2;
+            C = (t - st) / (t2 * t);
+            dB = (t * st - 2.0 * omc) / t4;
+            dC = omc / t4 - 3.0 * (t - st) / (t4 * t);
+            D = (1.0 - 0.5 * A1 / B) / t2;
+        }
+        double W[9] = {0, -th[2], th[1], th[2], 0, -th[0], -th[1], th[0], 0}, W2[9];
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++) W2[3 * i + j] = th[i] * th[j] - (i == j ? t2 : 0.0);
+        double R[9], Jl[9], iJ[9];
+        for (int i = 0; i < 9; i++) {
+            double I = (i % 4 == 0) ? 1.0 : 0.0;
+            R[i] = I + A1 * W[i] + B * W2[i];
+            Jl[i] = I + B * W[i] + C * W2[i]; /* = R Jr = Jr^T */
+            iJ[i] = I + 0.5 * W[i] + D * W2[i];
+        }
+        double c[3], an[3];
+        for (int i = 0; i < 3; i++) {
+            c[i] = iJ[3 * i] * w[0] + iJ[3 * i + 1] * w[1] + iJ[3 * i + 2] * w[2];
+            an[i] = R[3 * i] * a[0] + R[3 * i + 1] * a[1] + R[3 * i + 2] * a[2];
+        }
+        /* H = d(Jr(th) c)/dth = B [c]x + u th^T + C((th.c) I + th c^T - 2 c th^T) with
+           u = dB (c x th) + dC th x (th x c); Jr^-1 H with Jr^-1 th = th:
+           B Jr^-1 [c]x + C (th.c) Jr^-1 + C th c^T + Jr^-1 (u - 2 C c) th^T; A = I - dt Jr^-1 H */
+        double cxt[3] = {c[1] * th[2] - c[2] * th[1], c[2] * th[0] - c[0] * th[2],
+                         c[0] * th[1] - c[1] * th[0]};
+        double tc = th[0] * c[0] + th[1] * c[1] + th[2] * c[2];
+        double e[3], f[3];
+        for (int i = 0; i < 3; i++) /* th x (th x c) = th (th.c) - c t2 */
+            e[i] = dB * cxt[i] + dC * (th[i] * tc - c[i] * t2) - 2.0 * C * c[i];
+        for (int i = 0; i < 3; i++) f[i] = iJ[3 * i] * e[0] + iJ[3 * i + 1] * e[1] + iJ[3 * i + 2] * e[2];
+        double Am[9], Cm[9], M[9], Bv[9];
+        const double Ctc = C * tc;
+        for (int i = 0; i < 3; i++) {
+            const double *r = iJ + 3 * i;
+            double rxc[3] = {r[1] * c[2] - r[2] * c[1], r[2] * c[0] - r[0] * c[2],
+                             r[0] * c[1] - r[1] * c[0]}; /* row i of Jr^-1 [c]x */
+            for (int j = 0; j < 3; j++) {
+                double wh = B * rxc[j] + Ctc * r[j] + C * th[i] * c[j] + f[i] * th[j];
+                Am[3 * i + j] = (i == j ? 1.0 : 0.0) - d * wh;
+                Cm[3 * i + j] = d * r[j];
+                Bv[3 * i + j] = d * R[3 * i + j];
+            }
+        }
+        /* M = R [-a]x Jr dt = -[R a]x Jl dt */
+        for (int j = 0; j < 3; j++) {
+            M[j] = -d * (an[1] * Jl[6 + j] - an[2] * Jl[3 + j]);
+            M[3 + j] = -d * (an[2] * Jl[j] - an[0] * Jl[6 + j]);
+            M[6 + j] = -d * (an[0] * Jl[3 + j] - an[1] * Jl[j]);
+        }
+        /* bias Jacobians (old values on the right): H_biasAcc's theta rows stay 0 */
+        double MHg[9], nHgt[9];
+        m3(M, Hgt, MHg);
+        m3(Am, Hgt, nHgt);
+        for (int i = 0; i < 9; i++) {
+            Hap[i] += d * Hav[i] - h * Bv[i];
+            Hav[i] -= Bv[i];
+            Hgp[i] += d * Hgv[i] + h * MHg[i];
+            Hgv[i] += MHg[i];
+            Hgt[i] = nHgt[i] - Cm[i];
+        }
+        /* covariance */
+        double Z[9], Wn[9], Yv[9], Yp[9], Xt[9], Xg[9], Xv[9], Xp[9], Xa[9], ZM[9], TQ[9], XX[9];
+        m3(Am, Ptt, Z);
+        m3t_acc(Cm, Ptg, Z);                   /* Z = A Ptt + C Ptg^T */
+        for (int i = 0; i < 9; i++) TQ[i] = T * Qg[i];
+        m3(Am, Ptg, Wn);
+        m3_acc(Cm, TQ, Wn);                    /* W = A Ptg + C T Qg = Cov(theta', b_g') */
+        m3(Am, Ptv, Yv);
+        m3_acc(Cm, Pgv, Yv);
+        m3(Am, Ptp, Yp);
+        m3_acc(Cm, Pgp, Yp);
+        m3(M, Ptt, Xt);                        /* Cov(X, theta) */
+        m3(M, Ptg, Xg);                        /* Cov(X, b_g) */
+        m3(M, Ptv, Xv);
+        m3_acc(Bv, Pav, Xv);                   /* Cov(X, v) */
+        m3(M, Ptp, Xp);
+        m3_acc(Bv, Pap, Xp);                   /* Cov(X, p) */
+        for (int i = 0; i < 9; i++) TQ[i] = T * Qa[i];
+        m3(Bv, TQ, Xa);                        /* Cov(X, b_a) */
+        m3t(Z, M, ZM);                         /* Cov(theta', X) */
+        /* XX = M Xt^T + dt R (T dt Qa + aCov) R^T (upper triangle) */
+        double Q1[9], RQ[9];
+        for (int i = 0; i < 9; i++) Q1[i] = d * (T * d * Qa[i] + aCov[i]);
+        m3(R, Q1, RQ);
+        for (int i = 0; i < 9; i++) XX[i] = 0.0;
+        m3t_upper_acc(M, Xt, XX);
+        m3t_upper_acc(RQ, R, XX);
+        mirror3(XX);
+        /* Ptt' = Z A^T + W C^T + dt Jr^-1 wCov Jr^-T (upper triangle) */
+        double Kw[9];
+        m3(iJ, wCov, Kw);
+        for (int i = 0; i < 9; i++) { Kw[i] *= d; Ptt[i] = 0.0; }
+        m3t_upper_acc(Z, Am, Ptt);
+        m3t_upper_acc(Wn, Cm, Ptt);
+        m3t_upper_acc(Kw, iJ, Ptt);
+        mirror3(Ptt);
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++) {
+                int ij = 3 * i + j, ji = 3 * j + i;
+                Ppp[ij] += d * (Ppv[ij] + Ppv[ji]) + d * d * Pvv[ij] + h * (Xp[ji] + Xp[ij])
+                           + h * d * (Xv[ji] + Xv[ij]) + h * h * XX[ij] + d * iCov[ij];
+            }
+        /* Ppv' and Pvv' after Ppp' (Ppp' reads Ppv at (i,j) and (j,i)) */
+        {
+            double nPv[9];
+            for (int i = 0; i < 3; i++)
+                for (int j = 0; j < 3; j++) {
+                    int ij = 3 * i + j, ji = 3 * j + i;
+                    nPv[ij] = Ppv[ij] + Xp[ji] + d * (Pvv[ij] + Xv[ji]) + h * (Xv[ij] + XX[ij]);
+                }
+            for (int i = 0; i < 3; i++)
+                for (int j = 0; j < 3; j++) {
+                    int ij = 3 * i + j, ji = 3 * j + i;
+                    Pvv[ij] += Xv[ji] + Xv[ij] + XX[ij];
+                }
+            for (int i = 0; i < 9; i++) Ppv[i] = nPv[i];
+        }
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++) {
+                int ij = 3 * i + j, ji = 3 * j + i;
+                Ptv[ij] = Yv[ij] + ZM[ij];
+                Ptp[ij] = Yp[ij] + d * Yv[ij] + h * ZM[ij];
+                Pgp[ij] += d * Pgv[ij] + h * Xg[ji];
+                Pgv[ij] += Xg[ji];
+                Pap[ij] += d * Pav[ij] + h * Xa[ji];
+                Pav[ij] += Xa[ji];
+                Ptg[ij] = Wn[ij];
+            }
+        /* state */
+        for (int i = 0; i < 3; i++) {
+            x[3 + i] += x[6 + i] * d + an[i] * d22;
+            x[6 + i] += an[i] * d;
+            x[i] += c[i] * d;
         }
         T += d;
     }
     for (int i = 0; i < 9; i++) out[i] = x[i];
     out[9] = T;
-    for (int i = 0; i < 225; i++) out[10 + i] = S[i];
-    for (int i = 0; i < 27; i++) { out[235 + i] = Hba[i]; out[262 + i] = Hbg[i]; }
+    double *S = out + 10;
+    for (int i = 0; i < 225; i++) S[i] = 0.0;
+    /* blocks of the 15x15 in (theta, p, v, b_a, b_g): (row block, col block) <- 3x3, transposed? */
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++) {
+            int ij = 3 * i + j;
+#define SET(r, c, val) S[15 * (3 * (r) + i) + 3 * (c) + j] = (val)
+            SET(0, 0, Ptt[ij]); SET(0, 1, Ptp[ij]); SET(0, 2, Ptv[ij]); SET(0, 4, Ptg[ij]);
+            SET(1, 0, Ptp[3 * j + i]); SET(2, 0, Ptv[3 * j + i]); SET(4, 0, Ptg[3 * j + i]);
+            SET(1, 1, Ppp[ij]); SET(1, 2, Ppv[ij]); SET(2, 1, Ppv[3 * j + i]); SET(2, 2, Pvv[ij]);
+            SET(3, 1, Pap[ij]); SET(1, 3, Pap[3 * j + i]); SET(3, 2, Pav[ij]); SET(2, 3, Pav[3 * j + i]);
+            SET(4, 1, Pgp[ij]); SET(1, 4, Pgp[3 * j + i]); SET(4, 2, Pgv[ij]); SET(2, 4, Pgv[3 * j + i]);
+            SET(3, 3, T * Qa[ij]); SET(4, 4, T * Qg[ij]);
+#undef SET
+        }
+    /* bias Jacobians, rows (theta, p, v) */
+    for (int i = 0; i < 27; i++) out[235 + i] = out[262 + i] = 0.0;
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++) {
+            out[235 + 3 * (3 + i) + j] = Hap[3 * i + j];
+            out[235 + 3 * (6 + i) + j] = Hav[3 * i + j];
+            out[262 + 3 * i + j] = Hgt[3 * i + j];
+            out[262 + 3 * (3 + i) + j] = Hgp[3 * i + j];
+            out[262 + 3 * (6 + i) + j] = Hgv[3 * i + j];
+        }
 }
 
 static PyObject *combined_integrate(PyObject *self, PyObject *args) {
@@ -506,7 +567,7 @@ static PyObject *combined_integrate(PyObject *self, PyObject *args) {
     else if (n < 1 || dt_b.len % (Py_ssize_t)sizeof(double) != 0) bad = "dt: no samples";
     else if (acc_b.len != 3 * dt_b.len || gyro_b.len != 3 * dt_b.len) bad = "acc/gyro: not (n, 3)";
     else if (bias_b.len != 6 * (Py_ssize_t)sizeof(double)) bad = "bias: not 6 doubles";
-    else if (cov_b.len != 81 * (Py_ssize_t)sizeof(double)) bad = "cov: not 81 doubles";
+    else if (cov_b.len != C_COV * (Py_ssize_t)sizeof(double)) bad = "cov: not 45 doubles";
     else if (out_b.len != C_OUT * (Py_ssize_t)sizeof(double)) bad = "out: wrong size";
     if (bad == NULL) {
         const double *acc = acc_b.buf, *gyro = gyro_b.buf, *dt = dt_b.buf, *bias = bias_b.buf;

@@ -225,10 +225,8 @@ def preintegrate_combined(
     bgyro = validate.covariance(
         np.array(params.getBiasOmegaCovariance(), dtype=np.float64), "params.biasOmegaCovariance", 3
     )
-    # GTSAM ≤ 4.2's biasAccOmegaInt term does not exist in 4.3: its slot stays zero
-    cv = np.concatenate(
-        [P.acc_cov, P.gyro_cov, P.int_cov, bacc, bgyro, np.zeros((4, 9))], axis=None
-    )
+    # GTSAM ≤ 4.2's biasAccOmegaInt term does not exist in 4.3 (no slot for it)
+    cv = np.concatenate([P.acc_cov, P.gyro_cov, P.int_cov, bacc, bgyro], axis=None)
     if compiled and not _kernel.COMPILED:
         raise ValueError("compiled=True: the compiled kernel is not built")
     ext = _kernel._imu_ext
