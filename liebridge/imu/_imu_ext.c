@@ -321,34 +321,77 @@ static PyObject *window_sums(PyObject *self, PyObject *args) {
 #define C_OUT 289
 #define C_COV 45
 
-/* O = A B, O += A B, O = A B^T, O += A B^T (3x3, row-major) */
-static inline void m3(const double *restrict A, const double *restrict B, double *restrict O) {
-    for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++)
-            O[3 * i + j] = A[3 * i] * B[j] + A[3 * i + 1] * B[3 + j] + A[3 * i + 2] * B[6 + j];
+/* 3x3 blocks as three rows of a 4-lane vector (lane 3 unused, kept 0): a product L R is three
+   broadcast-multiply-adds per row, which the compiler maps to SIMD (2 SSE2 or 1 AVX op a row). */
+#if defined(__GNUC__) || defined(__clang__)
+#pragma GCC diagnostic ignored "-Wpsabi" /* the vector helpers are always inlined: no ABI */
+typedef double vec __attribute__((vector_size(32)));
+#define VX(a, i) ((a)[i])
+#define INLINE static inline __attribute__((always_inline))
+INLINE vec vmk(double a, double b, double c) {
+    vec r = {a, b, c, 0.0};
+    return r;
 }
-static inline void m3_acc(const double *restrict A, const double *restrict B, double *restrict O) {
-    for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++)
-            O[3 * i + j] += A[3 * i] * B[j] + A[3 * i + 1] * B[3 + j] + A[3 * i + 2] * B[6 + j];
+#define VADD(a, b) ((a) + (b))
+#define VSUB(a, b) ((a) - (b))
+#define VSCALE(s, a) ((s) * (a))
+#else
+typedef struct { double x[4]; } vec;
+#define VX(a, i) ((a).x[i])
+#define INLINE static inline
+static inline vec vmk(double a, double b, double c) { vec r = {{a, b, c, 0.0}}; return r; }
+static inline vec vadd_(vec a, vec b) { for (int i = 0; i < 4; i++) a.x[i] += b.x[i]; return a; }
+static inline vec vsub_(vec a, vec b) { for (int i = 0; i < 4; i++) a.x[i] -= b.x[i]; return a; }
+static inline vec vscale_(double s, vec a) { for (int i = 0; i < 4; i++) a.x[i] *= s; return a; }
+#define VADD(a, b) vadd_((a), (b))
+#define VSUB(a, b) vsub_((a), (b))
+#define VSCALE(s, a) vscale_((s), (a))
+#endif
+
+typedef struct { vec r[3]; } m3x;
+
+INLINE m3x mz(void) {
+    m3x o;
+    for (int i = 0; i < 3; i++) o.r[i] = vmk(0.0, 0.0, 0.0);
+    return o;
 }
-static inline void m3t(const double *restrict A, const double *restrict B, double *restrict O) {
-    for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++)
-            O[3 * i + j] = A[3 * i] * B[3 * j] + A[3 * i + 1] * B[3 * j + 1] + A[3 * i + 2] * B[3 * j + 2];
+INLINE m3x mload(const double *a) { /* row-major 3x3 */
+    m3x o;
+    for (int i = 0; i < 3; i++) o.r[i] = vmk(a[3 * i], a[3 * i + 1], a[3 * i + 2]);
+    return o;
 }
-static inline void m3t_acc(const double *restrict A, const double *restrict B, double *restrict O) {
+INLINE void mstore(m3x a, double *o) {
     for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++)
-            O[3 * i + j] += A[3 * i] * B[3 * j] + A[3 * i + 1] * B[3 * j + 1] + A[3 * i + 2] * B[3 * j + 2];
+        for (int j = 0; j < 3; j++) o[3 * i + j] = VX(a.r[i], j);
 }
-/* the upper triangle of A B^T added to O (O's lower triangle is not read nor written) */
-static inline void m3t_upper_acc(const double *restrict A, const double *restrict B, double *restrict O) {
+/* L R */
+INLINE m3x mm(m3x L, m3x R) {
+    m3x o;
     for (int i = 0; i < 3; i++)
-        for (int j = i; j < 3; j++)
-            O[3 * i + j] += A[3 * i] * B[3 * j] + A[3 * i + 1] * B[3 * j + 1] + A[3 * i + 2] * B[3 * j + 2];
+        o.r[i] = VADD(VADD(VSCALE(VX(L.r[i], 0), R.r[0]), VSCALE(VX(L.r[i], 1), R.r[1])),
+                      VSCALE(VX(L.r[i], 2), R.r[2]));
+    return o;
 }
-static inline void mirror3(double *O) { O[3] = O[1]; O[6] = O[2]; O[7] = O[5]; }
+/* O + L R */
+INLINE m3x mma(m3x O, m3x L, m3x R) {
+    for (int i = 0; i < 3; i++)
+        O.r[i] = VADD(O.r[i], VADD(VADD(VSCALE(VX(L.r[i], 0), R.r[0]), VSCALE(VX(L.r[i], 1), R.r[1])),
+                                   VSCALE(VX(L.r[i], 2), R.r[2])));
+    return O;
+}
+INLINE m3x mt(m3x a) {
+    m3x o;
+    for (int i = 0; i < 3; i++) o.r[i] = vmk(VX(a.r[0], i), VX(a.r[1], i), VX(a.r[2], i));
+    return o;
+}
+INLINE m3x madd(m3x a, m3x b) {
+    for (int i = 0; i < 3; i++) a.r[i] = VADD(a.r[i], b.r[i]);
+    return a;
+}
+INLINE m3x mscale(double s, m3x a) {
+    for (int i = 0; i < 3; i++) a.r[i] = VSCALE(s, a.r[i]);
+    return a;
+}
 
 /* The loop. Block names: P<row><col> = Cov(row, col) of the state before the sample, rows/cols
    t = theta, g = b_g, a = b_a, p, v; Cov(a, a) = T Qa and Cov(g, g) = T Qg are not stored. */
@@ -359,21 +402,22 @@ __attribute__((target_clones("arch=x86-64-v3", "default")))
 #endif
 static void combined_loop(const double *acc, const double *gyro, const double *dt, Py_ssize_t n,
                           const double *bias, const double *cv, double *out) {
-    const double *aCov = cv, *wCov = cv + 9, *iCov = cv + 18, *Qa = cv + 27, *Qg = cv + 36;
-    double x[9] = {0}, T = 0.0;
-    double Ptt[9] = {0}, Ptg[9] = {0}, Ptv[9] = {0}, Ptp[9] = {0}, Pgv[9] = {0}, Pgp[9] = {0};
-    double Pav[9] = {0}, Pap[9] = {0}, Pvv[9] = {0}, Ppv[9] = {0}, Ppp[9] = {0};
-    double Hav[9] = {0}, Hap[9] = {0}, Hgt[9] = {0}, Hgp[9] = {0}, Hgv[9] = {0};
+    const m3x aCov = mload(cv), wCov = mload(cv + 9), iCov = mload(cv + 18), Qa = mload(cv + 27),
+              Qg = mload(cv + 36);
+    double th[3] = {0.0, 0.0, 0.0}, T = 0.0;
+    vec p = vmk(0.0, 0.0, 0.0), v = vmk(0.0, 0.0, 0.0);
+    m3x Ptt = mz(), Ptg = mz(), Pgt = mz(), Ptv = mz(), Ptp = mz(), Pgv = mz(), Pgp = mz();
+    m3x Pav = mz(), Pap = mz(), Pvv = mz(), Ppv = mz(), Ppp = mz();
+    m3x Hav = mz(), Hap = mz(), Hgt = mz(), Hgp = mz(), Hgv = mz();
     for (Py_ssize_t k = 0; k < n; k++) {
-        const double d = dt[k], h = 0.5 * d, d22 = h * d;
-        const double *th = x;
+        const double d = dt[k], h = 0.5 * d;
         double a[3], w[3];
         for (int i = 0; i < 3; i++) {
             a[i] = acc[3 * k + i] - bias[i];
             w[i] = gyro[3 * k + i] - bias[3 + i];
         }
-        /* Exp(th) = I + A1 W + B W^2, Jr = I - B W + C W^2, Jr^-1 = I + W/2 + D W^2; dB, dC are
-           B'/t, C'/t (the same branches as the Python reference) */
+        /* Exp(th) = I + A1 W + B W^2, Jl = R Jr = I + B W + C W^2, Jr^-1 = I + W/2 + D W^2;
+           dB, dC are B'/t, C'/t (the same branches as the Python reference) */
         double t2 = th[0] * th[0] + th[1] * th[1] + th[2] * th[2];
         double A1, B, C, dB, dC, D;
         if (t2 < 1e-4) {
@@ -385,40 +429,43 @@ static void combined_loop(const double *acc, const double *gyro, const double *d
             dC = -1.0 / 60.0 + t2 / 1260.0 - t4 / 60480.0;
             D = 1.0 / 12.0 + t2 / 720.0 + t4 / 30240.0 + t6 / 1209600.0;
         } else {
-            double t = sqrt(t2), st = sin(t), ct = cos(t), t4 = t2 * t2, omc = 1.0 - ct;
-            A1 = st / t;
-            B = omc / t2;
-            C = (t - st) / (t2 * t);
-            dB = (t * st - 2.0 * omc) / t4;
-            dC = omc / t4 - 3.0 * (t - st) / (t4 * t);
-            D = (1.0 - 0.5 * A1 / B) / t2;
+            double t = sqrt(t2), it = 1.0 / t, it2 = it * it, st = sin(t), ct = cos(t);
+            double omc = 1.0 - ct;
+            A1 = st * it;
+            B = omc * it2;
+            C = (t - st) * it2 * it;
+            dB = (t * st - 2.0 * omc) * it2 * it2;
+            dC = (omc - 3.0 * C * t2) * it2 * it2;
+            D = (1.0 - 0.5 * A1 / B) * it2;
         }
-        double W[9] = {0, -th[2], th[1], th[2], 0, -th[0], -th[1], th[0], 0}, W2[9];
-        for (int i = 0; i < 3; i++)
-            for (int j = 0; j < 3; j++) W2[3 * i + j] = th[i] * th[j] - (i == j ? t2 : 0.0);
-        double R[9], Jl[9], iJ[9];
-        for (int i = 0; i < 9; i++) {
-            double I = (i % 4 == 0) ? 1.0 : 0.0;
-            R[i] = I + A1 * W[i] + B * W2[i];
-            Jl[i] = I + B * W[i] + C * W2[i]; /* = R Jr = Jr^T */
-            iJ[i] = I + 0.5 * W[i] + D * W2[i];
+        /* W^2 = th th^T - t2 I */
+        double Rm[9], Jl[9], iJ[9];
+        {
+            double W[9] = {0, -th[2], th[1], th[2], 0, -th[0], -th[1], th[0], 0};
+            for (int i = 0; i < 3; i++)
+                for (int j = 0; j < 3; j++) {
+                    int ij = 3 * i + j;
+                    double I = (i == j) ? 1.0 : 0.0, W2 = th[i] * th[j] - (i == j ? t2 : 0.0);
+                    Rm[ij] = I + A1 * W[ij] + B * W2;
+                    Jl[ij] = I + B * W[ij] + C * W2;
+                    iJ[ij] = I + 0.5 * W[ij] + D * W2;
+                }
         }
         double c[3], an[3];
         for (int i = 0; i < 3; i++) {
             c[i] = iJ[3 * i] * w[0] + iJ[3 * i + 1] * w[1] + iJ[3 * i + 2] * w[2];
-            an[i] = R[3 * i] * a[0] + R[3 * i + 1] * a[1] + R[3 * i + 2] * a[2];
+            an[i] = Rm[3 * i] * a[0] + Rm[3 * i + 1] * a[1] + Rm[3 * i + 2] * a[2];
         }
         /* H = d(Jr(th) c)/dth = B [c]x + u th^T + C((th.c) I + th c^T - 2 c th^T) with
-           u = dB (c x th) + dC th x (th x c); Jr^-1 H with Jr^-1 th = th:
-           B Jr^-1 [c]x + C (th.c) Jr^-1 + C th c^T + Jr^-1 (u - 2 C c) th^T; A = I - dt Jr^-1 H */
-        double cxt[3] = {c[1] * th[2] - c[2] * th[1], c[2] * th[0] - c[0] * th[2],
-                         c[0] * th[1] - c[1] * th[0]};
+           u = dB (c x th) + dC th x (th x c); with Jr^-1 th = th, A = I - dt Jr^-1 H where
+           Jr^-1 H = B Jr^-1 [c]x + C (th.c) Jr^-1 + C th c^T + Jr^-1 (u - 2 C c) th^T */
         double tc = th[0] * c[0] + th[1] * c[1] + th[2] * c[2];
-        double e[3], f[3];
-        for (int i = 0; i < 3; i++) /* th x (th x c) = th (th.c) - c t2 */
-            e[i] = dB * cxt[i] + dC * (th[i] * tc - c[i] * t2) - 2.0 * C * c[i];
+        double e[3] = {dB * (c[1] * th[2] - c[2] * th[1]), dB * (c[2] * th[0] - c[0] * th[2]),
+                       dB * (c[0] * th[1] - c[1] * th[0])};
+        for (int i = 0; i < 3; i++) e[i] += dC * (th[i] * tc - c[i] * t2) - 2.0 * C * c[i];
+        double f[3];
         for (int i = 0; i < 3; i++) f[i] = iJ[3 * i] * e[0] + iJ[3 * i + 1] * e[1] + iJ[3 * i + 2] * e[2];
-        double Am[9], Cm[9], M[9], Bv[9];
+        double Ad[9], Md[9];
         const double Ctc = C * tc;
         for (int i = 0; i < 3; i++) {
             const double *r = iJ + 3 * i;
@@ -426,131 +473,101 @@ static void combined_loop(const double *acc, const double *gyro, const double *d
                              r[0] * c[1] - r[1] * c[0]}; /* row i of Jr^-1 [c]x */
             for (int j = 0; j < 3; j++) {
                 double wh = B * rxc[j] + Ctc * r[j] + C * th[i] * c[j] + f[i] * th[j];
-                Am[3 * i + j] = (i == j ? 1.0 : 0.0) - d * wh;
-                Cm[3 * i + j] = d * r[j];
-                Bv[3 * i + j] = d * R[3 * i + j];
+                Ad[3 * i + j] = (i == j ? 1.0 : 0.0) - d * wh;
             }
         }
-        /* M = R [-a]x Jr dt = -[R a]x Jl dt */
+        /* M = R [-a]x Jr dt = -dt [R a]x Jl */
         for (int j = 0; j < 3; j++) {
-            M[j] = -d * (an[1] * Jl[6 + j] - an[2] * Jl[3 + j]);
-            M[3 + j] = -d * (an[2] * Jl[j] - an[0] * Jl[6 + j]);
-            M[6 + j] = -d * (an[0] * Jl[3 + j] - an[1] * Jl[j]);
+            Md[j] = -d * (an[1] * Jl[6 + j] - an[2] * Jl[3 + j]);
+            Md[3 + j] = -d * (an[2] * Jl[j] - an[0] * Jl[6 + j]);
+            Md[6 + j] = -d * (an[0] * Jl[3 + j] - an[1] * Jl[j]);
         }
-        /* bias Jacobians (old values on the right): H_biasAcc's theta rows stay 0 */
-        double MHg[9], nHgt[9];
-        m3(M, Hgt, MHg);
-        m3(Am, Hgt, nHgt);
-        for (int i = 0; i < 9; i++) {
-            Hap[i] += d * Hav[i] - h * Bv[i];
-            Hav[i] -= Bv[i];
-            Hgp[i] += d * Hgv[i] + h * MHg[i];
-            Hgv[i] += MHg[i];
-            Hgt[i] = nHgt[i] - Cm[i];
+        const m3x A = mload(Ad), AT = mt(A), M = mload(Md), MT = mt(M);
+        const m3x iJm = mload(iJ), iJT = mt(iJm), Cm = mscale(d, iJm), CT = mscale(d, iJT);
+        const m3x R = mload(Rm), RT = mt(R), Bv = mscale(d, R), BvT = mscale(d, RT);
+        /* bias Jacobians (old values on the right); H_biasAcc's theta rows stay 0 */
+        {
+            m3x MHg = mm(M, Hgt);
+            Hgt = mm(A, Hgt);
+            for (int i = 0; i < 3; i++) {
+                Hap.r[i] = VADD(Hap.r[i], VSUB(VSCALE(d, Hav.r[i]), VSCALE(h, Bv.r[i])));
+                Hav.r[i] = VSUB(Hav.r[i], Bv.r[i]);
+                Hgp.r[i] = VADD(Hgp.r[i], VADD(VSCALE(d, Hgv.r[i]), VSCALE(h, MHg.r[i])));
+                Hgv.r[i] = VADD(Hgv.r[i], MHg.r[i]);
+                Hgt.r[i] = VSUB(Hgt.r[i], Cm.r[i]);
+            }
         }
         /* covariance */
-        double Z[9], Wn[9], Yv[9], Yp[9], Xt[9], Xg[9], Xv[9], Xp[9], Xa[9], ZM[9], TQ[9], XX[9];
-        m3(Am, Ptt, Z);
-        m3t_acc(Cm, Ptg, Z);                   /* Z = A Ptt + C Ptg^T */
-        for (int i = 0; i < 9; i++) TQ[i] = T * Qg[i];
-        m3(Am, Ptg, Wn);
-        m3_acc(Cm, TQ, Wn);                    /* W = A Ptg + C T Qg = Cov(theta', b_g') */
-        m3(Am, Ptv, Yv);
-        m3_acc(Cm, Pgv, Yv);
-        m3(Am, Ptp, Yp);
-        m3_acc(Cm, Pgp, Yp);
-        m3(M, Ptt, Xt);                        /* Cov(X, theta) */
-        m3(M, Ptg, Xg);                        /* Cov(X, b_g) */
-        m3(M, Ptv, Xv);
-        m3_acc(Bv, Pav, Xv);                   /* Cov(X, v) */
-        m3(M, Ptp, Xp);
-        m3_acc(Bv, Pap, Xp);                   /* Cov(X, p) */
-        for (int i = 0; i < 9; i++) TQ[i] = T * Qa[i];
-        m3(Bv, TQ, Xa);                        /* Cov(X, b_a) */
-        m3t(Z, M, ZM);                         /* Cov(theta', X) */
-        /* XX = M Xt^T + dt R (T dt Qa + aCov) R^T (upper triangle) */
-        double Q1[9], RQ[9];
-        for (int i = 0; i < 9; i++) Q1[i] = d * (T * d * Qa[i] + aCov[i]);
-        m3(R, Q1, RQ);
-        for (int i = 0; i < 9; i++) XX[i] = 0.0;
-        m3t_upper_acc(M, Xt, XX);
-        m3t_upper_acc(RQ, R, XX);
-        mirror3(XX);
-        /* Ptt' = Z A^T + W C^T + dt Jr^-1 wCov Jr^-T (upper triangle) */
-        double Kw[9];
-        m3(iJ, wCov, Kw);
-        for (int i = 0; i < 9; i++) { Kw[i] *= d; Ptt[i] = 0.0; }
-        m3t_upper_acc(Z, Am, Ptt);
-        m3t_upper_acc(Wn, Cm, Ptt);
-        m3t_upper_acc(Kw, iJ, Ptt);
-        mirror3(Ptt);
-        for (int i = 0; i < 3; i++)
-            for (int j = 0; j < 3; j++) {
-                int ij = 3 * i + j, ji = 3 * j + i;
-                Ppp[ij] += d * (Ppv[ij] + Ppv[ji]) + d * d * Pvv[ij] + h * (Xp[ji] + Xp[ij])
-                           + h * d * (Xv[ji] + Xv[ij]) + h * h * XX[ij] + d * iCov[ij];
-            }
-        /* Ppv' and Pvv' after Ppp' (Ppp' reads Ppv at (i,j) and (j,i)) */
-        {
-            double nPv[9];
-            for (int i = 0; i < 3; i++)
-                for (int j = 0; j < 3; j++) {
-                    int ij = 3 * i + j, ji = 3 * j + i;
-                    nPv[ij] = Ppv[ij] + Xp[ji] + d * (Pvv[ij] + Xv[ji]) + h * (Xv[ij] + XX[ij]);
-                }
-            for (int i = 0; i < 3; i++)
-                for (int j = 0; j < 3; j++) {
-                    int ij = 3 * i + j, ji = 3 * j + i;
-                    Pvv[ij] += Xv[ji] + Xv[ij] + XX[ij];
-                }
-            for (int i = 0; i < 9; i++) Ppv[i] = nPv[i];
-        }
-        for (int i = 0; i < 3; i++)
-            for (int j = 0; j < 3; j++) {
-                int ij = 3 * i + j, ji = 3 * j + i;
-                Ptv[ij] = Yv[ij] + ZM[ij];
-                Ptp[ij] = Yp[ij] + d * Yv[ij] + h * ZM[ij];
-                Pgp[ij] += d * Pgv[ij] + h * Xg[ji];
-                Pgv[ij] += Xg[ji];
-                Pap[ij] += d * Pav[ij] + h * Xa[ji];
-                Pav[ij] += Xa[ji];
-                Ptg[ij] = Wn[ij];
-            }
-        /* state */
+        const m3x TQg = mscale(T, Qg);
+        const m3x Z = mma(mm(A, Ptt), Cm, Pgt);       /* A Ptt + C Pgt */
+        const m3x Wn = mma(mm(A, Ptg), Cm, TQg);      /* Cov(theta', b_g') */
+        const m3x Yv = mma(mm(A, Ptv), Cm, Pgv);
+        const m3x Yp = mma(mm(A, Ptp), Cm, Pgp);
+        const m3x Xt = mm(M, Ptt);                    /* Cov(X, theta) */
+        const m3x XgT = mm(Pgt, MT);                  /* Cov(b_g, X) */
+        const m3x Xv = mma(mm(M, Ptv), Bv, Pav);      /* Cov(X, v) */
+        const m3x Xp = mma(mm(M, Ptp), Bv, Pap);      /* Cov(X, p) */
+        const m3x XaT = mm(mscale(T, Qa), BvT);       /* Cov(b_a, X) */
+        const m3x ZM = mm(Z, MT);                     /* Cov(theta', X) */
+        /* XX = M Ptt M^T + dt R (T dt Qa + aCov) R^T */
+        const m3x Q1 = mscale(d, madd(aCov, mscale(T * d, Qa)));
+        const m3x XX = mma(mm(Xt, MT), mm(R, Q1), RT);
+        /* Ptt' = Z A^T + W C^T + dt Jr^-1 wCov Jr^-T */
+        Ptt = mma(mma(mm(Z, AT), Wn, CT), mm(Cm, wCov), iJT);
+        Ptg = Wn;
+        Pgt = mt(Wn);
+        const m3x XvT = mt(Xv), XpT = mt(Xp), PpvT = mt(Ppv);
         for (int i = 0; i < 3; i++) {
-            x[3 + i] += x[6 + i] * d + an[i] * d22;
-            x[6 + i] += an[i] * d;
-            x[i] += c[i] * d;
+            vec xv = Xv.r[i], xvt = XvT.r[i], xp = Xp.r[i], xpt = XpT.r[i], xx = XX.r[i];
+            vec pvv = Pvv.r[i], ppv = Ppv.r[i];
+            Ppp.r[i] = VADD(Ppp.r[i],
+                            VADD(VADD(VSCALE(d, VADD(ppv, PpvT.r[i])), VSCALE(d * d, pvv)),
+                                 VADD(VADD(VSCALE(h, VADD(xpt, xp)), VSCALE(h * d, VADD(xvt, xv))),
+                                      VADD(VSCALE(h * h, xx), VSCALE(d, iCov.r[i])))));
+            Ppv.r[i] = VADD(VADD(ppv, xpt), VADD(VSCALE(d, VADD(pvv, xvt)), VSCALE(h, VADD(xv, xx))));
+            Pvv.r[i] = VADD(pvv, VADD(VADD(xvt, xv), xx));
+            Ptv.r[i] = VADD(Yv.r[i], ZM.r[i]);
+            Ptp.r[i] = VADD(Yp.r[i], VADD(VSCALE(d, Yv.r[i]), VSCALE(h, ZM.r[i])));
+            Pgp.r[i] = VADD(Pgp.r[i], VADD(VSCALE(d, Pgv.r[i]), VSCALE(h, XgT.r[i])));
+            Pgv.r[i] = VADD(Pgv.r[i], XgT.r[i]);
+            Pap.r[i] = VADD(Pap.r[i], VADD(VSCALE(d, Pav.r[i]), VSCALE(h, XaT.r[i])));
+            Pav.r[i] = VADD(Pav.r[i], XaT.r[i]);
         }
+        /* state: theta += Jr^-1 w dt, p += v dt + R a dt^2/2, v += R a dt */
+        vec anv = vmk(an[0], an[1], an[2]);
+        p = VADD(p, VADD(VSCALE(d, v), VSCALE(h * d, anv)));
+        v = VADD(v, VSCALE(d, anv));
+        for (int i = 0; i < 3; i++) th[i] += c[i] * d;
         T += d;
     }
-    for (int i = 0; i < 9; i++) out[i] = x[i];
+    for (int i = 0; i < 3; i++) {
+        out[i] = th[i];
+        out[3 + i] = VX(p, i);
+        out[6 + i] = VX(v, i);
+    }
     out[9] = T;
     double *S = out + 10;
     for (int i = 0; i < 225; i++) S[i] = 0.0;
-    /* blocks of the 15x15 in (theta, p, v, b_a, b_g): (row block, col block) <- 3x3, transposed? */
-    for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++) {
-            int ij = 3 * i + j;
-#define SET(r, c, val) S[15 * (3 * (r) + i) + 3 * (c) + j] = (val)
-            SET(0, 0, Ptt[ij]); SET(0, 1, Ptp[ij]); SET(0, 2, Ptv[ij]); SET(0, 4, Ptg[ij]);
-            SET(1, 0, Ptp[3 * j + i]); SET(2, 0, Ptv[3 * j + i]); SET(4, 0, Ptg[3 * j + i]);
-            SET(1, 1, Ppp[ij]); SET(1, 2, Ppv[ij]); SET(2, 1, Ppv[3 * j + i]); SET(2, 2, Pvv[ij]);
-            SET(3, 1, Pap[ij]); SET(1, 3, Pap[3 * j + i]); SET(3, 2, Pav[ij]); SET(2, 3, Pav[3 * j + i]);
-            SET(4, 1, Pgp[ij]); SET(1, 4, Pgp[3 * j + i]); SET(4, 2, Pgv[ij]); SET(2, 4, Pgv[3 * j + i]);
-            SET(3, 3, T * Qa[ij]); SET(4, 4, T * Qg[ij]);
-#undef SET
-        }
-    /* bias Jacobians, rows (theta, p, v) */
-    for (int i = 0; i < 27; i++) out[235 + i] = out[262 + i] = 0.0;
-    for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++) {
-            out[235 + 3 * (3 + i) + j] = Hap[3 * i + j];
-            out[235 + 3 * (6 + i) + j] = Hav[3 * i + j];
-            out[262 + 3 * i + j] = Hgt[3 * i + j];
-            out[262 + 3 * (3 + i) + j] = Hgp[3 * i + j];
-            out[262 + 3 * (6 + i) + j] = Hgv[3 * i + j];
-        }
+    /* the 15x15 in (theta, p, v, b_a, b_g): block (r, c) and its transpose (c, r) */
+    const m3x blocks[13] = {Ptt, Ptp, Ptv, Ptg, Ppp, Ppv, mt(Pap), mt(Pgp), Pvv, mt(Pav), mt(Pgv),
+                            mscale(T, Qa), mscale(T, Qg)};
+    const int where[13][2] = {{0, 0}, {0, 1}, {0, 2}, {0, 4}, {1, 1}, {1, 2}, {1, 3}, {1, 4},
+                              {2, 2}, {2, 3}, {2, 4}, {3, 3}, {4, 4}};
+    for (int b = 0; b < 13; b++)
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++) {
+                double x = VX(blocks[b].r[i], j);
+                int r = 3 * where[b][0], cc = 3 * where[b][1];
+                S[15 * (r + i) + cc + j] = x;
+                S[15 * (cc + j) + r + i] = x;
+            }
+    /* bias Jacobians, rows (theta, p, v): H_biasAcc's theta rows are 0 */
+    for (int i = 0; i < 9; i++) out[235 + i] = 0.0;
+    mstore(Hap, out + 235 + 9);
+    mstore(Hav, out + 235 + 18);
+    mstore(Hgt, out + 262);
+    mstore(Hgp, out + 262 + 9);
+    mstore(Hgv, out + 262 + 18);
 }
 
 static PyObject *combined_integrate(PyObject *self, PyObject *args) {
