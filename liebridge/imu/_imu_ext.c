@@ -323,7 +323,7 @@ static PyObject *window_sums(PyObject *self, PyObject *args) {
 
 /* 3x3 blocks as three rows of a 4-lane vector (lane 3 unused, kept 0): a product L R is three
    broadcast-multiply-adds per row, which the compiler maps to SIMD (2 SSE2 or 1 AVX op a row). */
-#if defined(__GNUC__) || defined(__clang__)
+#if (defined(__GNUC__) || defined(__clang__)) && !defined(LIEBRIDGE_PORTABLE_VEC)
 #pragma GCC diagnostic ignored "-Wpsabi" /* the vector helpers are always inlined: no ABI */
 typedef double vec __attribute__((vector_size(32)));
 #define VX(a, i) ((a)[i])
@@ -338,7 +338,11 @@ INLINE vec vmk(double a, double b, double c) {
 #else
 typedef struct { double x[4]; } vec;
 #define VX(a, i) ((a).x[i])
+#if defined(_MSC_VER)
+#define INLINE static __forceinline
+#else
 #define INLINE static inline
+#endif
 static inline vec vmk(double a, double b, double c) { vec r = {{a, b, c, 0.0}}; return r; }
 static inline vec vadd_(vec a, vec b) { for (int i = 0; i < 4; i++) a.x[i] += b.x[i]; return a; }
 static inline vec vsub_(vec a, vec b) { for (int i = 0; i < 4; i++) a.x[i] -= b.x[i]; return a; }
@@ -395,7 +399,7 @@ INLINE m3x mscale(double s, m3x a) {
 
 /* The loop. Block names: P<row><col> = Cov(row, col) of the state before the sample, rows/cols
    t = theta, g = b_g, a = b_a, p, v; Cov(a, a) = T Qa and Cov(g, g) = T Qg are not stored. */
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) \
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__GLIBC__) \
     && !defined(LIEBRIDGE_NO_CLONES)
 /* one build for every x86-64 CPU; the x86-64-v3 clone (AVX2, FMA) is chosen at load time */
 __attribute__((target_clones("arch=x86-64-v3", "default")))
