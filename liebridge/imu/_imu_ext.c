@@ -388,6 +388,14 @@ INLINE m3x mt(m3x a) {
     for (int i = 0; i < 3; i++) o.r[i] = vmk(VX(a.r[0], i), VX(a.r[1], i), VX(a.r[2], i));
     return o;
 }
+/* [x]x: rows (0, -z, y), (z, 0, -x), (-y, x, 0) */
+INLINE m3x skew(double x, double y, double z) {
+    m3x o;
+    o.r[0] = vmk(0.0, -z, y);
+    o.r[1] = vmk(z, 0.0, -x);
+    o.r[2] = vmk(-y, x, 0.0);
+    return o;
+}
 INLINE m3x madd(m3x a, m3x b) {
     for (int i = 0; i < 3; i++) a.r[i] = VADD(a.r[i], b.r[i]);
     return a;
@@ -442,53 +450,50 @@ static void combined_loop(const double *acc, const double *gyro, const double *d
             dC = (omc - 3.0 * C * t2) * it2 * it2;
             D = (1.0 - 0.5 * A1 / B) * it2;
         }
-        /* W^2 = th th^T - t2 I */
-        double Rm[9], Jl[9], iJ[9];
-        {
-            double W[9] = {0, -th[2], th[1], th[2], 0, -th[0], -th[1], th[0], 0};
-            for (int i = 0; i < 3; i++)
-                for (int j = 0; j < 3; j++) {
-                    int ij = 3 * i + j;
-                    double I = (i == j) ? 1.0 : 0.0, W2 = th[i] * th[j] - (i == j ? t2 : 0.0);
-                    Rm[ij] = I + A1 * W[ij] + B * W2;
-                    Jl[ij] = I + B * W[ij] + C * W2;
-                    iJ[ij] = I + 0.5 * W[ij] + D * W2;
-                }
-        }
-        double c[3], an[3];
+        /* rows of W = [th]x, W^2 = th th^T - t2 I and I; transposes from W^T = -W */
+        const vec thv = vmk(th[0], th[1], th[2]);
+        const m3x Wm = skew(th[0], th[1], th[2]);
+        m3x R, RT, Jl, Jr, iJm, iJT;
         for (int i = 0; i < 3; i++) {
-            c[i] = iJ[3 * i] * w[0] + iJ[3 * i + 1] * w[1] + iJ[3 * i + 2] * w[2];
-            an[i] = Rm[3 * i] * a[0] + Rm[3 * i + 1] * a[1] + Rm[3 * i + 2] * a[2];
+            vec I = vmk(i == 0, i == 1, i == 2), W2 = VSUB(VSCALE(th[i], thv), VSCALE(t2, I));
+            vec Wi = Wm.r[i];
+            R.r[i] = VADD(I, VADD(VSCALE(A1, Wi), VSCALE(B, W2)));
+            RT.r[i] = VADD(I, VSUB(VSCALE(B, W2), VSCALE(A1, Wi)));
+            Jl.r[i] = VADD(I, VADD(VSCALE(B, Wi), VSCALE(C, W2))); /* = R Jr = Jr^T */
+            Jr.r[i] = VADD(I, VSUB(VSCALE(C, W2), VSCALE(B, Wi)));
+            iJm.r[i] = VADD(I, VADD(VSCALE(0.5, Wi), VSCALE(D, W2)));
+            iJT.r[i] = VADD(I, VSUB(VSCALE(D, W2), VSCALE(0.5, Wi)));
         }
+        /* c = Jr^-1 w, an = R a: combinations of the rows of the transposes */
+        const vec cv3 = VADD(VADD(VSCALE(w[0], iJT.r[0]), VSCALE(w[1], iJT.r[1])), VSCALE(w[2], iJT.r[2]));
+        const vec anv = VADD(VADD(VSCALE(a[0], RT.r[0]), VSCALE(a[1], RT.r[1])), VSCALE(a[2], RT.r[2]));
+        const double c[3] = {VX(cv3, 0), VX(cv3, 1), VX(cv3, 2)};
+        const double an[3] = {VX(anv, 0), VX(anv, 1), VX(anv, 2)};
         /* H = d(Jr(th) c)/dth = B [c]x + u th^T + C((th.c) I + th c^T - 2 c th^T) with
            u = dB (c x th) + dC th x (th x c); with Jr^-1 th = th, A = I - dt Jr^-1 H where
-           Jr^-1 H = B Jr^-1 [c]x + C (th.c) Jr^-1 + C th c^T + Jr^-1 (u - 2 C c) th^T */
-        double tc = th[0] * c[0] + th[1] * c[1] + th[2] * c[2];
+           Jr^-1 H = B Jr^-1 [c]x + C (th.c) Jr^-1 + C th c^T + f th^T, f = Jr^-1 (u - 2 C c) */
+        const double tc = th[0] * c[0] + th[1] * c[1] + th[2] * c[2];
         double e[3] = {dB * (c[1] * th[2] - c[2] * th[1]), dB * (c[2] * th[0] - c[0] * th[2]),
                        dB * (c[0] * th[1] - c[1] * th[0])};
         for (int i = 0; i < 3; i++) e[i] += dC * (th[i] * tc - c[i] * t2) - 2.0 * C * c[i];
-        double f[3];
-        for (int i = 0; i < 3; i++) f[i] = iJ[3 * i] * e[0] + iJ[3 * i + 1] * e[1] + iJ[3 * i + 2] * e[2];
-        double Ad[9], Md[9];
+        const vec fv = VADD(VADD(VSCALE(e[0], iJT.r[0]), VSCALE(e[1], iJT.r[1])), VSCALE(e[2], iJT.r[2]));
+        const m3x Kc = skew(c[0], c[1], c[2]), Ka = skew(an[0], an[1], an[2]);
+        const m3x iJKc = mm(iJm, Kc), KciJT = mm(Kc, iJT);
         const double Ctc = C * tc;
+        m3x A, AT;
         for (int i = 0; i < 3; i++) {
-            const double *r = iJ + 3 * i;
-            double rxc[3] = {r[1] * c[2] - r[2] * c[1], r[2] * c[0] - r[0] * c[2],
-                             r[0] * c[1] - r[1] * c[0]}; /* row i of Jr^-1 [c]x */
-            for (int j = 0; j < 3; j++) {
-                double wh = B * rxc[j] + Ctc * r[j] + C * th[i] * c[j] + f[i] * th[j];
-                Ad[3 * i + j] = (i == j ? 1.0 : 0.0) - d * wh;
-            }
+            vec I = vmk(i == 0, i == 1, i == 2);
+            /* row i of Jr^-1 H and of its transpose (B [c]x^T Jr^-T = -B [c]x Jr^-T) */
+            vec wh = VADD(VADD(VSCALE(B, iJKc.r[i]), VSCALE(Ctc, iJm.r[i])),
+                          VADD(VSCALE(C * th[i], cv3), VSCALE(VX(fv, i), thv)));
+            vec wht = VADD(VSUB(VSCALE(Ctc, iJT.r[i]), VSCALE(B, KciJT.r[i])),
+                           VADD(VSCALE(C * c[i], thv), VSCALE(th[i], fv)));
+            A.r[i] = VSUB(I, VSCALE(d, wh));
+            AT.r[i] = VSUB(I, VSCALE(d, wht));
         }
-        /* M = R [-a]x Jr dt = -dt [R a]x Jl */
-        for (int j = 0; j < 3; j++) {
-            Md[j] = -d * (an[1] * Jl[6 + j] - an[2] * Jl[3 + j]);
-            Md[3 + j] = -d * (an[2] * Jl[j] - an[0] * Jl[6 + j]);
-            Md[6 + j] = -d * (an[0] * Jl[3 + j] - an[1] * Jl[j]);
-        }
-        const m3x A = mload(Ad), AT = mt(A), M = mload(Md), MT = mt(M);
-        const m3x iJm = mload(iJ), iJT = mt(iJm), Cm = mscale(d, iJm), CT = mscale(d, iJT);
-        const m3x R = mload(Rm), RT = mt(R), Bv = mscale(d, R), BvT = mscale(d, RT);
+        /* M = R [-a]x Jr dt = -dt [R a]x Jl, M^T = dt Jr [R a]x */
+        const m3x M = mscale(-d, mm(Ka, Jl)), MT = mscale(d, mm(Jr, Ka));
+        const m3x Cm = mscale(d, iJm), CT = mscale(d, iJT), Bv = mscale(d, R), BvT = mscale(d, RT);
         /* bias Jacobians (old values on the right); H_biasAcc's theta rows stay 0 */
         {
             m3x MHg = mm(M, Hgt);
@@ -538,7 +543,6 @@ static void combined_loop(const double *acc, const double *gyro, const double *d
             Pav.r[i] = VADD(Pav.r[i], XaT.r[i]);
         }
         /* state: theta += Jr^-1 w dt, p += v dt + R a dt^2/2, v += R a dt */
-        vec anv = vmk(an[0], an[1], an[2]);
         p = VADD(p, VADD(VSCALE(d, v), VSCALE(h * d, anv)));
         v = VADD(v, VSCALE(d, anv));
         for (int i = 0; i < 3; i++) th[i] += c[i] * d;
