@@ -30,6 +30,14 @@ from liebridge.imu import kernel as _imu_kernel
 from liebridge.imu import preintegrate_combined
 
 
+def _where(path: Path) -> str:
+    """``path`` relative to the working directory when inside it (the worktree's own copy)."""
+    try:
+        return str(path.resolve().relative_to(Path.cwd().resolve()))
+    except ValueError:
+        return str(path)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("out", nargs="?", default="benchmarks/results/imu_combined.json")
@@ -79,7 +87,8 @@ def main(argv: list[str] | None = None) -> int:
             times[name].append(time.perf_counter() - t0)
     ref = np.array(times["gtsam combined loop"])
     compiled = _imu_kernel.COMPILED
-    print(f"{n} samples; liebridge from {Path(liebridge.__file__).parent}; compiled: {compiled}")
+    where = _where(Path(liebridge.__file__).parent)
+    print(f"{n} samples; liebridge from {where}; compiled kernel: {compiled}")
     results = []
     for name, ts in times.items():
         t = float(np.min(ts))
@@ -96,7 +105,7 @@ def main(argv: list[str] | None = None) -> int:
         "quick": args.quick,
         "compiled": compiled,
         "command": "PYTHONPATH=. python benchmarks/bench_imu_combined.py " + " ".join(argv or []),
-        "liebridge": str(Path(liebridge.__file__).parent),
+        "liebridge_imported_from": where,
         "speedup_vs_gtsam_combined_loop": ratio,
         "target_speedup": 10.0,
         "agreement_with_gtsam": check,
