@@ -413,8 +413,14 @@ INLINE m3x mscale(double s, m3x a) {
    t = theta, g = b_g, a = b_a, p, v; Cov(a, a) = T Qa and Cov(g, g) = T Qg are not stored. */
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__GLIBC__) \
     && !defined(LIEBRIDGE_NO_CLONES)
-/* one build for every x86-64 CPU; the x86-64-v3 clone (AVX2, FMA) is chosen at load time */
+/* one build for every x86-64 CPU: a clone for AVX2 CPUs is picked at load time (an ifunc, hence
+   glibc). GCC >= 12: the x86-64-v3 level (AVX2 + FMA, ~100 ns a sample on the benchmark VM);
+   older GCC (manylinux2014's GCC 10): AVX2 without FMA (~120 ns); the baseline clone ~600 ns. */
+#if __GNUC__ >= 12
 __attribute__((target_clones("arch=x86-64-v3", "default")))
+#elif __GNUC__ >= 6
+__attribute__((target_clones("avx2", "default")))
+#endif
 #endif
 static void combined_loop(const double *acc, const double *gyro, const double *dt, Py_ssize_t n,
                           const double *bias, const double *cv, double *out) {
