@@ -1,8 +1,10 @@
 """Combined preintegration: ``preintegrate_combined`` against GTSAM's loop, same run.
 
-Run: ``python benchmarks/bench_imu_combined.py [OUT.json] [--samples N] [--repeat R] [--quick]``
-(default ``benchmarks/results/imu_combined.json``; not a test). Data: the first N samples (default
-40,000) of GTSAM's ``KittiEquivBiasedImu.txt``, a non-zero bias estimate, the file's noise
+Run from the repository root: ``PYTHONPATH=. python benchmarks/bench_imu_combined.py [OUT.json]
+[--samples N] [--repeat R] [--quick]`` (default ``benchmarks/results/imu_combined.json``; not a
+test). Without ``PYTHONPATH=.`` Python imports whichever ``liebridge`` is installed: the JSON
+records which one ran and whether its compiled kernel was built. Data: the first N samples
+(default 40,000) of GTSAM's ``KittiEquivBiasedImu.txt``, a non-zero bias estimate, the file's noise
 densities. Rows, interleaved, R repetitions: ``gtsam combined loop`` (a
 ``PreintegratedCombinedMeasurements`` fed with ``integrateMeasurement`` per sample) and
 ``liebridge combined`` (``preintegrate_combined``, compiled kernel where built). The speedup is the
@@ -23,8 +25,17 @@ from pathlib import Path
 import gtsam
 import numpy as np
 
+import liebridge
 from liebridge.imu import kernel as _imu_kernel
 from liebridge.imu import preintegrate_combined
+
+
+def _where(path: Path) -> str:
+    """``path`` relative to the working directory when inside it (the worktree's own copy)."""
+    try:
+        return str(path.resolve().relative_to(Path.cwd().resolve()))
+    except ValueError:
+        return str(path)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -33,6 +44,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--samples", type=int, default=40_000)
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--quick", action="store_true")
+    argv = sys.argv[1:] if argv is None else argv
     args = ap.parse_args(argv)
     if args.quick:
         args.samples, args.repeat = 2_000, 2
@@ -75,7 +87,8 @@ def main(argv: list[str] | None = None) -> int:
             times[name].append(time.perf_counter() - t0)
     ref = np.array(times["gtsam combined loop"])
     compiled = _imu_kernel.COMPILED
-    print(f"{n} samples; compiled kernel: {compiled}")
+    where = _where(Path(liebridge.__file__).parent)
+    print(f"{n} samples; liebridge from {where}; compiled kernel: {compiled}")
     results = []
     for name, ts in times.items():
         t = float(np.min(ts))
@@ -91,6 +104,8 @@ def main(argv: list[str] | None = None) -> int:
         "repeat": args.repeat,
         "quick": args.quick,
         "compiled": compiled,
+        "command": "PYTHONPATH=. python benchmarks/bench_imu_combined.py " + " ".join(argv or []),
+        "liebridge_imported_from": where,
         "speedup_vs_gtsam_combined_loop": ratio,
         "target_speedup": 10.0,
         "agreement_with_gtsam": check,

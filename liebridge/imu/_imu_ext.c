@@ -1,5 +1,7 @@
 /*
- * Optional compiled kernel of liebridge's IMU preintegration: the per-sample sums of one block.
+ * Optional compiled kernel of liebridge's IMU preintegration: the per-sample sums of one block
+ * (block_sums, window_sums: the manifold preintegration) and, at the end of this file, GTSAM's
+ * tangent combined preintegration (combined_integrate).
  *
  * It computes exactly what the numpy kernel (liebridge/factors/_imu_kernel.py, fast path:
  * isotropic noise, no lever arm) computes per block, in two passes over the samples instead of
@@ -304,192 +306,286 @@ static PyObject *window_sums(PyObject *self, PyObject *args) {
 /* ----------------------------------------------------------------------------------------------
  * combined_integrate: GTSAM's PreintegratedCombinedMeasurements (tangent preintegration, 15x15
  * covariance) as one sequential loop. Mirrors GTSAM 4.3 TangentPreintegration::update /
- * UpdatePreintegrated and PreintegratedCombinedMeasurements::integrateMeasurement exactly (the
- * theta recursion theta += Jr(theta)^-1 w dt is nonlinear, so it stays sequential); the 15x15
- * propagation F S F^T skips F's zero blocks. Output layout (doubles):
+ * UpdatePreintegrated and PreintegratedCombinedMeasurements::integrateMeasurement (the theta
+ * recursion theta += Jr(theta)^-1 w dt is nonlinear, so it stays sequential). Per sample, with
+ * A = I + dt d(Jr^-1 w)/dtheta, C = Jr^-1 dt, M = R [-a]x Jr dt, Bv = R dt, h = dt/2:
+ *   theta' = A theta + C b_g + nu,   X = M theta + Bv b_a + eta,   v' = v + X,
+ *   p' = p + dt v + h X + iota,      b_a' = b_a + w_a,             b_g' = b_g + w_g
+ * (GTSAM's F: its p row is h times its v row plus dt v, and the acc noise enters p as h times v).
+ * The covariance is propagated in 3x3 blocks that use this structure: Cov(theta, b_a) = 0 and
+ * Cov(b_a, b_g) = 0 stay zero, Cov(b_a, b_a) = T Q_ba and Cov(b_g, b_g) = T Q_bg are closed form,
+ * and p, v are integrators, so F P F^T is about 30 3x3 products instead of ~6,750 multiply-adds
+ * (the Python loop in combined.py is the dense reference this loop is tested against). Noise per
+ * sample as GTSAM: Cov(nu) = Jr^-1 wCov Jr^-T dt, Cov(eta) = R aCov R^T dt (it enters p as h eta),
+ * Cov(iota) = iCov dt, Cov(w_a) = Q_ba dt, Cov(w_g) = Q_bg dt. Output layout (doubles):
  *   0..8 preintegrated (theta, p, v), 9 T, 10..234 cov (15x15, (theta, p, v, b_a, b_g)),
  *   235..261 H_biasAcc (9x3), 262..288 H_biasOmega (9x3).
- * Covariances: acc, gyro, int, bias_acc, bias_omega (3x3 each, row-major), bias_init (6x6).
+ * Covariances `cv`: acc, gyro, int, bias_acc, bias_omega (3x3 each, row-major; 45 doubles).
  */
 #define C_OUT 289
+#define C_COV 45
 
-static void mat3_mul(const double *A, const double *B, double *C) {
+/* 3x3 blocks as three rows of a 4-lane vector (lane 3 unused, kept 0): a product L R is three
+   broadcast-multiply-adds per row, which the compiler maps to SIMD (2 SSE2 or 1 AVX op a row). */
+#if (defined(__GNUC__) || defined(__clang__)) && !defined(LIEBRIDGE_PORTABLE_VEC)
+#pragma GCC diagnostic ignored "-Wpsabi" /* the vector helpers are always inlined: no ABI */
+typedef double vec __attribute__((vector_size(32)));
+#define VX(a, i) ((a)[i])
+#define INLINE static inline __attribute__((always_inline))
+INLINE vec vmk(double a, double b, double c) {
+    vec r = {a, b, c, 0.0};
+    return r;
+}
+#define VADD(a, b) ((a) + (b))
+#define VSUB(a, b) ((a) - (b))
+#define VSCALE(s, a) ((s) * (a))
+#else
+typedef struct { double x[4]; } vec;
+#define VX(a, i) ((a).x[i])
+#if defined(_MSC_VER)
+#define INLINE static __forceinline
+#else
+#define INLINE static inline
+#endif
+static inline vec vmk(double a, double b, double c) { vec r = {{a, b, c, 0.0}}; return r; }
+static inline vec vadd_(vec a, vec b) { for (int i = 0; i < 4; i++) a.x[i] += b.x[i]; return a; }
+static inline vec vsub_(vec a, vec b) { for (int i = 0; i < 4; i++) a.x[i] -= b.x[i]; return a; }
+static inline vec vscale_(double s, vec a) { for (int i = 0; i < 4; i++) a.x[i] *= s; return a; }
+#define VADD(a, b) vadd_((a), (b))
+#define VSUB(a, b) vsub_((a), (b))
+#define VSCALE(s, a) vscale_((s), (a))
+#endif
+
+typedef struct { vec r[3]; } m3x;
+
+INLINE m3x mz(void) {
+    m3x o;
+    for (int i = 0; i < 3; i++) o.r[i] = vmk(0.0, 0.0, 0.0);
+    return o;
+}
+INLINE m3x mload(const double *a) { /* row-major 3x3 */
+    m3x o;
+    for (int i = 0; i < 3; i++) o.r[i] = vmk(a[3 * i], a[3 * i + 1], a[3 * i + 2]);
+    return o;
+}
+INLINE void mstore(m3x a, double *o) {
     for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++)
-            C[3 * i + j] = A[3 * i] * B[j] + A[3 * i + 1] * B[3 + j] + A[3 * i + 2] * B[6 + j];
+        for (int j = 0; j < 3; j++) o[3 * i + j] = VX(a.r[i], j);
+}
+/* L R */
+INLINE m3x mm(m3x L, m3x R) {
+    m3x o;
+    for (int i = 0; i < 3; i++)
+        o.r[i] = VADD(VADD(VSCALE(VX(L.r[i], 0), R.r[0]), VSCALE(VX(L.r[i], 1), R.r[1])),
+                      VSCALE(VX(L.r[i], 2), R.r[2]));
+    return o;
+}
+/* O + L R */
+INLINE m3x mma(m3x O, m3x L, m3x R) {
+    for (int i = 0; i < 3; i++)
+        O.r[i] = VADD(O.r[i], VADD(VADD(VSCALE(VX(L.r[i], 0), R.r[0]), VSCALE(VX(L.r[i], 1), R.r[1])),
+                                   VSCALE(VX(L.r[i], 2), R.r[2])));
+    return O;
+}
+INLINE m3x mt(m3x a) {
+    m3x o;
+    for (int i = 0; i < 3; i++) o.r[i] = vmk(VX(a.r[0], i), VX(a.r[1], i), VX(a.r[2], i));
+    return o;
+}
+/* [x]x: rows (0, -z, y), (z, 0, -x), (-y, x, 0) */
+INLINE m3x skew(double x, double y, double z) {
+    m3x o;
+    o.r[0] = vmk(0.0, -z, y);
+    o.r[1] = vmk(z, 0.0, -x);
+    o.r[2] = vmk(-y, x, 0.0);
+    return o;
+}
+INLINE m3x madd(m3x a, m3x b) {
+    for (int i = 0; i < 3; i++) a.r[i] = VADD(a.r[i], b.r[i]);
+    return a;
+}
+INLINE m3x mscale(double s, m3x a) {
+    for (int i = 0; i < 3; i++) a.r[i] = VSCALE(s, a.r[i]);
+    return a;
 }
 
-static void mat3_inv(const double *A, double *X) {
-    double c00 = A[4] * A[8] - A[5] * A[7], c01 = A[5] * A[6] - A[3] * A[8];
-    double c02 = A[3] * A[7] - A[4] * A[6];
-    double det = A[0] * c00 + A[1] * c01 + A[2] * c02, id = 1.0 / det;
-    X[0] = c00 * id; X[1] = (A[2] * A[7] - A[1] * A[8]) * id; X[2] = (A[1] * A[5] - A[2] * A[4]) * id;
-    X[3] = c01 * id; X[4] = (A[0] * A[8] - A[2] * A[6]) * id; X[5] = (A[2] * A[3] - A[0] * A[5]) * id;
-    X[6] = c02 * id; X[7] = (A[1] * A[6] - A[0] * A[7]) * id; X[8] = (A[0] * A[4] - A[1] * A[3]) * id;
-}
-
-/* Exp(th) (R), right Jacobian Jr (dexp), and B, C, dB = B'/t, dC = C'/t */
-static void dexp_terms(const double th[3], double R[9], double Jr[9], double *Bo, double *Co,
-                       double *dBo, double *dCo) {
-    double t2 = th[0] * th[0] + th[1] * th[1] + th[2] * th[2], t = sqrt(t2);
-    double A, B, C, dB, dC;
-    if (t < 1e-2) {
-        A = 1.0 - t2 / 6.0 + t2 * t2 / 120.0 - t2 * t2 * t2 / 5040.0;
-        B = 0.5 - t2 / 24.0 + t2 * t2 / 720.0 - t2 * t2 * t2 / 40320.0;
-        C = 1.0 / 6.0 - t2 / 120.0 + t2 * t2 / 5040.0 - t2 * t2 * t2 / 362880.0;
-        dB = -1.0 / 12.0 + t2 / 180.0 - t2 * t2 / 6720.0;
-        dC = -1.0 / 60.0 + t2 / 1260.0 - t2 * t2 / 60480.0;
-    } else {
-        double st = sin(t), ct = cos(t), t4 = t2 * t2;
-        A = st / t;
-        B = (1.0 - ct) / t2;
-        C = (t - st) / (t2 * t);
-        dB = (t * st - 2.0 * (1.0 - ct)) / t4;
-        dC = (1.0 - ct) / t4 - 3.0 * (t - st) / (t4 * t);
-    }
-    double W[9] = {0, -th[2], th[1], th[2], 0, -th[0], -th[1], th[0], 0}, W2[9];
-    mat3_mul(W, W, W2);
-    for (int i = 0; i < 9; i++) {
-        double I = (i % 4 == 0) ? 1.0 : 0.0;
-        R[i] = I + A * W[i] + B * W2[i];
-        Jr[i] = I - B * W[i] + C * W2[i];
-    }
-    *Bo = B; *Co = C; *dBo = dB; *dCo = dC;
-}
-
+/* The loop. Block names: P<row><col> = Cov(row, col) of the state before the sample, rows/cols
+   t = theta, g = b_g, a = b_a, p, v; Cov(a, a) = T Qa and Cov(g, g) = T Qg are not stored. */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__GLIBC__) \
+    && !defined(LIEBRIDGE_NO_CLONES)
+/* one build for every x86-64 CPU: a clone for AVX2 CPUs is picked at load time (an ifunc, hence
+   glibc). GCC >= 12: the x86-64-v3 level (AVX2 + FMA, ~100 ns a sample on the benchmark VM);
+   older GCC (manylinux2014's GCC 10): AVX2 without FMA (~120 ns); the baseline clone ~600 ns. */
+#if __GNUC__ >= 12
+__attribute__((target_clones("arch=x86-64-v3", "default")))
+#elif __GNUC__ >= 6
+__attribute__((target_clones("avx2", "default")))
+#endif
+#endif
 static void combined_loop(const double *acc, const double *gyro, const double *dt, Py_ssize_t n,
                           const double *bias, const double *cv, double *out) {
-    const double *aCov = cv, *wCov = cv + 9, *iCov = cv + 18, *baCov = cv + 27, *bgCov = cv + 36;
-    const double *bI = cv + 45; /* 6x6 */
-    double x[9] = {0}, T = 0.0;
-    double S[225] = {0}, Hba[27] = {0}, Hbg[27] = {0};
-    /* the structural non-zeros of F, row by row */
-    int nz[15][8], nnz[15];
-    for (int i = 0; i < 15; i++) {
-        int q = 0;
-        if (i < 9) { nz[i][q++] = 0; nz[i][q++] = 1; nz[i][q++] = 2; }
-        if (i < 3) { nz[i][q++] = 12; nz[i][q++] = 13; nz[i][q++] = 14; }
-        else if (i < 6) { nz[i][q++] = i; nz[i][q++] = i + 3; }
-        else if (i < 9) nz[i][q++] = i;
-        if (i >= 3 && i < 9) { nz[i][q++] = 9; nz[i][q++] = 10; nz[i][q++] = 11; }
-        if (i >= 9) nz[i][q++] = i;
-        nnz[i] = q;
-    }
+    const m3x aCov = mload(cv), wCov = mload(cv + 9), iCov = mload(cv + 18), Qa = mload(cv + 27),
+              Qg = mload(cv + 36);
+    double th[3] = {0.0, 0.0, 0.0}, T = 0.0;
+    vec p = vmk(0.0, 0.0, 0.0), v = vmk(0.0, 0.0, 0.0);
+    m3x Ptt = mz(), Ptg = mz(), Pgt = mz(), Ptv = mz(), Ptp = mz(), Pgv = mz(), Pgp = mz();
+    m3x Pav = mz(), Pap = mz(), Pvv = mz(), Ppv = mz(), Ppp = mz();
+    m3x Hav = mz(), Hap = mz(), Hgt = mz(), Hgp = mz(), Hgv = mz();
     for (Py_ssize_t k = 0; k < n; k++) {
-        double d = dt[k], d22 = 0.5 * d * d;
-        double a[3], w[3], *th = x;
-        for (int i = 0; i < 3; i++) { a[i] = acc[3 * k + i] - bias[i]; w[i] = gyro[3 * k + i] - bias[3 + i]; }
-        double R[9], Jr[9], iJ[9], B, C, dB, dC;
-        dexp_terms(th, R, Jr, &B, &C, &dB, &dC);
-        mat3_inv(Jr, iJ);
-        double c[3];
-        for (int i = 0; i < 3; i++) c[i] = iJ[3 * i] * w[0] + iJ[3 * i + 1] * w[1] + iJ[3 * i + 2] * w[2];
-        /* H = d(Jr(th) c)/dth = B[c]x + (c x th) dB th^T + C((th.c) I + th c^T - 2 c th^T)
-               + (th x (th x c)) dC th^T ; w_tangent_H_theta = -Jr^-1 H */
-        double cxt[3] = {c[1] * th[2] - c[2] * th[1], c[2] * th[0] - c[0] * th[2], c[0] * th[1] - c[1] * th[0]};
-        double txc[3] = {-cxt[0], -cxt[1], -cxt[2]};
-        double ttc[3] = {th[1] * txc[2] - th[2] * txc[1], th[2] * txc[0] - th[0] * txc[2], th[0] * txc[1] - th[1] * txc[0]};
-        double tc = th[0] * c[0] + th[1] * c[1] + th[2] * c[2];
-        double Cc[9] = {0, -c[2], c[1], c[2], 0, -c[0], -c[1], c[0], 0};
-        double H[9], WH[9];
-        for (int i = 0; i < 3; i++)
-            for (int j = 0; j < 3; j++)
-                H[3 * i + j] = B * Cc[3 * i + j] + cxt[i] * dB * th[j]
-                    + C * ((i == j ? tc : 0.0) + th[i] * c[j] - 2.0 * c[i] * th[j]) + ttc[i] * dC * th[j];
-        mat3_mul(iJ, H, WH);
-        /* a_nav_H_theta = R [-a]x Jr */
-        double Am[9] = {0, a[2], -a[1], -a[2], 0, a[0], a[1], -a[0], 0}, RA[9], aH[9];
-        mat3_mul(R, Am, RA);
-        mat3_mul(RA, Jr, aH);
-        double an[3];
-        for (int i = 0; i < 3; i++) an[i] = R[3 * i] * a[0] + R[3 * i + 1] * a[1] + R[3 * i + 2] * a[2];
-        /* F (15x15) rows as sparse (col, value) lists */
-        double F[225] = {0};
-        for (int i = 0; i < 15; i++) F[16 * i] = 1.0;
-        for (int i = 0; i < 3; i++)
-            for (int j = 0; j < 3; j++) {
-                F[15 * i + j] -= WH[3 * i + j] * d;                 /* theta: I + w_t_H_th dt */
-                F[15 * (3 + i) + j] = aH[3 * i + j] * d22;          /* p wrt theta */
-                F[15 * (6 + i) + j] = aH[3 * i + j] * d;            /* v wrt theta */
-                F[15 * i + 12 + j] = iJ[3 * i + j] * d;             /* theta wrt omega (C) */
-                F[15 * (3 + i) + 9 + j] = R[3 * i + j] * d22;       /* p wrt acc (B) */
-                F[15 * (6 + i) + 9 + j] = R[3 * i + j] * d;         /* v wrt acc (B) */
-            }
-        for (int i = 0; i < 3; i++) F[15 * (3 + i) + 6 + i] = d;
-        /* bias Jacobians: H_new = A H - B (acc), A H - C (omega); A = F[0:9, 0:9] */
-        double nHa[27], nHg[27];
-        for (int i = 0; i < 9; i++)
-            for (int j = 0; j < 3; j++) {
-                double sa = 0.0, sg = 0.0;
-                for (int m = 0; m < 9; m++) { sa += F[15 * i + m] * Hba[3 * m + j]; sg += F[15 * i + m] * Hbg[3 * m + j]; }
-                nHa[3 * i + j] = sa - F[15 * i + 9 + j];
-                nHg[3 * i + j] = sg - F[15 * i + 12 + j];
-            }
-        for (int i = 0; i < 27; i++) { Hba[i] = nHa[i]; Hbg[i] = nHg[i]; }
-        /* S <- F S F^T, skipping zeros of F */
-        double M[225];
-        for (int i = 0; i < 15; i++)
-            for (int j = 0; j < 15; j++) {
-                double s = 0.0;
-                for (int q = 0; q < nnz[i]; q++) s += F[15 * i + nz[i][q]] * S[15 * nz[i][q] + j];
-                M[15 * i + j] = s;
-            }
-        for (int i = 0; i < 15; i++)
-            for (int j = i; j < 15; j++) {
-                double s = 0.0;
-                for (int q = 0; q < nnz[j]; q++) s += M[15 * i + nz[j][q]] * F[15 * j + nz[j][q]];
-                S[15 * i + j] = s;
-            }
-        for (int i = 0; i < 15; i++) for (int j = 0; j < i; j++) S[15 * i + j] = S[15 * j + i];
-        /* noise: G Q G^T with G = [[0, Cth, 0], [Bp, 0, I], [Bv, 0, 0]] (acc, gyro, int) plus
-           bias random walk and GTSAM's biasAccOmegaInt term with G0 = -[[0, Cth], [Bp, 0], [Bv, 0]] */
-        double Gm[9 * 6] = {0}; /* rows theta,p,v ; cols acc(3), omega(3) */
-        for (int i = 0; i < 3; i++)
-            for (int j = 0; j < 3; j++) {
-                Gm[6 * i + 3 + j] = iJ[3 * i + j] * d;
-                Gm[6 * (3 + i) + j] = R[3 * i + j] * d22;
-                Gm[6 * (6 + i) + j] = R[3 * i + j] * d;
-            }
-        double Q[36] = {0};
-        for (int i = 0; i < 3; i++)
-            for (int j = 0; j < 3; j++) { Q[6 * i + j] = aCov[3 * i + j]; Q[6 * (3 + i) + 3 + j] = wCov[3 * i + j]; }
-        for (int i = 0; i < 36; i++) Q[i] = (Q[i] + bI[i]) / d; /* same G for both: (-G) bI (-G)^T */
-        /* bInit cross blocks theta-p use bI off-diagonal blocks: included through the full 6x6 */
-        double GQ[54];
-        for (int i = 0; i < 9; i++)
-            for (int j = 0; j < 6; j++) {
-                double s = 0.0;
-                for (int m = 0; m < 6; m++) s += Gm[6 * i + m] * Q[6 * m + j];
-                GQ[6 * i + j] = s;
-            }
-        for (int i = 0; i < 9; i++)
-            for (int j = 0; j < 9; j++) {
-                double s = 0.0;
-                for (int m = 0; m < 6; m++) s += GQ[6 * i + m] * Gm[6 * j + m];
-                S[15 * i + j] += s;
-            }
-        for (int i = 0; i < 3; i++)
-            for (int j = 0; j < 3; j++) {
-                S[15 * (3 + i) + 3 + j] += d * iCov[3 * i + j];
-                S[15 * (9 + i) + 9 + j] += d * baCov[3 * i + j];
-                S[15 * (12 + i) + 12 + j] += d * bgCov[3 * i + j];
-            }
-        /* state update */
-        double wt[3];
-        for (int i = 0; i < 3; i++) wt[i] = c[i];
+        const double d = dt[k], h = 0.5 * d;
+        double a[3], w[3];
         for (int i = 0; i < 3; i++) {
-            double pn = x[3 + i] + x[6 + i] * d + an[i] * d22;
-            double vn = x[6 + i] + an[i] * d;
-            x[i] += wt[i] * d;
-            x[3 + i] = pn;
-            x[6 + i] = vn;
+            a[i] = acc[3 * k + i] - bias[i];
+            w[i] = gyro[3 * k + i] - bias[3 + i];
         }
+        /* Exp(th) = I + A1 W + B W^2, Jl = R Jr = I + B W + C W^2, Jr^-1 = I + W/2 + D W^2;
+           dB, dC are B'/t, C'/t (the same branches as the Python reference) */
+        double t2 = th[0] * th[0] + th[1] * th[1] + th[2] * th[2];
+        double A1, B, C, dB, dC, D;
+        if (t2 < 1e-4) {
+            double t4 = t2 * t2, t6 = t4 * t2;
+            A1 = 1.0 - t2 / 6.0 + t4 / 120.0 - t6 / 5040.0;
+            B = 0.5 - t2 / 24.0 + t4 / 720.0 - t6 / 40320.0;
+            C = 1.0 / 6.0 - t2 / 120.0 + t4 / 5040.0 - t6 / 362880.0;
+            dB = -1.0 / 12.0 + t2 / 180.0 - t4 / 6720.0;
+            dC = -1.0 / 60.0 + t2 / 1260.0 - t4 / 60480.0;
+            D = 1.0 / 12.0 + t2 / 720.0 + t4 / 30240.0 + t6 / 1209600.0;
+        } else {
+            double t = sqrt(t2), it = 1.0 / t, it2 = it * it, st = sin(t), ct = cos(t);
+            double omc = 1.0 - ct;
+            A1 = st * it;
+            B = omc * it2;
+            C = (t - st) * it2 * it;
+            dB = (t * st - 2.0 * omc) * it2 * it2;
+            dC = (omc - 3.0 * C * t2) * it2 * it2;
+            D = (1.0 - 0.5 * A1 / B) * it2;
+        }
+        /* rows of W = [th]x, W^2 = th th^T - t2 I and I; transposes from W^T = -W */
+        const vec thv = vmk(th[0], th[1], th[2]);
+        const m3x Wm = skew(th[0], th[1], th[2]);
+        m3x R, RT, Jl, Jr, iJm, iJT;
+        for (int i = 0; i < 3; i++) {
+            vec I = vmk(i == 0, i == 1, i == 2), W2 = VSUB(VSCALE(th[i], thv), VSCALE(t2, I));
+            vec Wi = Wm.r[i];
+            R.r[i] = VADD(I, VADD(VSCALE(A1, Wi), VSCALE(B, W2)));
+            RT.r[i] = VADD(I, VSUB(VSCALE(B, W2), VSCALE(A1, Wi)));
+            Jl.r[i] = VADD(I, VADD(VSCALE(B, Wi), VSCALE(C, W2))); /* = R Jr = Jr^T */
+            Jr.r[i] = VADD(I, VSUB(VSCALE(C, W2), VSCALE(B, Wi)));
+            iJm.r[i] = VADD(I, VADD(VSCALE(0.5, Wi), VSCALE(D, W2)));
+            iJT.r[i] = VADD(I, VSUB(VSCALE(D, W2), VSCALE(0.5, Wi)));
+        }
+        /* c = Jr^-1 w, an = R a: combinations of the rows of the transposes */
+        const vec cv3 = VADD(VADD(VSCALE(w[0], iJT.r[0]), VSCALE(w[1], iJT.r[1])), VSCALE(w[2], iJT.r[2]));
+        const vec anv = VADD(VADD(VSCALE(a[0], RT.r[0]), VSCALE(a[1], RT.r[1])), VSCALE(a[2], RT.r[2]));
+        const double c[3] = {VX(cv3, 0), VX(cv3, 1), VX(cv3, 2)};
+        const double an[3] = {VX(anv, 0), VX(anv, 1), VX(anv, 2)};
+        /* H = d(Jr(th) c)/dth = B [c]x + u th^T + C((th.c) I + th c^T - 2 c th^T) with
+           u = dB (c x th) + dC th x (th x c); with Jr^-1 th = th, A = I - dt Jr^-1 H where
+           Jr^-1 H = B Jr^-1 [c]x + C (th.c) Jr^-1 + C th c^T + f th^T, f = Jr^-1 (u - 2 C c) */
+        const double tc = th[0] * c[0] + th[1] * c[1] + th[2] * c[2];
+        double e[3] = {dB * (c[1] * th[2] - c[2] * th[1]), dB * (c[2] * th[0] - c[0] * th[2]),
+                       dB * (c[0] * th[1] - c[1] * th[0])};
+        for (int i = 0; i < 3; i++) e[i] += dC * (th[i] * tc - c[i] * t2) - 2.0 * C * c[i];
+        const vec fv = VADD(VADD(VSCALE(e[0], iJT.r[0]), VSCALE(e[1], iJT.r[1])), VSCALE(e[2], iJT.r[2]));
+        const m3x Kc = skew(c[0], c[1], c[2]), Ka = skew(an[0], an[1], an[2]);
+        const m3x iJKc = mm(iJm, Kc), KciJT = mm(Kc, iJT);
+        const double Ctc = C * tc;
+        m3x A, AT;
+        for (int i = 0; i < 3; i++) {
+            vec I = vmk(i == 0, i == 1, i == 2);
+            /* row i of Jr^-1 H and of its transpose (B [c]x^T Jr^-T = -B [c]x Jr^-T) */
+            vec wh = VADD(VADD(VSCALE(B, iJKc.r[i]), VSCALE(Ctc, iJm.r[i])),
+                          VADD(VSCALE(C * th[i], cv3), VSCALE(VX(fv, i), thv)));
+            vec wht = VADD(VSUB(VSCALE(Ctc, iJT.r[i]), VSCALE(B, KciJT.r[i])),
+                           VADD(VSCALE(C * c[i], thv), VSCALE(th[i], fv)));
+            A.r[i] = VSUB(I, VSCALE(d, wh));
+            AT.r[i] = VSUB(I, VSCALE(d, wht));
+        }
+        /* M = R [-a]x Jr dt = -dt [R a]x Jl, M^T = dt Jr [R a]x */
+        const m3x M = mscale(-d, mm(Ka, Jl)), MT = mscale(d, mm(Jr, Ka));
+        const m3x Cm = mscale(d, iJm), CT = mscale(d, iJT), Bv = mscale(d, R), BvT = mscale(d, RT);
+        /* bias Jacobians (old values on the right); H_biasAcc's theta rows stay 0 */
+        {
+            m3x MHg = mm(M, Hgt);
+            Hgt = mm(A, Hgt);
+            for (int i = 0; i < 3; i++) {
+                Hap.r[i] = VADD(Hap.r[i], VSUB(VSCALE(d, Hav.r[i]), VSCALE(h, Bv.r[i])));
+                Hav.r[i] = VSUB(Hav.r[i], Bv.r[i]);
+                Hgp.r[i] = VADD(Hgp.r[i], VADD(VSCALE(d, Hgv.r[i]), VSCALE(h, MHg.r[i])));
+                Hgv.r[i] = VADD(Hgv.r[i], MHg.r[i]);
+                Hgt.r[i] = VSUB(Hgt.r[i], Cm.r[i]);
+            }
+        }
+        /* covariance */
+        const m3x TQg = mscale(T, Qg);
+        const m3x Z = mma(mm(A, Ptt), Cm, Pgt);       /* A Ptt + C Pgt */
+        const m3x Wn = mma(mm(A, Ptg), Cm, TQg);      /* Cov(theta', b_g') */
+        const m3x Yv = mma(mm(A, Ptv), Cm, Pgv);
+        const m3x Yp = mma(mm(A, Ptp), Cm, Pgp);
+        const m3x Xt = mm(M, Ptt);                    /* Cov(X, theta) */
+        const m3x XgT = mm(Pgt, MT);                  /* Cov(b_g, X) */
+        const m3x Xv = mma(mm(M, Ptv), Bv, Pav);      /* Cov(X, v) */
+        const m3x Xp = mma(mm(M, Ptp), Bv, Pap);      /* Cov(X, p) */
+        const m3x XaT = mm(mscale(T, Qa), BvT);       /* Cov(b_a, X) */
+        const m3x ZM = mm(Z, MT);                     /* Cov(theta', X) */
+        /* XX = M Ptt M^T + dt R (T dt Qa + aCov) R^T */
+        const m3x Q1 = mscale(d, madd(aCov, mscale(T * d, Qa)));
+        const m3x XX = mma(mm(Xt, MT), mm(R, Q1), RT);
+        /* Ptt' = Z A^T + W C^T + dt Jr^-1 wCov Jr^-T */
+        Ptt = mma(mma(mm(Z, AT), Wn, CT), mm(Cm, wCov), iJT);
+        Ptg = Wn;
+        Pgt = mt(Wn);
+        const m3x XvT = mt(Xv), XpT = mt(Xp), PpvT = mt(Ppv);
+        for (int i = 0; i < 3; i++) {
+            vec xv = Xv.r[i], xvt = XvT.r[i], xp = Xp.r[i], xpt = XpT.r[i], xx = XX.r[i];
+            vec pvv = Pvv.r[i], ppv = Ppv.r[i];
+            Ppp.r[i] = VADD(Ppp.r[i],
+                            VADD(VADD(VSCALE(d, VADD(ppv, PpvT.r[i])), VSCALE(d * d, pvv)),
+                                 VADD(VADD(VSCALE(h, VADD(xpt, xp)), VSCALE(h * d, VADD(xvt, xv))),
+                                      VADD(VSCALE(h * h, xx), VSCALE(d, iCov.r[i])))));
+            Ppv.r[i] = VADD(VADD(ppv, xpt), VADD(VSCALE(d, VADD(pvv, xvt)), VSCALE(h, VADD(xv, xx))));
+            Pvv.r[i] = VADD(pvv, VADD(VADD(xvt, xv), xx));
+            Ptv.r[i] = VADD(Yv.r[i], ZM.r[i]);
+            Ptp.r[i] = VADD(Yp.r[i], VADD(VSCALE(d, Yv.r[i]), VSCALE(h, ZM.r[i])));
+            Pgp.r[i] = VADD(Pgp.r[i], VADD(VSCALE(d, Pgv.r[i]), VSCALE(h, XgT.r[i])));
+            Pgv.r[i] = VADD(Pgv.r[i], XgT.r[i]);
+            Pap.r[i] = VADD(Pap.r[i], VADD(VSCALE(d, Pav.r[i]), VSCALE(h, XaT.r[i])));
+            Pav.r[i] = VADD(Pav.r[i], XaT.r[i]);
+        }
+        /* state: theta += Jr^-1 w dt, p += v dt + R a dt^2/2, v += R a dt */
+        p = VADD(p, VADD(VSCALE(d, v), VSCALE(h * d, anv)));
+        v = VADD(v, VSCALE(d, anv));
+        for (int i = 0; i < 3; i++) th[i] += c[i] * d;
         T += d;
     }
-    for (int i = 0; i < 9; i++) out[i] = x[i];
+    for (int i = 0; i < 3; i++) {
+        out[i] = th[i];
+        out[3 + i] = VX(p, i);
+        out[6 + i] = VX(v, i);
+    }
     out[9] = T;
-    for (int i = 0; i < 225; i++) out[10 + i] = S[i];
-    for (int i = 0; i < 27; i++) { out[235 + i] = Hba[i]; out[262 + i] = Hbg[i]; }
+    double *S = out + 10;
+    for (int i = 0; i < 225; i++) S[i] = 0.0;
+    /* the 15x15 in (theta, p, v, b_a, b_g): block (r, c) and its transpose (c, r) */
+    const m3x blocks[13] = {Ptt, Ptp, Ptv, Ptg, Ppp, Ppv, mt(Pap), mt(Pgp), Pvv, mt(Pav), mt(Pgv),
+                            mscale(T, Qa), mscale(T, Qg)};
+    const int where[13][2] = {{0, 0}, {0, 1}, {0, 2}, {0, 4}, {1, 1}, {1, 2}, {1, 3}, {1, 4},
+                              {2, 2}, {2, 3}, {2, 4}, {3, 3}, {4, 4}};
+    for (int b = 0; b < 13; b++)
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++) {
+                double x = VX(blocks[b].r[i], j);
+                int r = 3 * where[b][0], cc = 3 * where[b][1];
+                S[15 * (r + i) + cc + j] = x;
+                S[15 * (cc + j) + r + i] = x;
+            }
+    /* bias Jacobians, rows (theta, p, v): H_biasAcc's theta rows are 0 */
+    for (int i = 0; i < 9; i++) out[235 + i] = 0.0;
+    mstore(Hap, out + 235 + 9);
+    mstore(Hav, out + 235 + 18);
+    mstore(Hgt, out + 262);
+    mstore(Hgp, out + 262 + 9);
+    mstore(Hgv, out + 262 + 18);
 }
 
 static PyObject *combined_integrate(PyObject *self, PyObject *args) {
@@ -506,7 +602,7 @@ static PyObject *combined_integrate(PyObject *self, PyObject *args) {
     else if (n < 1 || dt_b.len % (Py_ssize_t)sizeof(double) != 0) bad = "dt: no samples";
     else if (acc_b.len != 3 * dt_b.len || gyro_b.len != 3 * dt_b.len) bad = "acc/gyro: not (n, 3)";
     else if (bias_b.len != 6 * (Py_ssize_t)sizeof(double)) bad = "bias: not 6 doubles";
-    else if (cov_b.len != 81 * (Py_ssize_t)sizeof(double)) bad = "cov: not 81 doubles";
+    else if (cov_b.len != C_COV * (Py_ssize_t)sizeof(double)) bad = "cov: not 45 doubles";
     else if (out_b.len != C_OUT * (Py_ssize_t)sizeof(double)) bad = "out: wrong size";
     if (bad == NULL) {
         const double *acc = acc_b.buf, *gyro = gyro_b.buf, *dt = dt_b.buf, *bias = bias_b.buf;

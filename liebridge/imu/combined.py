@@ -23,7 +23,12 @@ Conventions
 
 The rotation recursion is nonlinear and sequential, so the work is one loop over the samples: in C
 (``combined_integrate`` in ``_imu_ext.c``) where the compiled kernel is built, else the same loop
-in Python (the reference; about 30× slower). ``body_P_sensor`` is not supported here.
+in Python (:func:`_python_loop`, the dense ``F Σ Fᵀ`` reference the compiled loop is tested
+against; about 2,000× slower). The C loop propagates ``Σ`` in 3×3 blocks using the structure of
+``F``: ``Cov(θ, b_a)`` and ``Cov(b_a, b_g)`` stay zero, the bias blocks are ``Q_b·Δt`` in closed
+form, the ``p`` row of ``F`` is ``dt/2`` times its ``v`` row plus ``dt·v``, and ``J_r(θ)⁻¹`` is the
+closed form ``I + W/2 + (1/|θ|² − (1 + cos|θ|)/(2|θ| sin|θ|)) W²`` (``W = [θ]×``); about 100 ns a
+sample (2-core x86-64 VM, AVX2 clone). ``body_P_sensor`` is not supported here.
 """
 
 from __future__ import annotations
@@ -109,7 +114,11 @@ def _aligned(x: FloatArray) -> FloatArray:
 def _python_loop(
     acc: FloatArray, gyro: FloatArray, dt: FloatArray, bias: FloatArray, cv: FloatArray
 ) -> FloatArray:
-    """Run the reference loop: the same arithmetic as ``combined_loop`` in ``_imu_ext.c``."""
+    """Run the reference loop: GTSAM's dense ``F Σ Fᵀ`` per sample, one sample at a time.
+
+    ``combined_loop`` in ``_imu_ext.c`` computes the same recursion in 3×3 blocks (equal to
+    rounding; tested to 1e-12 relative).
+    """
     aCov, wCov, iCov, baCov, bgCov = (cv[9 * i : 9 * i + 9].reshape(3, 3) for i in range(5))
     x = np.zeros(9)
     S = np.zeros((15, 15))
@@ -225,10 +234,8 @@ def preintegrate_combined(
     bgyro = validate.covariance(
         np.array(params.getBiasOmegaCovariance(), dtype=np.float64), "params.biasOmegaCovariance", 3
     )
-    # GTSAM ≤ 4.2's biasAccOmegaInt term does not exist in 4.3: its slot stays zero
-    cv = np.concatenate(
-        [P.acc_cov, P.gyro_cov, P.int_cov, bacc, bgyro, np.zeros((4, 9))], axis=None
-    )
+    # GTSAM ≤ 4.2's biasAccOmegaInt term does not exist in 4.3 (no slot for it)
+    cv = np.concatenate([P.acc_cov, P.gyro_cov, P.int_cov, bacc, bgyro], axis=None)
     if compiled and not _kernel.COMPILED:
         raise ValueError("compiled=True: the compiled kernel is not built")
     ext = _kernel._imu_ext
