@@ -320,8 +320,8 @@ def read(path: PathLike, *, edge2: Edge2Order = "auto") -> G2OGraph2D:
     measured = eraw[:, :3].copy()
     ids, vpar, from_odometry = vertices(
         P,
-        (v_ids, v_line, np.array(v_raw, dtype=np.float64).reshape(-1, 3)),
-        (edges, e_lines, pose2_matrix(measured)),
+        (np.array(v_ids, dtype=np.uint64), np.array(v_raw, dtype=np.float64).reshape(-1, 3)),
+        (edges, e_lines, lambda: pose2_matrix(measured)),
         fixed,
         pose2_params,
     )
