@@ -236,7 +236,7 @@ def _covariances(x: Any, name: str, dim: int) -> FloatArray:
     return arr
 
 
-def _has_duplicates(ids: KeyArray) -> bool:
+def has_duplicates(ids: KeyArray) -> bool:
     """Whether an id occurs twice (one sort: ``np.unique`` is several times slower here)."""
     s = np.sort(ids)
     return bool((s[1:] == s[:-1]).any())
@@ -345,7 +345,7 @@ class G2OGraph:
             raise ValueError(
                 f"information_reading: expected 'g2o' or 'gtsam', got {self.information_reading!r}"
             )
-        if _has_duplicates(ids):
+        if has_duplicates(ids):
             raise ValueError("vertex_ids: ids are not unique")
         missing = ~np.isin(e, ids)
         if missing.any():
@@ -856,7 +856,7 @@ def quaternions_within_text_tol(
     return _unit_rows(out)[:, 3:]
 
 
-def _in_file_order(
+def in_file_order(
     parts: list[tuple[npt.NDArray[np.intp], npt.NDArray[Any]]],
 ) -> npt.NDArray[Any]:
     """Rows of several tables (``(lines, rows)`` each) merged in the order of their lines."""
@@ -884,24 +884,24 @@ def _read_tables(
     qe = quaternions_within_text_tol(path, eq, slice(3, 7), 6)
     if qv is None or qe is None:
         return None
-    v_ids = np.array(_in_file_order([(vq.lines, vq.ids[:, 0]), (v3.lines, v3.ids[:, 0])]))
-    if _has_duplicates(v_ids):
+    v_ids = np.array(in_file_order([(vq.lines, vq.ids[:, 0]), (v3.lines, v3.ids[:, 0])]))
+    if has_duplicates(v_ids):
         return None
-    v_euler = _in_file_order(
+    v_euler = in_file_order(
         [(vq.lines, np.zeros(vq.lines.shape, bool)), (v3.lines, np.ones(v3.lines.shape, bool))]
     )
-    vraw = _in_file_order(
+    vraw = in_file_order(
         [
             (vq.lines, np.concatenate([vq.values[:, :3], qv], axis=-1)),
             (v3.lines, np.concatenate([v3.values, np.zeros((v3.lines.shape[0], 1))], axis=-1)),
         ]
     )
     # edges: the same, plus 21 information numbers; from their tables, in file order
-    e_lines = _in_file_order([(eq.lines, eq.lines), (e3.lines, e3.lines)])
-    edges = _in_file_order([(eq.lines, eq.ids), (e3.lines, e3.ids)])
+    e_lines = in_file_order([(eq.lines, eq.lines), (e3.lines, e3.lines)])
+    edges = in_file_order([(eq.lines, eq.ids), (e3.lines, e3.ids)])
     if (edges[:, 0] == edges[:, 1]).any():
         return None
-    euler = _in_file_order(
+    euler = in_file_order(
         [(eq.lines, np.zeros(eq.lines.shape, bool)), (e3.lines, np.ones(e3.lines.shape, bool))]
     )
     if information == "g2o" and (np.abs(np.cos(e3.values[:, 4])) < 1e-9).any():
@@ -912,8 +912,8 @@ def _read_tables(
     else:
         raw7_q = np.concatenate([eq.values[:, :3], qe], axis=-1)
         raw7_3 = np.concatenate([e3.values[:, :6], np.zeros((e3.values.shape[0], 1))], axis=-1)
-        raw7 = _in_file_order([(eq.lines, raw7_q), (e3.lines, raw7_3)])
-        nums = _in_file_order([(eq.lines, eq.values[:, 7:]), (e3.lines, e3.values[:, 6:])])
+        raw7 = in_file_order([(eq.lines, raw7_q), (e3.lines, raw7_3)])
+        nums = in_file_order([(eq.lines, eq.values[:, 7:]), (e3.lines, e3.values[:, 6:])])
     try:
         measured, info = _edge_arrays(raw7, nums, euler, information, edge3)
     except _BadEdge:
