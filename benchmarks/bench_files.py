@@ -19,8 +19,9 @@ Rows (each file generated here, in a temporary directory):
   same way (``usecols=range(1, 5)`` and ``range(1, 12)``).
 
 Times: the candidates interleaved, ``--repeat`` times, median (``run.interleaved``). Memory: each
-reader once in a fresh subprocess, peak traced by ``tracemalloc`` (numpy and Python allocations)
-and the process's ``ru_maxrss``; ``returned_mib`` is the ``nbytes`` of the arrays the reader
+reader once in a fresh subprocess: peak traced by ``tracemalloc`` (numpy and Python allocations),
+the process's peak resident set (``VmHWM``; ``rss_baseline_mib`` is that of the same process
+reading nothing); ``returned_mib`` is the ``nbytes`` of the arrays the reader
 returns (for evo: its trajectory's arrays). Targets (issue 23): time ≤ 2× ``loadtxt`` and ≤ 2×
 evo, traced peak ≤ 3× the arrays returned. The evo columns are skipped, and say so, when evo is
 not installed.
@@ -56,7 +57,7 @@ HAVE_EVO = importlib.util.find_spec("evo") is not None
 
 #: Run in a fresh interpreter: one reader call, its traced peak, returned bytes and ru_maxrss.
 _MEMORY_PROBE = """
-import json, resource, sys, tracemalloc
+import json, sys, tracemalloc
 import numpy as np
 kind, path, extra = sys.argv[1], sys.argv[2], sys.argv[3:]
 
@@ -65,8 +66,9 @@ def nbytes(out):
         return out.nbytes
     if isinstance(out, (tuple, list)):
         return sum(nbytes(o) for o in out)
-    if type(out).__module__.startswith("evo"):  # PosePath3D / PoseTrajectory3D: what it holds
-        return sum(nbytes(v) for v in vars(out).values() if isinstance(v, (np.ndarray, list)))
+    if type(out).__module__.startswith("evo"):  # PosePath3D / PoseTrajectory3D and its cache
+        held = [*vars(out).values(), *vars(out._cache).values()]
+        return sum(nbytes(v) for v in held if isinstance(v, (np.ndarray, list)))
     fields = [f for f in ("vertex_ids", "vertex_xyz_qxyzw", "vertex_xytheta", "edges",
               "measured_xyz_qxyzw", "measured_xytheta", "information") if hasattr(out, f)]
     return sum(getattr(out, f).nbytes for f in fields)
@@ -93,8 +95,9 @@ tracemalloc.start()
 out = fn(path)
 peak = tracemalloc.get_traced_memory()[1]
 tracemalloc.stop()
-print(json.dumps({"peak": peak, "returned": nbytes(out),
-                  "maxrss_kib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss}))
+# VmHWM: this process's peak resident set (ru_maxrss would carry the parent's across exec)
+hwm = next(ln for ln in open("/proc/self/status") if ln.startswith("VmHWM")).split()[1]
+print(json.dumps({"peak": peak, "returned": nbytes(out), "hwm_kib": int(hwm)}))
 """
 
 
@@ -111,7 +114,7 @@ def _probe(kind: str, path: Path, *extra: str) -> dict[str, float]:
     return {
         "peak_mib": r["peak"] / 2**20,
         "returned_mib": r["returned"] / 2**20,
-        "maxrss_mib": r["maxrss_kib"] / 2**10,
+        "rss_peak_mib": r["hwm_kib"] / 2**10,
     }
 
 
@@ -119,6 +122,28 @@ def _evo_reader(kind: str) -> Any:
     from evo.tools import file_interface as fi
 
     return {"evo_tum": fi.read_tum_trajectory_file, "evo_kitti": fi.read_kitti_poses_file}[kind]
+
+
+def _baseline_rss() -> float:
+    """Peak RSS (MiB) of the probe process reading nothing: interpreter, numpy, liebridge."""
+    if "rss" not in _BASELINE:
+        proc = subprocess.run(
+            [sys.executable, "-c", _IDLE_PROBE],
+            capture_output=True,
+            text=True,
+            check=True,
+            cwd=ROOT,
+            env={**os.environ, "PYTHONPATH": str(ROOT)},
+        )
+        _BASELINE["rss"] = int(proc.stdout.split()[-1]) / 2**10
+    return _BASELINE["rss"]
+
+
+_BASELINE: dict[str, float] = {}
+_IDLE_PROBE = """
+import numpy, liebridge.io.g2o, liebridge.io.g2o2d, liebridge.io.trajectory
+print(next(ln for ln in open("/proc/self/status") if ln.startswith("VmHWM")).split()[1])
+"""
 
 
 def _row(
@@ -149,7 +174,8 @@ def _row(
         "ratio_vs_loadtxt": med["liebridge"] / med["loadtxt"],
         "loadtxt_baseline": baseline_name,
         "peak_mib": mem["peak_mib"],
-        "maxrss_mib": mem["maxrss_mib"],
+        "rss_peak_mib": mem["rss_peak_mib"],
+        "rss_baseline_mib": _baseline_rss(),
         "returned_mib": mem["returned_mib"],
         "peak_over_returned": mem["peak_mib"] / mem["returned_mib"],
         "loadtxt_peak_mib": mem_np["peak_mib"],

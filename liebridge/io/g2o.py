@@ -78,6 +78,7 @@ from __future__ import annotations
 import itertools
 import math
 import os
+import warnings
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -773,14 +774,34 @@ def read_tagged(
     ``2**64 − 2``, a file descriptor, text that is not UTF-8 — leaving the file to the
     line-by-line reader, which names the line. A first pass records the tag of each line
     (``#`` comments and blank lines skipped, as the line reader does); then each tag's lines
-    are fed to one ``loadtxt`` call through :func:`itertools.compress`, so memory is the
-    tables, never a copy of the file.
+    go to one ``loadtxt`` call: read from the file itself (``skiprows``, ``max_rows``) when
+    they form one block with nothing but comments between them (vertices, then edges: the
+    usual layout), else picked out by :func:`itertools.compress`. Memory is the tables, never
+    a copy of the file.
     """
     if not isinstance(path, str | os.PathLike):
         return None
     code = {tag: k + 1 for k, tag in enumerate(columns)}
     fixed: list[int] = []
     skipped: dict[str, int] = {}
+
+    def take(fields: list[str]) -> int | None:
+        """Code of an unusual line split as the reader splits it; None: not for this path."""
+        if not fields:
+            return 0  # blank or comment
+        if fields[0] in code:
+            return code[fields[0]]
+        if fields[0] == "FIX" and len(fields) > 1:
+            fix = [int(f) for f in fields[1:]]
+            if not all(0 <= i <= validate.MAX_KEY for i in fix):
+                return None
+            fixed.extend(fix)
+            return _OTHER
+        if fields[0] in skip:
+            skipped[fields[0]] = skipped.get(fields[0], 0) + 1
+            return _OTHER
+        return None
+
     try:
         with open(path, encoding="utf-8") as fh:  # the tag of each line, in C: 0 if unusual
             tags = map(itemgetter(0), map(str.split, fh, repeat(" "), repeat(1)))
@@ -789,28 +810,33 @@ def read_tagged(
             with open(path, encoding="utf-8") as fh:
                 unusual = np.frombuffer(codes, dtype=np.uint8) == 0
                 for k, line in itertools.compress(enumerate(fh), unusual.tobytes()):
-                    fields = line.split("#", 1)[0].split()
-                    if not fields:
-                        continue
-                    if fields[0] in code:
-                        codes[k] = code[fields[0]]
-                    elif fields[0] == "FIX" and len(fields) > 1:
-                        fix = [int(f) for f in fields[1:]]
-                        if not all(0 <= i <= validate.MAX_KEY for i in fix):
-                            return None
-                        fixed.extend(fix)
-                    elif fields[0] in skip:
-                        skipped[fields[0]] = skipped.get(fields[0], 0) + 1
-                    else:
+                    c = take(line.split("#", 1)[0].split())
+                    if c is None:
                         return None
+                    codes[k] = c
         tag_of_line = np.frombuffer(codes, dtype=np.uint8)
         tables = {}
         for tag, (n_ids, n_values) in columns.items():
             mask = tag_of_line == code[tag]
             lines = np.flatnonzero(mask) + 1
             dtype = np.dtype([("tag", "S1"), ("ids", "u8", (n_ids,)), ("x", "f8", (n_values,))])
+            block = tag_of_line[lines[0] - 1 : lines[-1]] if lines.shape[0] else tag_of_line[:0]
             if lines.shape[0] == 0:
                 rec = np.zeros(0, dtype=dtype)
+            elif ((block == code[tag]) | (block == 0)).all():  # one block: numpy reads the file
+                with warnings.catch_warnings():
+                    warnings.simplefilter("error")  # not a number numpy would read with a warning
+                    # comment lines inside the block: not rows, as intended
+                    warnings.filterwarnings("ignore", "Input line", UserWarning)
+                    rec = np.loadtxt(
+                        path,
+                        dtype=dtype,
+                        comments="#",
+                        skiprows=int(lines[0]) - 1,
+                        max_rows=lines.shape[0],
+                        ndmin=1,
+                        encoding="utf-8",
+                    )
             else:
                 with open(path, encoding="utf-8") as fh:
                     rec = np.loadtxt(
@@ -822,9 +848,13 @@ def read_tagged(
             if (ids > validate.MAX_KEY).any() or not _all_finite(x):
                 return None
             tables[tag] = _Table(lines, ids, x)
-    except ValueError:  # a field loadtxt cannot read, not UTF-8, ...
+    except (ValueError, Warning):  # a field loadtxt cannot read, not UTF-8, ...
         return None
     return tables, fixed, skipped
+
+
+#: Tag code of a line :func:`read_tagged` has taken (FIX, a skipped tag): not a blank line.
+_OTHER = 255
 
 
 def _all_finite(x: FloatArray) -> bool:

@@ -53,7 +53,7 @@ import numpy.typing as npt
 
 from .. import _validate as validate
 from .._validate import FloatArray
-from .g2o import _Parser, has_duplicates, in_file_order, read_tagged, vertices
+from .g2o import _covariances, _Parser, has_duplicates, in_file_order, read_tagged, vertices
 from .trajectory import text_lines
 
 __all__ = ["G2OGraph2D", "is_2d", "read", "write"]
@@ -230,6 +230,12 @@ def read(path: PathLike, *, edge2: Edge2Order = "auto") -> G2OGraph2D:
         On a malformed, 3-D or unsupported line (naming the file, line and field), an edge to a
         missing vertex, an information matrix that is not positive definite, or a file without
         vertices whose odometry chain has a gap.
+
+    Notes
+    -----
+    A well-formed file is parsed by ``numpy.loadtxt``, one pass per line type
+    (:func:`liebridge.io.g2o.read_tagged`, issue 23); anything unusual sends it to the
+    line-by-line reader, which returns the same graph or names the first faulty line.
     """
     if edge2 not in ("auto", "g2o", "toro"):
         raise ValueError(f"edge2: expected 'auto', 'g2o' or 'toro', got {edge2!r}")
@@ -258,24 +264,16 @@ def _read_tables(path: PathLike, edge2: Edge2Order) -> G2OGraph2D | None:
     edges = np.array(in_file_order([(es.lines, es.ids), (e2.lines, e2.ids)]))
     if has_duplicates(v_ids) or (edges[:, 0] == edges[:, 1]).any():
         return None
+    vpar = np.array(in_file_order([(vs.lines, vs.values), (v2.lines, v2.values)]))
+    eraw = np.array(in_file_order([(es.lines, es.values), (e2.lines, e2.values)]))
+    toro_tag = in_file_order(
+        [(es.lines, np.zeros(es.lines.shape, bool)), (e2.lines, np.ones(e2.lines.shape, bool))]
+    )
+    e_lines = in_file_order([(es.lines, es.lines), (e2.lines, e2.lines)])
+    del got, tables, vs, v2, es, e2  # the parsed tables: freed before the conversions
     try:
         return _graph(
-            _Parser(path),
-            (v_ids, np.array(in_file_order([(vs.lines, vs.values), (v2.lines, v2.values)]))),
-            (
-                edges,
-                np.array(in_file_order([(es.lines, es.values), (e2.lines, e2.values)])),
-                in_file_order(
-                    [
-                        (es.lines, np.zeros(es.lines.shape, bool)),
-                        (e2.lines, np.ones(e2.lines.shape, bool)),
-                    ]
-                ),
-                in_file_order([(es.lines, es.lines), (e2.lines, e2.lines)]),
-            ),
-            fixed,
-            skipped,
-            edge2,
+            _Parser(path), (v_ids, vpar), (edges, eraw, toro_tag, e_lines), fixed, skipped, edge2
         )
     except ValueError:
         return None
@@ -385,7 +383,7 @@ def _graph(
         if order == "toro":
             info[toro_tag] = _sym(nums[toro_tag], _TORO_ORDER)
     try:
-        validate.covariance(info, "information", 3)
+        _covariances(info, "information", 3)  # in chunks: bounded temporaries (issue 23)
     except ValueError:
         for k, lam_k in enumerate(info):  # name the line
             try:
