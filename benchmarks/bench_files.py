@@ -304,7 +304,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     mib2 = args.g2o2d_mib if args.g2o2d_mib is not None else (1.0 if q else 64.0)
     lscpu = subprocess.run(["lscpu"], capture_output=True, text=True, check=False).stdout
     out: dict[str, Any] = {
-        "command": "python benchmarks/bench_files.py " + " ".join(argv or sys.argv[1:]),
+        "command": " ".join(["python benchmarks/bench_files.py", *(argv or sys.argv[1:])]),
         "machine": [ln for ln in lscpu.splitlines() if ln.startswith(("Model name", "CPU(s)"))],
         "python": platform.python_version(),
         "numpy": np.__version__,

@@ -403,3 +403,12 @@ def test_2d_and_3d_lines_are_refused_by_the_other_reader(tmp_path: Path) -> None
     p2 = _write(tmp_path, _lines_2d(), "two.g2o")
     assert "read it with liebridge.io.g2o.read" in _error(lambda: g2o2d.read(p3))
     assert "read it with liebridge.io.g2o2d.read" in _error(lambda: g2o.read(p2))
+
+
+def test_missing_file_and_directory_raise_as_the_line_reader_does(tmp_path: Path) -> None:
+    for path in (tmp_path / "absent.g2o", tmp_path):
+        with pytest.raises(OSError) as fast:
+            g2o.read(path)
+        with pytest.raises(OSError) as slow:
+            g2o._read_lines(path, "g2o", "sqrt_information")
+        assert type(fast.value) is type(slow.value) and str(fast.value) == str(slow.value)

@@ -848,8 +848,8 @@ def read_tagged(
             if (ids > validate.MAX_KEY).any() or not _all_finite(x):
                 return None
             tables[tag] = _Table(lines, ids, x)
-    except (ValueError, Warning):  # a field loadtxt cannot read, not UTF-8, ...
-        return None
+    except (ValueError, Warning, OSError):  # a field loadtxt cannot read, not UTF-8, no file:
+        return None  # the line reader raises what it raises
     return tables, fixed, skipped
 
 
