@@ -412,3 +412,18 @@ def test_missing_file_and_directory_raise_as_the_line_reader_does(tmp_path: Path
         with pytest.raises(OSError) as slow:
             g2o._read_lines(path, "g2o", "sqrt_information")
         assert type(fast.value) is type(slow.value) and str(fast.value) == str(slow.value)
+
+
+@pytest.mark.parametrize("text", ["", "# only a comment\n\n"])
+def test_empty_and_comment_only_files_give_empty_graphs_on_both_paths(
+    tmp_path: Path, text: str
+) -> None:
+    path = tmp_path / "e.g2o"
+    path.write_text(text)
+    fast3 = g2o._read_tables(path, "g2o", "sqrt_information")
+    assert fast3 is not None
+    _same_3d(fast3, g2o._read_lines(path, "g2o", "sqrt_information"))
+    assert fast3.vertex_ids.shape == (0,) and fast3.information.shape == (0, 6, 6)
+    fast2 = g2o2d._read_tables(path, "auto")
+    assert fast2 is not None
+    _same_2d(fast2, g2o2d._read_lines(path, "auto"))
