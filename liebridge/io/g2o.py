@@ -75,12 +75,16 @@ the pose parameters are stored exactly as read, so ``read(write(g))`` reproduces
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
-from collections.abc import Iterable
+import warnings
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any, Literal
+from itertools import repeat
+from operator import itemgetter
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -185,10 +189,16 @@ def _ids(x: Any, name: str) -> KeyArray:
             raise ValueError(f"{name}: expected integer ids") from None
     elif not np.issubdtype(a.dtype, np.integer):
         raise ValueError(f"{name}: expected integer ids, got dtype {a.dtype}")
+    if a.dtype != object:  # integer arrays: checked in place (no Python int per id; issue 23)
+        bad = a < 0 if a.dtype.kind == "i" else a > validate.MAX_KEY
+        if not bad.any():
+            return a.astype(np.uint64, copy=False)
     flat = [int(k) for k in a.reshape(-1).tolist()]
-    bad = [k for k in flat if not 0 <= k <= validate.MAX_KEY]
-    if bad:
-        raise ValueError(f"{name}: id {bad[0]} is outside [0, 2**64 - 2] (GTSAM keys are uint64)")
+    bad_ids = [k for k in flat if not 0 <= k <= validate.MAX_KEY]
+    if bad_ids:
+        raise ValueError(
+            f"{name}: id {bad_ids[0]} is outside [0, 2**64 - 2] (GTSAM keys are uint64)"
+        )
     return np.array(flat, dtype=np.uint64).reshape(a.shape)
 
 
@@ -205,8 +215,55 @@ def _triu_to_upper(vals: FloatArray) -> FloatArray:
     return m
 
 
-def _readonly(a: npt.NDArray[Any]) -> npt.NDArray[Any]:
-    a = np.array(a, copy=True)
+#: Rows per pass of the batched conversions and checks: bounds their temporaries (issue 23).
+_CHUNK = 1 << 15
+
+
+def _covariances(x: Any, name: str, dim: int) -> FloatArray:
+    """:func:`liebridge._validate.covariance` of a batch ``(M, dim, dim)``, chunk by chunk.
+
+    The check is per matrix, so chunks find what the whole batch would; the error is then
+    raised by the whole batch, naming the batch index in it. Temporaries are a chunk's size.
+    """
+    arr = validate.as_float_array(x, name)
+    if arr.ndim != 3 or arr.shape[0] <= _CHUNK:
+        return validate.covariance(arr, name, dim)
+    try:
+        for lo in range(0, arr.shape[0], _CHUNK):
+            validate.covariance(arr[lo : lo + _CHUNK], name, dim)
+    except ValueError:
+        validate.covariance(arr, name, dim)
+        raise
+    return arr
+
+
+def has_duplicates(ids: KeyArray) -> bool:
+    """Whether an id occurs twice (one sort: ``np.unique`` is several times slower here)."""
+    s = np.sort(ids)
+    return bool((s[1:] == s[:-1]).any())
+
+
+def _symmetrised_copy(A: FloatArray, copy: bool = True) -> FloatArray:
+    """Return :func:`_symmetrised` ``(A)`` ``(M, n, n)`` read-only, chunk by chunk.
+
+    Exactly symmetric input is returned as it is (made read-only in place) unless ``copy``.
+    """
+    exact = all(
+        bool((a == np.swapaxes(a, -1, -2)).all())
+        for a in (A[lo : lo + _CHUNK] for lo in range(0, A.shape[0], _CHUNK))
+    )
+    if exact and not copy:
+        out = A
+    else:
+        out = np.empty(A.shape)
+        for lo in range(0, A.shape[0], _CHUNK):
+            out[lo : lo + _CHUNK] = _symmetrised(A[lo : lo + _CHUNK])
+    out.flags.writeable = False
+    return out
+
+
+def _readonly(a: npt.NDArray[Any], copy: bool = True) -> npt.NDArray[Any]:
+    a = np.array(a, copy=True) if copy else np.asarray(a)
     a.flags.writeable = False
     return a
 
@@ -247,6 +304,23 @@ class G2OGraph:
     vertices_from_odometry: bool = False
 
     def __post_init__(self) -> None:
+        self._check_and_freeze(copy=True)
+
+    @classmethod
+    def _adopt(cls, **fields: Any) -> G2OGraph:
+        """Build from arrays the reader has just made and hands over (issue 23: not copied).
+
+        The same checks as the constructor; the arrays are made read-only in place instead of
+        copied, so the reader's peak memory stays within 3× of the arrays returned.
+        """
+        graph = object.__new__(cls)
+        for name, value in fields.items():
+            object.__setattr__(graph, name, value)
+        graph._check_and_freeze(copy=False)
+        return graph
+
+    def _check_and_freeze(self, *, copy: bool) -> None:
+        """Validate the fields; store them read-only (copies if ``copy``), exactly symmetric."""
         ids = _ids(self.vertex_ids, "vertex_ids")
         if ids.ndim != 1:
             raise ValueError(f"vertex_ids: expected a 1-D integer array, got {ids.shape}")
@@ -265,14 +339,14 @@ class G2OGraph:
             raise ValueError(f"measured_xyz_qxyzw: expected shape ({m}, 7), got {mx.shape}")
         validate.quaternion(mx[:, 3:], "measured_xyz_qxyzw quaternion")
         mx = _unit_rows(mx)
-        info = validate.covariance(self.information, "information", 6)
+        info = _covariances(self.information, "information", 6)
         if info.shape != (m, 6, 6):
             raise ValueError(f"information: expected shape ({m}, 6, 6), got {info.shape}")
         if self.information_reading not in ("g2o", "gtsam"):
             raise ValueError(
                 f"information_reading: expected 'g2o' or 'gtsam', got {self.information_reading!r}"
             )
-        if np.unique(ids).shape[0] != n:
+        if has_duplicates(ids):
             raise ValueError("vertex_ids: ids are not unique")
         missing = ~np.isin(e, ids)
         if missing.any():
@@ -280,12 +354,12 @@ class G2OGraph:
             raise ValueError(
                 f"edges[{k}]: {tuple(int(x) for x in e[k])} refers to a missing vertex"
             )
-        object.__setattr__(self, "vertex_ids", _readonly(ids))
-        object.__setattr__(self, "vertex_xyz_qxyzw", _readonly(vx))
-        object.__setattr__(self, "edges", _readonly(e))
-        object.__setattr__(self, "measured_xyz_qxyzw", _readonly(mx))
+        object.__setattr__(self, "vertex_ids", _readonly(ids, copy))
+        object.__setattr__(self, "vertex_xyz_qxyzw", _readonly(vx, copy))
+        object.__setattr__(self, "edges", _readonly(e, copy))
+        object.__setattr__(self, "measured_xyz_qxyzw", _readonly(mx, copy))
         # exactly symmetric, so that writing the upper triangle loses nothing
-        object.__setattr__(self, "information", _readonly(_symmetrised(info)))
+        object.__setattr__(self, "information", _symmetrised_copy(info, copy))
         fixed = _ids(np.asarray(list(self.fixed), dtype=object), "fixed")
         object.__setattr__(self, "fixed", tuple(int(i) for i in fixed))
 
@@ -464,9 +538,35 @@ def read(
     ValueError
         On a malformed or unsupported line (naming the file and line number), an edge to a
         missing vertex, or a file without vertices whose odometry chain has a gap.
+
+    Notes
+    -----
+    A well-formed file is parsed by ``numpy.loadtxt``, one pass per line type (:func:`read_tagged`;
+    issue 23: a 254 MiB file within 2× of ``loadtxt`` alone, memory within 3× of the arrays
+    returned). Anything unusual — a malformed line, a quaternion norm off by more than full
+    precision allows and beyond the precision it was printed with, an id out of range, a
+    duplicate vertex, a singular Euler chart, an information matrix that is not positive
+    semi-definite — sends the file to the line-by-line reader, which gives the same graph and
+    names the first faulty line.
     """
     information = validate.option(information, "information", ("g2o", "gtsam"))  # type: ignore[assignment]
     edge3 = validate.option(edge3, "edge3", ("sqrt_information", "information"))  # type: ignore[assignment]
+    fast = _read_tables(path, information, edge3)
+    if fast is not None:
+        return fast
+    return _read_lines(path, information, edge3)
+
+
+class _BadEdge(Exception):
+    """Edge ``k`` (0-based, file order) is faulty: the line reader names its line."""
+
+    def __init__(self, k: int, msg: str) -> None:
+        super().__init__(msg)
+        self.k, self.msg = k, msg
+
+
+def _read_lines(path: PathLike, information: InformationReading, edge3: Edge3Numbers) -> G2OGraph:
+    """Read line by line, naming every fault by file and line (the reference reader)."""
     P = _Parser(path)
     v_ids: list[int] = []
     v_line: dict[int, int] = {}
@@ -532,57 +632,19 @@ def read(
                 "VERTEX3, EDGE3, FIX)",
             )
 
-    # batch conversion
     vraw = np.array(v_raw, dtype=np.float64).reshape(-1, 7)
-    vpar = _params_from_raw(vraw, np.array(v_euler, dtype=bool))
     eraw = np.array(e_raw, dtype=np.float64).reshape(-1, 28)
     euler = np.array(e_euler, dtype=bool)
-    measured = _params_from_raw(eraw[:, :7], euler)
-    nums = eraw[:, 7:]
-    info = np.empty((eraw.shape[0], 6, 6))
-    q = ~euler
-    if information == "g2o":
-        cp = np.abs(np.cos(eraw[euler, 4]))
-        for k in np.flatnonzero(~(cp >= GIMBAL_TOL)).tolist()[:1]:
-            raise P.fail(
-                e_lines[int(np.flatnonzero(euler)[k])],
-                f"EDGE3 measurement at pitch = ±90° (|cos pitch| = {float(cp[k]):.3g}): gimbal "
-                "lock, where the roll-pitch-yaw chart of its information matrix is singular; "
-                "read it with information='gtsam' to keep the numbers as they are",
-            )
-        info[q] = _swap_blocks(_triu_to_sym(nums[q])) * _G2O_TO_GTSAM_SCALE  # = Mᵀ Λ M, exactly
-        with np.errstate(over="ignore", invalid="ignore"):  # reported per line below
-            if edge3 == "sqrt_information":
-                S = _triu_to_upper(nums[euler])
-                lam_e = np.swapaxes(S, -1, -2) @ S
-            else:
-                lam_e = _triu_to_sym(nums[euler])
-            E = _euler_error_map(eraw[euler, 3:6])
-            lam = np.swapaxes(E, -1, -2) @ lam_e @ E
-            info[euler] = _symmetrised(lam)
-    else:
-        info[q] = _swap_blocks(_triu_to_sym(nums[q]))
-        info[euler] = _triu_to_sym(nums[euler])
-    for k in np.flatnonzero(~np.isfinite(info).all(axis=(-1, -2))).tolist()[:1]:
-        raise P.fail(
-            e_lines[k],
-            "information: finite numbers whose conversion to GTSAM's (ω, v) overflows float64 "
-            f"(largest |entry| {float(np.abs(nums[k]).max()):.3g})",
-        )
     try:
-        validate.covariance(info, "information", 6)
-    except ValueError:
-        for k, lam_k in enumerate(info):  # name the line
-            try:
-                validate.covariance(lam_k, "information", 6)
-            except ValueError as exc:
-                raise P.fail(e_lines[k], f"{exc} (after conversion to GTSAM's (ω, v))") from None
-        raise
+        measured, info = _edge_arrays(eraw[:, :7], eraw[:, 7:], euler, information, edge3)
+        _name_bad_information(info)
+    except _BadEdge as exc:
+        raise P.fail(e_lines[exc.k], exc.msg) from None
     edges = np.array(e_ids, dtype=np.uint64).reshape(-1, 2)
     ids, vpar, from_odometry = vertices(
         P,
-        (v_ids, v_line, vpar),
-        (edges, e_lines, _layouts.to_matrix(measured, layout="xyz_qxyzw")),
+        (np.array(v_ids, dtype=np.uint64), _params_from_raw(vraw, np.array(v_euler, dtype=bool))),
+        (edges, e_lines, lambda: _layouts.to_matrix(measured, layout="xyz_qxyzw")),
         fixed,
         lambda T: _layouts.from_matrix(T, layout="xyz_qxyzw"),
     )
@@ -598,9 +660,322 @@ def read(
     )
 
 
+def _edge_arrays(
+    raw7: FloatArray,
+    nums: FloatArray,
+    euler: npt.NDArray[np.bool_],
+    information: InformationReading,
+    edge3: Edge3Numbers,
+) -> tuple[FloatArray, FloatArray]:
+    """Measurements ``"xyz_qxyzw"`` ``(M, 7)`` and information over ``(ω, v)`` ``(M, 6, 6)``.
+
+    ``raw7``: rows ``x y z qx qy qz qw`` (quaternion already normalised) or ``x y z roll pitch
+    yaw 0`` where ``euler``; ``nums``: the 21 information numbers of each edge as read. Both
+    readers call it; conversions run in chunks of :data:`_CHUNK` rows. Raises :class:`_BadEdge`
+    for the first faulty edge: a gimbal-locked ``EDGE3`` (``information="g2o"``), then
+    information overflowing float64 in the conversion (:func:`_name_bad_information` checks
+    the matrices next, in the line reader; :class:`G2OGraph` checks them in any case).
+    """
+    m = raw7.shape[0]
+    measured = _params_from_raw(raw7, euler)
+    if information == "g2o" and euler.any():
+        k_euler = np.flatnonzero(euler)
+        cp = np.abs(np.cos(raw7[k_euler, 4]))
+        for k in np.flatnonzero(~(cp >= GIMBAL_TOL)).tolist()[:1]:
+            raise _BadEdge(
+                int(k_euler[k]),
+                f"EDGE3 measurement at pitch = ±90° (|cos pitch| = {float(cp[k]):.3g}): gimbal "
+                "lock, where the roll-pitch-yaw chart of its information matrix is singular; "
+                "read it with information='gtsam' to keep the numbers as they are",
+            )
+    info = np.empty((m, 6, 6))
+    finite = np.ones(m, dtype=bool)
+    for lo in range(0, m, _CHUNK):
+        sl = slice(lo, lo + _CHUNK)
+        if euler[sl].any():
+            info[sl] = _edge_information(raw7[sl], nums[sl], euler[sl], information, edge3)
+            finite[sl] = np.isfinite(info[sl]).all(axis=(-1, -2))
+        else:  # finite numbers gathered and scaled by 1, 1/2, 1/4: finite, written in place
+            np.take(nums[sl], _SWAPPED_TRIU, axis=1, out=info[sl].reshape(-1, 36))
+            if information == "g2o":
+                info[sl] *= _G2O_TO_GTSAM_SCALE  # = Mᵀ Λ M, exactly
+    for k in np.flatnonzero(~finite).tolist()[:1]:
+        raise _BadEdge(
+            k,
+            "information: finite numbers whose conversion to GTSAM's (ω, v) overflows float64 "
+            f"(largest |entry| {float(np.abs(nums[k]).max()):.3g})",
+        )
+    return measured, info
+
+
+def _name_bad_information(info: FloatArray) -> None:
+    """Raise :class:`_BadEdge` for the first information matrix that is not a covariance."""
+    try:
+        _covariances(info, "information", 6)
+    except ValueError:
+        for k, lam_k in enumerate(info):  # name the line
+            try:
+                validate.covariance(lam_k, "information", 6)
+            except ValueError as exc:
+                raise _BadEdge(k, f"{exc} (after conversion to GTSAM's (ω, v))") from None
+        raise
+
+
+#: ``_swap_blocks(_triu_to_sym(nums))`` as one gather: the index into the 21 numbers of each
+#: entry of the (ω, v) matrix (the same values, moved; issue 23).
+_SWAPPED_TRIU = _swap_blocks(_triu_to_sym(np.arange(21.0))).astype(np.intp).reshape(36)
+
+
+def _edge_information(
+    raw7: FloatArray,
+    nums: FloatArray,
+    euler: npt.NDArray[np.bool_],
+    information: InformationReading,
+    edge3: Edge3Numbers,
+) -> FloatArray:
+    """Information over GTSAM's ``(ω, v)`` of a chunk of edges (see :func:`_edge_arrays`)."""
+    info = np.empty((raw7.shape[0], 6, 6))
+    q = ~euler
+    if information == "g2o":
+        info[q] = nums[q][:, _SWAPPED_TRIU].reshape(-1, 6, 6) * _G2O_TO_GTSAM_SCALE  # = Mᵀ Λ M
+        if euler.any():
+            with np.errstate(over="ignore", invalid="ignore"):  # reported per line
+                if edge3 == "sqrt_information":
+                    S = _triu_to_upper(nums[euler])
+                    lam_e = np.swapaxes(S, -1, -2) @ S
+                else:
+                    lam_e = _triu_to_sym(nums[euler])
+                E = _euler_error_map(raw7[euler, 3:6])
+                lam = np.swapaxes(E, -1, -2) @ lam_e @ E
+                info[euler] = _symmetrised(lam)
+    else:
+        info[q] = nums[q][:, _SWAPPED_TRIU].reshape(-1, 6, 6)
+        info[euler] = _triu_to_sym(nums[euler])
+    return info
+
+
+class _Table(NamedTuple):
+    """The lines of one tag, parsed: ``lines`` (1-based), ``ids`` ``(K, n_ids)``, ``values``."""
+
+    lines: npt.NDArray[np.intp]
+    ids: KeyArray
+    values: FloatArray
+
+
+def read_tagged(
+    path: PathLike, columns: dict[str, tuple[int, int]], skip: Sequence[str] = ()
+) -> tuple[dict[str, _Table], list[int], dict[str, int]] | None:
+    """Parse a well-formed graph file with ``numpy.loadtxt``, one pass per tag (issue 23).
+
+    ``columns[tag] = (n_ids, n_values)``: lines ``TAG id... value...``, the ids unsigned
+    integers, the values finite floats. Returns ``(tables by tag, FIX ids, count of each tag
+    in skip)``, or ``None`` as soon as anything is unusual — an unknown tag, a wrong field
+    count, a field that ``loadtxt`` does not read as Python would, NaN/Inf, an id above
+    ``2**64 − 2``, a file descriptor, text that is not UTF-8 — leaving the file to the
+    line-by-line reader, which names the line. A first pass records the tag of each line
+    (``#`` comments and blank lines skipped, as the line reader does); then each tag's lines
+    go to one ``loadtxt`` call: read from the file itself (``skiprows``, ``max_rows``) when
+    they form one block with nothing but comments between them (vertices, then edges: the
+    usual layout), else picked out by :func:`itertools.compress`. Memory is the tables, never
+    a copy of the file.
+    """
+    if not isinstance(path, str | os.PathLike):
+        return None
+    code = {tag: k + 1 for k, tag in enumerate(columns)}
+    fixed: list[int] = []
+    skipped: dict[str, int] = {}
+
+    def take(fields: list[str]) -> int | None:
+        """Code of an unusual line split as the reader splits it; None: not for this path."""
+        if not fields:
+            return 0  # blank or comment
+        if fields[0] in code:
+            return code[fields[0]]
+        if fields[0] == "FIX" and len(fields) > 1:
+            fix = [int(f) for f in fields[1:]]
+            if not all(0 <= i <= validate.MAX_KEY for i in fix):
+                return None
+            fixed.extend(fix)
+            return _OTHER
+        if fields[0] in skip:
+            skipped[fields[0]] = skipped.get(fields[0], 0) + 1
+            return _OTHER
+        return None
+
+    try:
+        with open(path, encoding="utf-8") as fh:  # the tag of each line, in C: 0 if unusual
+            tags = map(itemgetter(0), map(str.split, fh, repeat(" "), repeat(1)))
+            codes = bytearray(map(code.get, tags, repeat(0)))
+        if 0 in codes:  # blank, comment, FIX, another separator ...: split as the reader does
+            with open(path, encoding="utf-8") as fh:
+                unusual = np.frombuffer(codes, dtype=np.uint8) == 0
+                for k, line in itertools.compress(enumerate(fh), unusual.tobytes()):
+                    c = take(line.split("#", 1)[0].split())
+                    if c is None:
+                        return None
+                    codes[k] = c
+        tag_of_line = np.frombuffer(codes, dtype=np.uint8)
+        tables = {}
+        for tag, (n_ids, n_values) in columns.items():
+            mask = tag_of_line == code[tag]
+            lines = np.flatnonzero(mask) + 1
+            dtype = np.dtype([("tag", "S1"), ("ids", "u8", (n_ids,)), ("x", "f8", (n_values,))])
+            block = tag_of_line[lines[0] - 1 : lines[-1]] if lines.shape[0] else tag_of_line[:0]
+            if lines.shape[0] == 0:
+                rec = np.zeros(0, dtype=dtype)
+            elif ((block == code[tag]) | (block == 0)).all():  # one block: numpy reads the file
+                with warnings.catch_warnings():
+                    warnings.simplefilter("error")  # not a number numpy would read with a warning
+                    # comment lines inside the block: not rows, as intended
+                    warnings.filterwarnings("ignore", "Input line", UserWarning)
+                    rec = np.loadtxt(
+                        path,
+                        dtype=dtype,
+                        comments="#",
+                        skiprows=int(lines[0]) - 1,
+                        max_rows=lines.shape[0],
+                        ndmin=1,
+                        encoding="utf-8",
+                    )
+            else:
+                with open(path, encoding="utf-8") as fh:
+                    rec = np.loadtxt(
+                        itertools.compress(fh, mask.tobytes()), dtype=dtype, comments="#", ndmin=1
+                    )
+            if rec.shape != lines.shape:
+                return None
+            ids, x = rec["ids"], rec["x"]
+            if (ids > validate.MAX_KEY).any() or not _all_finite(x):
+                return None
+            tables[tag] = _Table(lines, ids, x)
+    except (ValueError, Warning, OSError):  # a field loadtxt cannot read, not UTF-8, no file:
+        return None  # the line reader raises what it raises
+    return tables, fixed, skipped
+
+
+#: Tag code of a line :func:`read_tagged` has taken (FIX, a skipped tag): not a blank line.
+_OTHER = 255
+
+
+def _all_finite(x: FloatArray) -> bool:
+    return all(bool(np.isfinite(x[lo : lo + _CHUNK]).all()) for lo in range(0, x.shape[0], _CHUNK))
+
+
+def quaternions_within_text_tol(
+    path: PathLike, table: _Table, cols: slice, field0: int
+) -> FloatArray | None:
+    """Rows ``table.values[:, cols]`` (quaternions) normalised, or None if one is off.
+
+    Norms within :data:`liebridge.io.poses.QUATERNION_TOL` of 1 pass; the others are judged by
+    the precision their text was printed with (:func:`liebridge.io.poses.text_quaternion_tol`,
+    fields ``field0 .. field0 + 3`` of the line), as the line reader judges every line.
+    """
+    q = table.values[:, cols]
+    err = np.abs(np.linalg.norm(q, axis=-1) - 1.0)
+    suspect = np.flatnonzero(err > _layouts.QUATERNION_TOL)
+    if suspect.size:
+        wanted = dict(zip(table.lines[suspect].tolist(), suspect.tolist(), strict=True))
+        for lineno, line in text_lines(path):
+            r = wanted.get(lineno)
+            if r is not None:
+                fields = line.split("#", 1)[0].split()
+                if err[r] > _layouts.text_quaternion_tol(fields[field0 : field0 + 4]):
+                    return None
+    out = np.zeros((q.shape[0], 7))
+    out[:, 3:] = q
+    return _unit_rows(out)[:, 3:]
+
+
+def in_file_order(
+    parts: list[tuple[npt.NDArray[np.intp], npt.NDArray[Any]]],
+) -> npt.NDArray[Any]:
+    """Rows of several tables (``(lines, rows)`` each) merged in the order of their lines."""
+    nonempty = [(ln, r) for ln, r in parts if ln.shape[0]]
+    if len(nonempty) == 1:
+        return nonempty[0][1]
+    rows = np.concatenate([r for _, r in parts])
+    return rows[np.argsort(np.concatenate([ln for ln, _ in parts]), kind="stable")]
+
+
+def _read_tables(
+    path: PathLike, information: InformationReading, edge3: Edge3Numbers
+) -> G2OGraph | None:
+    """Read with :func:`read_tagged` and batched checks; None if anything is unusual."""
+    got = read_tagged(
+        path,
+        {"VERTEX_SE3:QUAT": (1, 7), "VERTEX3": (1, 6), "EDGE_SE3:QUAT": (2, 28), "EDGE3": (2, 27)},
+    )
+    if got is None:
+        return None
+    tables, fixed, _ = got
+    vq, v3, eq, e3 = (tables[t] for t in ("VERTEX_SE3:QUAT", "VERTEX3", "EDGE_SE3:QUAT", "EDGE3"))
+    # vertices: x y z qx qy qz qw (quaternion normalised) or x y z roll pitch yaw 0
+    qv = quaternions_within_text_tol(path, vq, slice(3, 7), 5)
+    qe = quaternions_within_text_tol(path, eq, slice(3, 7), 6)
+    if qv is None or qe is None:
+        return None
+    v_ids = np.array(in_file_order([(vq.lines, vq.ids[:, 0]), (v3.lines, v3.ids[:, 0])]))
+    if has_duplicates(v_ids):
+        return None
+    v_euler = in_file_order(
+        [(vq.lines, np.zeros(vq.lines.shape, bool)), (v3.lines, np.ones(v3.lines.shape, bool))]
+    )
+    vraw = in_file_order(
+        [
+            (vq.lines, np.concatenate([vq.values[:, :3], qv], axis=-1)),
+            (v3.lines, np.concatenate([v3.values, np.zeros((v3.lines.shape[0], 1))], axis=-1)),
+        ]
+    )
+    # edges: the same, plus 21 information numbers; from their tables, in file order
+    e_lines = in_file_order([(eq.lines, eq.lines), (e3.lines, e3.lines)])
+    edges = in_file_order([(eq.lines, eq.ids), (e3.lines, e3.ids)])
+    if (edges[:, 0] == edges[:, 1]).any():
+        return None
+    euler = in_file_order(
+        [(eq.lines, np.zeros(eq.lines.shape, bool)), (e3.lines, np.ones(e3.lines.shape, bool))]
+    )
+    if information == "g2o" and (np.abs(np.cos(e3.values[:, 4])) < 1e-9).any():
+        return None
+    if e3.lines.shape[0] == 0:  # views of the table, no copy (the common case)
+        raw7 = np.concatenate([eq.values[:, :3], qe], axis=-1)
+        nums = eq.values[:, 7:]
+    else:
+        raw7_q = np.concatenate([eq.values[:, :3], qe], axis=-1)
+        raw7_3 = np.concatenate([e3.values[:, :6], np.zeros((e3.values.shape[0], 1))], axis=-1)
+        raw7 = in_file_order([(eq.lines, raw7_q), (e3.lines, raw7_3)])
+        nums = in_file_order([(eq.lines, eq.values[:, 7:]), (e3.lines, e3.values[:, 6:])])
+    try:
+        measured, info = _edge_arrays(raw7, nums, euler, information, edge3)
+    except _BadEdge:
+        return None
+    edges = np.array(edges)
+    del tables, vq, v3, eq, e3, nums, raw7, got  # the parsed tables: freed before the copies
+    P = _Parser(path)
+    try:
+        ids, vpar, from_odometry = vertices(
+            P,
+            (v_ids, _params_from_raw(vraw, v_euler)),
+            (edges, e_lines, lambda: _layouts.to_matrix(measured, layout="xyz_qxyzw")),
+            fixed,
+            lambda T: _layouts.from_matrix(T, layout="xyz_qxyzw"),
+        )
+        return G2OGraph._adopt(
+            vertex_ids=ids,
+            vertex_xyz_qxyzw=vpar,
+            edges=edges,
+            measured_xyz_qxyzw=measured,
+            information=info,
+            information_reading=information,
+            fixed=tuple(fixed),
+            vertices_from_odometry=from_odometry,
+        )
+    except ValueError:
+        return None
+
+
 def _params_from_raw(raw: FloatArray, euler: npt.NDArray[np.bool_]) -> FloatArray:
     """``(K, 7)`` rows ``x y z qx qy qz qw`` or ``x y z roll pitch yaw 0`` → ``"xyz_qxyzw"``."""
-    out = raw.copy()
+    out = np.array(raw, dtype=np.float64)
     if euler.any():
         out[euler, 3:] = quat.from_matrix(_rpy_matrix(raw[euler, 3:6]), order="xyzw")
     return out
@@ -608,34 +983,37 @@ def _params_from_raw(raw: FloatArray, euler: npt.NDArray[np.bool_]) -> FloatArra
 
 def vertices(
     P: _Parser,
-    read_vertices: tuple[list[int], dict[int, int], FloatArray],
-    read_edges: tuple[KeyArray, list[int], FloatArray],
+    read_vertices: tuple[KeyArray, FloatArray],
+    read_edges: tuple[KeyArray, Sequence[int] | npt.NDArray[np.intp], Callable[[], FloatArray]],
     fixed: list[int],
     to_params: Any,
 ) -> tuple[KeyArray, FloatArray, bool]:
     """Vertex ids and poses of a graph file (2-D and 3-D alike), checked against its edges.
 
-    ``read_vertices = (ids, line of each id, pose parameters)``; ``read_edges = (edges (M, 2),
-    line of each edge, measurements as homogeneous matrices (M, n, n))``. Without vertex lines the
-    poses are chained from the odometry edges ``(k−1, k)`` (or ``(k, k−1)``, inverted) from the
-    identity at the smallest id and returned as ``to_params(T)``. Returns ``(ids, params,
-    chained)``. Raises naming the file and line for an edge to a missing vertex, a gap in the
-    odometry chain, or a ``FIX`` of a vertex that does not exist.
+    ``read_vertices = (ids (N,), pose parameters)``; ``read_edges = (edges (M, 2), line of
+    each edge, a function returning the measurements as homogeneous matrices (M, n, n))``.
+    Without vertex lines the poses are chained from the odometry edges ``(k−1, k)`` (or
+    ``(k, k−1)``, inverted) from the identity at the smallest id and returned as
+    ``to_params(T)``. Returns ``(ids, params, chained)``. Raises naming the file and line for an
+    edge to a missing vertex, a gap in the odometry chain, or a ``FIX`` of a vertex that does not
+    exist.
     """
-    v_ids, v_line, vpar = read_vertices
-    edges, e_lines, Z = read_edges
-    chained = not v_ids
+    ids, vpar = read_vertices
+    edges, e_lines, measured_matrices = read_edges
+    chained = ids.shape[0] == 0
     if not chained:
-        ids = np.array(v_ids, dtype=np.uint64)
-        for k, ends in enumerate(edges.tolist()):
-            for end in ends:
-                if end not in v_line:
-                    raise P.fail(
-                        e_lines[k], f"edge refers to vertex {end}, which has no VERTEX line"
-                    )
+        missing = ~np.isin(edges, ids)
+        if missing.any():
+            k, end = (int(x) for x in np.argwhere(missing)[0])
+            raise P.fail(
+                int(e_lines[k]),
+                f"edge refers to vertex {int(edges[k, end])}, which has no VERTEX line",
+            )
     elif edges.shape[0] == 0:
+        Z = measured_matrices()
         ids, vpar = np.zeros(0, dtype=np.uint64), to_params(np.zeros((0, *Z.shape[1:])))
     else:
+        Z = measured_matrices()
         ids = np.unique(edges)
         step: dict[int, FloatArray] = {}
         for k in range(edges.shape[0] - 1, -1, -1):  # first occurrence wins
@@ -655,9 +1033,10 @@ def vertices(
                 )
             T[n] = T[n - 1] @ step[k]
         vpar = to_params(T)
-    id_set = set(ids.tolist())
-    for k in fixed:
-        if k not in id_set:
+    if fixed:
+        absent = ~np.isin(np.array(fixed, dtype=np.uint64), ids)
+        if absent.any():
+            k = fixed[int(np.argmax(absent))]
             raise ValueError(f"{P.path}: FIX refers to vertex {k}, which does not exist")
     return ids, vpar, chained
 

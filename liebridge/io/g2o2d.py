@@ -53,7 +53,7 @@ import numpy.typing as npt
 
 from .. import _validate as validate
 from .._validate import FloatArray
-from .g2o import _Parser, vertices
+from .g2o import _covariances, _Parser, has_duplicates, in_file_order, read_tagged, vertices
 from .trajectory import text_lines
 
 __all__ = ["G2OGraph2D", "is_2d", "read", "write"]
@@ -230,9 +230,57 @@ def read(path: PathLike, *, edge2: Edge2Order = "auto") -> G2OGraph2D:
         On a malformed, 3-D or unsupported line (naming the file, line and field), an edge to a
         missing vertex, an information matrix that is not positive definite, or a file without
         vertices whose odometry chain has a gap.
+
+    Notes
+    -----
+    A well-formed file is parsed by ``numpy.loadtxt``, one pass per line type
+    (:func:`liebridge.io.g2o.read_tagged`, issue 23); anything unusual sends it to the
+    line-by-line reader, which returns the same graph or names the first faulty line.
     """
     if edge2 not in ("auto", "g2o", "toro"):
         raise ValueError(f"edge2: expected 'auto', 'g2o' or 'toro', got {edge2!r}")
+    fast = _read_tables(path, edge2)
+    if fast is not None:
+        return fast
+    return _read_lines(path, edge2)
+
+
+def _read_tables(path: PathLike, edge2: Edge2Order) -> G2OGraph2D | None:
+    """Read a well-formed file by ``numpy.loadtxt`` (:func:`liebridge.io.g2o.read_tagged`).
+
+    Returns None when anything is unusual (a malformed line, a duplicate vertex, an edge from a
+    vertex to itself, an information matrix that fails, ...): the line reader then names it.
+    """
+    got = read_tagged(
+        path,
+        {"VERTEX_SE2": (1, 3), "VERTEX2": (1, 3), "EDGE_SE2": (2, 9), "EDGE2": (2, 9)},
+        skip=("EQUIV",),
+    )
+    if got is None:
+        return None
+    tables, fixed, skipped = got
+    vs, v2, es, e2 = (tables[t] for t in ("VERTEX_SE2", "VERTEX2", "EDGE_SE2", "EDGE2"))
+    v_ids = np.array(in_file_order([(vs.lines, vs.ids[:, 0]), (v2.lines, v2.ids[:, 0])]))
+    edges = np.array(in_file_order([(es.lines, es.ids), (e2.lines, e2.ids)]))
+    if has_duplicates(v_ids) or (edges[:, 0] == edges[:, 1]).any():
+        return None
+    vpar = np.array(in_file_order([(vs.lines, vs.values), (v2.lines, v2.values)]))
+    eraw = np.array(in_file_order([(es.lines, es.values), (e2.lines, e2.values)]))
+    toro_tag = in_file_order(
+        [(es.lines, np.zeros(es.lines.shape, bool)), (e2.lines, np.ones(e2.lines.shape, bool))]
+    )
+    e_lines = in_file_order([(es.lines, es.lines), (e2.lines, e2.lines)])
+    del got, tables, vs, v2, es, e2  # the parsed tables: freed before the conversions
+    try:
+        return _graph(
+            _Parser(path), (v_ids, vpar), (edges, eraw, toro_tag, e_lines), fixed, skipped, edge2
+        )
+    except ValueError:
+        return None
+
+
+def _read_lines(path: PathLike, edge2: Edge2Order) -> G2OGraph2D:
+    """Read line by line, naming every fault by file, line and field (the reference reader)."""
     P = _Parser(path)
     v_ids: list[int] = []
     v_line: dict[int, int] = {}
@@ -283,8 +331,35 @@ def read(path: PathLike, *, edge2: Edge2Order = "auto") -> G2OGraph2D:
                 f"unsupported tag {tag!r} (supported: VERTEX_SE2, EDGE_SE2, VERTEX2, EDGE2, FIX, "
                 "EQUIV)",
             )
-    eraw = np.array(e_raw, dtype=np.float64).reshape(-1, 9)
-    toro_tag = np.array(e_toro_tag, dtype=bool)
+    return _graph(
+        P,
+        (np.array(v_ids, dtype=np.uint64), np.array(v_raw, dtype=np.float64).reshape(-1, 3)),
+        (
+            np.array(e_ids, dtype=np.uint64).reshape(-1, 2),
+            np.array(e_raw, dtype=np.float64).reshape(-1, 9),
+            np.array(e_toro_tag, dtype=bool),
+            e_lines,
+        ),
+        fixed,
+        skipped,
+        edge2,
+    )
+
+
+def _graph(
+    P: _Parser,
+    read_vertices: tuple[KeyArray, FloatArray],
+    read_edges: tuple[KeyArray, FloatArray, npt.NDArray[np.bool_], Any],
+    fixed: list[int],
+    skipped: dict[str, int],
+    edge2: Edge2Order,
+) -> G2OGraph2D:
+    """Build the graph from the parsed lines (both readers): information order, checks.
+
+    ``read_edges = (edges (M, 2), rows dx dy dθ + 6 numbers (M, 9), EDGE2 tag (M,), line of
+    each edge)``.
+    """
+    edges, eraw, toro_tag, e_lines = read_edges
     nums = eraw[:, 3:]
     info = _sym(nums, _G2O_ORDER)
     order = "none"
@@ -299,7 +374,7 @@ def read(path: PathLike, *, edge2: Edge2Order = "auto") -> G2OGraph2D:
             else:
                 k = int(np.flatnonzero(toro_tag)[np.flatnonzero(~as_g2o & ~as_toro)[0]])
                 raise P.fail(
-                    e_lines[k],
+                    int(e_lines[k]),
                     "EDGE2 information is not positive definite in g2o's order "
                     "(I11 I12 I13 I22 I23 I33) nor in TORO's (Ixx Ixy Iyy Itt Ixt Iyt)",
                 )
@@ -308,20 +383,19 @@ def read(path: PathLike, *, edge2: Edge2Order = "auto") -> G2OGraph2D:
         if order == "toro":
             info[toro_tag] = _sym(nums[toro_tag], _TORO_ORDER)
     try:
-        validate.covariance(info, "information", 3)
+        _covariances(info, "information", 3)  # in chunks: bounded temporaries (issue 23)
     except ValueError:
         for k, lam_k in enumerate(info):  # name the line
             try:
                 validate.covariance(lam_k, "information", 3)
             except ValueError as exc:
-                raise P.fail(e_lines[k], f"{exc} (over (x, y, theta))") from None
+                raise P.fail(int(e_lines[k]), f"{exc} (over (x, y, theta))") from None
         raise
-    edges = np.array(e_ids, dtype=np.uint64).reshape(-1, 2)
     measured = eraw[:, :3].copy()
     ids, vpar, from_odometry = vertices(
         P,
-        (v_ids, v_line, np.array(v_raw, dtype=np.float64).reshape(-1, 3)),
-        (edges, e_lines, pose2_matrix(measured)),
+        read_vertices,
+        (edges, e_lines, lambda: pose2_matrix(measured)),
         fixed,
         pose2_params,
     )
