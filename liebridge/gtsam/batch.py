@@ -42,22 +42,32 @@ KeyArray = npt.NDArray[np.uint64]  # GTSAM keys are uint64 (≥ 2**63 included)
 IntArray = npt.NDArray[np.int64]
 
 
-def poses_of(values: Any, group: str = "se3") -> tuple[KeyArray, FloatArray]:
+def poses_of(
+    values: Any, group: str = "se3", keys: KeyArray | None = None
+) -> tuple[KeyArray, FloatArray]:
     """All ``Pose3`` (``group="se2"``: ``Pose2``) entries of ``values``: sorted keys, matrices.
 
-    Matrices are ``(N, 4, 4)`` (``(N, 3, 3)`` for Pose2), in the order of the keys.
+    Matrices are ``(N, 4, 4)`` (``(N, 3, 3)`` for Pose2), in the order of the keys. ``keys``:
+    the keys read from the same ``Values`` before (a retract keeps them), which skips the
+    copy ``allPose3s`` makes to list them; a count that differs raises ``ValueError``.
     """
     if group == "se2":
-        keys = np.asarray(list(gtsam.utilities.allPose2s(values).keys()), dtype=np.uint64)
+        if keys is None:
+            keys = np.asarray(list(gtsam.utilities.allPose2s(values).keys()), dtype=np.uint64)
         xyt = np.asarray(gtsam.utilities.extractPose2(values), dtype=np.float64).reshape(-1, 3)
+        if xyt.shape[0] != len(keys):
+            raise ValueError(f"values: {xyt.shape[0]} Pose2 entries, expected {len(keys)}")
         c, s = np.cos(xyt[:, 2]), np.sin(xyt[:, 2])
         T2 = np.zeros((len(keys), 3, 3))
         T2[:, 0, 0], T2[:, 0, 1], T2[:, 1, 0], T2[:, 1, 1] = c, -s, s, c
         T2[:, :2, 2] = xyt[:, :2]
         T2[:, 2, 2] = 1.0
         return keys, T2
-    keys = np.asarray(list(gtsam.utilities.allPose3s(values).keys()), dtype=np.uint64)
-    m = np.asarray(gtsam.utilities.extractPose3(values), dtype=np.float64)
+    if keys is None:
+        keys = np.asarray(list(gtsam.utilities.allPose3s(values).keys()), dtype=np.uint64)
+    m = np.asarray(gtsam.utilities.extractPose3(values), dtype=np.float64).reshape(-1, 12)
+    if m.shape[0] != len(keys):
+        raise ValueError(f"values: {m.shape[0]} Pose3 entries, expected {len(keys)}")
     T = np.zeros((len(keys), 4, 4))
     T[:, :3, :3] = m[:, :9].reshape(-1, 3, 3)
     T[:, :3, 3] = m[:, 9:]
@@ -86,6 +96,12 @@ class PoseFactorGroup:
         self.j = np.array([s.j if s.j is not None else 0 for s in specs], dtype=np.uint64)
         self.Z = np.stack([s.Z for s in specs])
         self.R = np.stack([s.sqrt_info for s in specs])
+        # SE(3)-exponential charts: residual ξ in (ω, v), R·e = R_xi·ξ (factor_math, fused path)
+        self.fused = factor_math.is_se3_chart(self.conv)
+        if self.fused:
+            self.Z_inv = factor_math.GROUP_OPS["se3"][0](self.Z)
+            self.R_xi = np.empty_like(self.R)
+            self.R_xi[..., factor_math.order_permutation(self.conv)] = self.R
 
     def _residuals(self, keys: KeyArray, T: FloatArray) -> tuple[FloatArray, FloatArray]:
         Tj = T[_rows(keys, self.j)] if self.between else None
@@ -123,3 +139,218 @@ def group_specs(specs: list[PoseFactorSpec]) -> list[PoseFactorGroup]:
     for s in specs:
         groups.setdefault((s.j is not None, s.conv), []).append(s)
     return [PoseFactorGroup(g) for g in groups.values()]
+
+
+@dataclass(frozen=True)
+class BatchEvaluation:
+    """Residuals of every batched factor at one ``Values``, kept for linearizing there.
+
+    ``parts[n] = (H, e)`` for group ``n`` (``H = T_i⁻¹T_j`` or ``T_i``, ``e`` the residual in the
+    group's convention); ``error = ½ Σ ‖R e‖²`` over all groups.
+    """
+
+    error: float
+    parts: tuple[tuple[FloatArray, FloatArray], ...]  # e is ξ (ω, v) for a fused group
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """Factors of one pose group, stacked, and how they are handed to GTSAM.
+
+    ``pairs`` holds two between factors with the same key ``v`` eliminated first in the
+    ordering and different other keys: they go to GTSAM as one three-key ``JacobianFactor``
+    (``[A_pv A_po 0; A_qv 0 A_qo]``), which changes neither the symbolic elimination (``v``'s
+    clique holds all three keys either way) nor the Hessian ``Σ AᵀA`` — only half the Python
+    calls. ``singles`` are the other between factors, ``priors`` the one-key factors.
+    """
+
+    index: IntArray  # stacked position -> (group number, row in that group)
+    pairs: IntArray  # (P, 2) stacked positions
+    v_side: IntArray  # (P, 2): 0 if v is key i of that factor, 1 if key j
+    pair_keys: list[tuple[int, int, int]]  # (v, other of the first, other of the second)
+    singles: IntArray
+    single_keys: list[tuple[int, int]]
+    priors: IntArray
+    prior_keys: list[int]
+
+
+class PoseFactorBatch:
+    """Every batched factor of a graph, bound once to the graph's pose keys and ordering.
+
+    The pose keys of ``values`` and each factor's rows into them are fixed for a run (a retract
+    keeps the keys), so :meth:`evaluate` reads the poses with one ``extractPose3``
+    (``extractPose2``) call per group and no key lookup. :meth:`evaluate` returns the residuals
+    it computed; :meth:`linearize` starts from them (an accepted candidate is not evaluated
+    twice).
+    """
+
+    def __init__(
+        self,
+        groups: list[PoseFactorGroup],
+        values: Any,
+        position: dict[int, int],
+        offset: dict[int, int],
+    ) -> None:
+        """Bind ``groups`` to ``values``' pose keys.
+
+        ``position[k]``: the place of key ``k`` in the elimination ordering; ``offset[k]``: where
+        ``k``'s block starts in ``VectorValues.vector()`` of a solution (keys sorted).
+        """
+        self.groups = groups
+        self.keys = {pg: poses_of(values, pg)[0] for pg in {g.group for g in groups}}
+        self.rows = []
+        for g in groups:
+            keys = self.keys[g.group]
+            self.rows.append((_rows(keys, g.i), _rows(keys, g.j) if g.between else None))
+        self.offsets: dict[str, tuple[IntArray, IntArray]] = {}
+        self.plans = {pg: self._plan(pg, position, offset) for pg in self.keys}
+        self.units: dict[int, Any] = {}
+
+    def _unit(self, m: int) -> Any:
+        if m not in self.units:
+            self.units[m] = gtsam.noiseModel.Unit.Create(m)
+        return self.units[m]
+
+    def _plan(self, pg: str, position: dict[int, int], offset: dict[int, int]) -> _Plan:
+        members = [n for n, g in enumerate(self.groups) if g.group == pg]
+        index = np.array(
+            [(n, r) for n in members for r in range(len(self.groups[n].specs))], dtype=np.int64
+        ).reshape(-1, 2)
+        ki = np.concatenate([self.groups[n].i for n in members])
+        kj = np.concatenate([self.groups[n].j for n in members])
+        between = np.concatenate(
+            [np.full(len(self.groups[n].specs), self.groups[n].between) for n in members]
+        )
+        priors = np.flatnonzero(~between)
+        self.offsets[pg] = (
+            np.array([offset[int(k)] for k in ki], dtype=np.int64),
+            np.array([offset[int(k)] for k in np.where(between, kj, ki)], dtype=np.int64),
+        )
+        by_v: dict[int, list[tuple[int, int, int]]] = {}
+        for s in np.flatnonzero(between).tolist():
+            i, j = int(ki[s]), int(kj[s])
+            side = 0 if position[i] <= position[j] else 1
+            v, other = (i, j) if side == 0 else (j, i)
+            by_v.setdefault(v, []).append((s, side, other))
+        pairs, v_side, pair_keys, singles, single_keys = [], [], [], [], []
+        for v, fs in by_v.items():
+            fs.sort(key=lambda f: f[2])
+            n = 0
+            while n < len(fs):
+                if n + 1 < len(fs) and fs[n][2] != fs[n + 1][2]:
+                    (p, sp, op), (q, sq, oq) = fs[n], fs[n + 1]
+                    pairs.append((p, q))
+                    v_side.append((sp, sq))
+                    pair_keys.append((v, op, oq))
+                    n += 2
+                else:
+                    s = fs[n][0]
+                    singles.append(s)
+                    single_keys.append((int(ki[s]), int(kj[s])))
+                    n += 1
+        return _Plan(
+            index=index,
+            pairs=np.array(pairs, dtype=np.int64).reshape(-1, 2),
+            v_side=np.array(v_side, dtype=np.int64).reshape(-1, 2),
+            pair_keys=pair_keys,
+            singles=np.array(singles, dtype=np.int64),
+            single_keys=single_keys,
+            priors=priors,
+            prior_keys=[int(k) for k in ki[priors]],
+        )
+
+    def poses(self, values: Any) -> dict[str, FloatArray]:
+        """Pose matrices of every group, rows in the order of the keys bound at construction."""
+        out = {}
+        for pg, keys in self.keys.items():
+            _, T = poses_of(values, pg, keys)
+            out[pg] = T
+        return out
+
+    def evaluate(self, values: Any) -> BatchEvaluation:
+        """Residuals and ``½ Σ ‖R e‖²`` of every batched factor at ``values``."""
+        T = self.poses(values)
+        parts = []
+        err = 0.0
+        for g, (ri, rj) in zip(self.groups, self.rows, strict=True):
+            Tp = T[g.group]
+            H = factor_math.relative(Tp[ri], None if rj is None else Tp[rj], g.group)
+            if g.fused:  # e = ξ[perm]: kept as ξ, whitened by R_xi
+                e = factor_math.se3_chart_log(g.conv, g.Z_inv, H)
+                w = np.einsum("kij,kj->ki", g.R_xi, e)
+            else:
+                e = factor_math.residual(g.conv, g.Z, H)
+                w = np.einsum("kij,kj->ki", g.R, e)
+            err += 0.5 * float(np.einsum("ki,ki->", w, w))
+            parts.append((H, e))
+        return BatchEvaluation(err, tuple(parts))
+
+    def whitened(self, ev: BatchEvaluation) -> dict[str, tuple[FloatArray, FloatArray, FloatArray]]:
+        """``(A_i, A_j, b)`` stacked per pose group (whitened; ``A_j = 0`` for a prior)."""
+        out = {}
+        for pg, plan in self.plans.items():
+            A_i, A_j, b = [], [], []
+            for n in np.unique(plan.index[:, 0]).tolist():
+                g = self.groups[n]
+                H, e = ev.parts[n]
+                if g.fused:
+                    R = g.R_xi
+                    J_e_i, J_e_j = factor_math.se3_chart_jacobians(g.conv, e, H, g.between)
+                else:
+                    R = g.R
+                    J_e_i, J_e_j = factor_math.jacobians(g.conv, g.Z, H, g.between)
+                A_i.append(R @ J_e_i)
+                A_j.append(R @ J_e_j if J_e_j is not None else np.zeros_like(A_i[-1]))
+                b.append(-np.einsum("kij,kj->ki", R, e))
+            out[pg] = (np.concatenate(A_i), np.concatenate(A_j), np.concatenate(b))
+        return out
+
+    def linearize(self, ev: BatchEvaluation, linear: Any) -> dict[str, Any]:
+        """Append the whitened factors at ``ev`` to the ``GaussianFactorGraph`` ``linear``.
+
+        Returns the stacked ``(A_i, A_j, b)`` per pose group (for :meth:`linear_error`).
+        """
+        system = self.whitened(ev)
+        for pg, plan in self.plans.items():
+            A_i, A_j, b = system[pg]
+            m = b.shape[-1]
+            unit = self._unit(m)
+            if len(plan.pairs):
+                A = np.stack([A_i, A_j], axis=1)  # (K, 2, m, d)
+                p, q = plan.pairs[:, 0], plan.pairs[:, 1]
+                sp, sq = plan.v_side[:, 0], plan.v_side[:, 1]
+                Av = np.concatenate([A[p, sp], A[q, sq]], axis=1)
+                zero = np.zeros_like(A[p, sp])
+                Ap = np.concatenate([A[p, 1 - sp], zero], axis=1)
+                Aq = np.concatenate([zero, A[q, 1 - sq]], axis=1)
+                bb = np.concatenate([b[p], b[q]], axis=1)
+                unit2 = self._unit(2 * m)
+                add = linear.add
+                for (v, o1, o2), a0, a1, a2, b0 in zip(plan.pair_keys, Av, Ap, Aq, bb, strict=True):
+                    add(v, a0, o1, a1, o2, a2, b0, unit2)
+            s = plan.singles
+            for (i, j), a0, a1, b0 in zip(plan.single_keys, A_i[s], A_j[s], b[s], strict=True):
+                linear.add(i, a0, j, a1, b0, unit)
+            s = plan.priors
+            for i, a0, b0 in zip(plan.prior_keys, A_i[s], b[s], strict=True):
+                linear.add(i, a0, b0, unit)
+        return system
+
+    def linear_error(self, system: dict[str, Any], delta: FloatArray) -> float:
+        """``½ Σ ‖A_i δ_i + A_j δ_j − b‖²`` of :meth:`linearize`'s factors at ``delta``.
+
+        ``delta``: ``VectorValues.vector()`` of a solution (blocks at the offsets bound at
+        construction). The same number as GTSAM's ``GaussianFactorGraph.error`` of those factors.
+        """
+        err = 0.0
+        for pg, (A_i, A_j, b) in system.items():
+            oi, oj = self.offsets[pg]
+            d = A_i.shape[-1]
+            r = np.arange(d)
+            res = (
+                np.einsum("kij,kj->ki", A_i, delta[oi[:, None] + r])
+                + np.einsum("kij,kj->ki", A_j, delta[oj[:, None] + r])
+                - b
+            )
+            err += 0.5 * float(np.einsum("ki,ki->", res, res))
+        return err

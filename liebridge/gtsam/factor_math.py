@@ -34,6 +34,7 @@ import numpy as np
 
 from .._validate import FloatArray
 from ..conventions import Convention, unchecked
+from ..lie import series
 from ..lie import unchecked as U
 
 Fn = Callable[[FloatArray], FloatArray]
@@ -84,3 +85,93 @@ def jacobians(
         return J_e_H, None
     inverse, adjoint = _ops(conv)
     return -J_e_H @ adjoint(inverse(H)), J_e_H
+
+
+# ------------------------------------------------------------------ SE(3)-exponential charts
+# Conventions whose chart is the SE(3) exponential (``gtsam``, ``barfoot``, ``sophus``, ``manif``:
+# ``conv.chart == "se3"``) differ only in side and storage order, and the formulas above then
+# share one logarithm. With ``ξ = Log(Z⁻¹H)`` (right) or ``Log(H·Z⁻¹)`` (left), in (ω, v):
+#
+# * right: ``e = P·ξ``, ``J_j = P·Jr⁻¹(ξ)``, ``J_i = −J_j·Ad(H⁻¹)`` (``D·M = P·Jr⁻¹(ξ)·Pᵀ·P``);
+# * left:  ``e = P·ξ``, ``J_j = P·Jl⁻¹(ξ)·Ad(H)``, ``J_i = −P·Jl⁻¹(ξ)`` (``M(H) = P·Ad(H)``, and
+#   ``Ad(H)·Ad(H⁻¹) = I``);
+#
+# ``P`` the storage-order permutation, folded into the square-root information by the caller
+# (``R·e = (R·P)·ξ``). The same numbers as :func:`residual` and :func:`jacobians` (tested to
+# 1e-12), in one pass: the generic path recomputes the logarithm inside ``local_jacobian``.
+
+
+def is_se3_chart(conv: Convention) -> bool:
+    """Tell whether ``conv`` is an SE(3) convention with the exponential chart (fused path)."""
+    return conv.group == "se3" and conv.chart == "se3" and conv.embed is None and not conv.generic
+
+
+def order_permutation(conv: Convention) -> list[int]:
+    """Return the indices ``p`` with ``e = ξ[p]`` (ξ in GTSAM's (ω, v) order)."""
+    return [0, 1, 2, 3, 4, 5] if conv.order == "rot_first" else [3, 4, 5, 0, 1, 2]
+
+
+def se3_q(w: FloatArray, v: FloatArray) -> FloatArray:
+    """Barfoot's ``Q(ρ = v, φ = w)`` (lower-left block of SE(3)'s left Jacobian), closed form.
+
+    The products of ``P = hat(w)`` and ``U = hat(v)`` in ``liebridge.lie.se3``'s series reduce,
+    with ``hat(a)·hat(b) = b·aᵀ − (a·b)·I``, ``s = w·v`` and ``c = w × v``, to
+    ``Q = ½U + c₁(v wᵀ + w vᵀ − 2sI − sP) + c₂(c wᵀ − w cᵀ + sP) − 2c₃s(w wᵀ − θ²I)``
+    (``c₁ = (θ − sin θ)/θ³``, ``c₂``, ``c₃`` from :mod:`liebridge.lie.series`): outer products
+    instead of eight batched 3×3 matrix products.
+    """
+    th2 = np.einsum("...i,...i->...", w, w)
+    th = np.sqrt(th2)
+    c1 = series.t_minus_sin_over_t3(th)[..., None, None]
+    c2 = series.q_coeff2(th)[..., None, None]
+    c3 = series.q_coeff3(th)[..., None, None]
+    s = np.einsum("...i,...i->...", w, v)[..., None, None]
+    c = np.cross(w, v)
+    P = U.so3_hat(w)
+    wv = w[..., :, None] * v[..., None, :]
+    wc = w[..., :, None] * c[..., None, :]
+    ww = w[..., :, None] * w[..., None, :]
+    eye = np.eye(3)
+    return np.asarray(
+        0.5 * U.so3_hat(v)
+        + c1 * (np.swapaxes(wv, -1, -2) + wv - 2.0 * s * eye - s * P)
+        + c2 * (np.swapaxes(wc, -1, -2) - wc + s * P)
+        - 2.0 * c3 * s * (ww - th2[..., None, None] * eye),
+        dtype=np.float64,
+    )
+
+
+def se3_jl_inv(xi: FloatArray) -> FloatArray:
+    """SE(3) ``Jl⁻¹(ξ)``, ξ = (ω, v): ``[[Jl⁻¹(ω), 0], [−Jl⁻¹(ω)·Q·Jl⁻¹(ω), Jl⁻¹(ω)]]``."""
+    w = xi[..., :3]
+    Ji = U.so3_jl_inv(w)
+    out = np.zeros((*xi.shape[:-1], 6, 6))
+    out[..., :3, :3] = Ji
+    out[..., 3:, 3:] = Ji
+    out[..., 3:, :3] = -Ji @ se3_q(w, xi[..., 3:]) @ Ji
+    return out
+
+
+def se3_chart_log(conv: Convention, Z_inv: FloatArray, H: FloatArray) -> FloatArray:
+    """``ξ = Log(Z⁻¹H)`` (right side) or ``Log(H·Z⁻¹)`` (left), (ω, v); ``e = ξ[perm]``."""
+    return U.se3_log(Z_inv @ H if conv.side == "right" else H @ Z_inv)
+
+
+def se3_chart_jacobians(
+    conv: Convention, xi: FloatArray, H: FloatArray, between: bool
+) -> tuple[FloatArray, FloatArray | None]:
+    """``(J_ξ_i, J_ξ_j)`` of ξ (GTSAM's (ω, v) rows) in GTSAM's tangent columns.
+
+    Rows are ξ's, not the convention's: ``J_e = J_ξ[perm]``. ``J_ξ_j`` is None for a prior
+    (``H = T_i``: then the first entry is ``J_e_H``).
+    """
+    if conv.side == "right":
+        J_H = se3_jl_inv(-xi)  # Jr⁻¹(ξ) = Jl⁻¹(−ξ)
+        if not between:
+            return J_H, None
+        return -J_H @ U.se3_adjoint(U.se3_inverse(H)), J_H
+    Jl_inv = se3_jl_inv(xi)
+    J_H = Jl_inv @ U.se3_adjoint(H)
+    if not between:
+        return J_H, None
+    return -Jl_inv, J_H

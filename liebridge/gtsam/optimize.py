@@ -35,7 +35,7 @@ from typing import Any
 import gtsam
 import numpy as np
 
-from .batch import PoseFactorGroup, PoseFactorSpec, group_specs, poses_of
+from .batch import BatchEvaluation, PoseFactorBatch, PoseFactorSpec, group_specs
 from .custom import identify, query_values
 
 __all__ = ["OptimizeResult", "optimize"]
@@ -108,17 +108,53 @@ class _Damping:
         return out
 
 
-class _SplitGraph:
-    """A graph split into GTSAM-evaluated factors and batched liebridge groups."""
+class _LinearModel:
+    """One linearization: the ``GaussianFactorGraph`` GTSAM eliminates and its error in numpy.
 
-    def __init__(self, graph: Any, values: Any, batch: bool) -> None:
+    ``error(delta)`` is GTSAM's ``GaussianFactorGraph.error`` of ``graph`` at ``delta``
+    (``½ Σ ‖A δ − b‖²``): GTSAM's part through GTSAM, the batched part from the stacked numpy
+    arrays (one pybind call instead of one per factor).
+    """
+
+    def __init__(self, split: _SplitGraph, graph: Any, rest: Any, system: Any) -> None:
+        self.split, self.graph, self.rest, self.system = split, graph, rest, system
+
+    def error(self, delta: Any) -> float:
+        err = float(self.rest.error(delta))
+        if self.system is None:
+            return err
+        assert self.split.batch is not None
+        vec = np.asarray(delta.vector(), dtype=np.float64).reshape(-1)
+        if vec.size != self.split.total_dim:  # not the graph's keys: GTSAM's own evaluation
+            return float(self.graph.error(delta))
+        return err + self.split.batch.linear_error(self.system, vec)
+
+    def error_at_zero(self, delta: Any) -> float:
+        """``L(0) = ½ Σ ‖b‖²``: the same for every λ of an iteration."""
+        err = float(self.rest.error(gtsam.VectorValues.Zero(delta)))
+        if self.system is not None:
+            err += sum(0.5 * float(np.einsum("ki,ki->", b, b)) for _, _, b in self.system.values())
+        return err
+
+
+class _SplitGraph:
+    """A graph split into GTSAM-evaluated factors and batched liebridge factors.
+
+    The batched factors are bound once to the graph's keys and elimination ordering
+    (:class:`~liebridge.gtsam.batch.PoseFactorBatch`); ``evaluate`` returns the residuals it
+    computed with the error, and ``linear_model`` linearizes from them.
+    """
+
+    def __init__(self, graph: Any, values: Any, batch: bool, ordering: Any = None) -> None:
         self.rest = gtsam.NonlinearFactorGraph()
-        specs: list[PoseFactorSpec] = []
+        self.batch: PoseFactorBatch | None = None
+        self.n_batched = 0
+        self.total_dim = 0
         if not batch:
             self.rest = graph
-            self.groups: list[PoseFactorGroup] = []
             return
         query = query_values()
+        specs: list[PoseFactorSpec] = []
         for k in range(graph.size()):
             f = graph.at(k)
             if f is None:
@@ -128,28 +164,46 @@ class _SplitGraph:
                 specs.append(spec)
                 continue
             self.rest.add(f)
-        self.groups = group_specs(specs)
         self.n_batched = len(specs)
+        if not specs:
+            return
+        if ordering is None:
+            ordering = gtsam.Ordering.ColamdNonlinearFactorGraph(graph)
+        position = {int(ordering.at(n)): n for n in range(ordering.size())}
+        key_set = graph.keys()  # held: iterating the temporary KeySet reads freed memory
+        zero = values.zeroVectors()
+        offset: dict[int, int] = {}
+        for k in sorted(int(k) for k in key_set):
+            offset[k] = self.total_dim
+            self.total_dim += int(zero.at(k).shape[0])
+        self.batch = PoseFactorBatch(group_specs(specs), values, position, offset)
 
-    def _poses(self, values: Any) -> dict[str, tuple[Any, Any]]:
-        """Keys and matrices of every group the batched factors live on (one extraction each)."""
-        return {group: poses_of(values, group) for group in {g.group for g in self.groups}}
+    def evaluate(self, values: Any) -> tuple[float, BatchEvaluation | None]:
+        """Return the graph's error at ``values`` and the batched residuals computed for it."""
+        err = float(self.rest.error(values))
+        if self.batch is None:
+            return err, None
+        ev = self.batch.evaluate(values)
+        return err + ev.error, ev
 
     def error(self, values: Any) -> float:
-        err = float(self.rest.error(values))
-        if self.groups:
-            poses = self._poses(values)
-            err += sum(g.error(*poses[g.group]) for g in self.groups)
-        return err
+        return self.evaluate(values)[0]
+
+    def linear_model(self, values: Any, ev: BatchEvaluation | None) -> _LinearModel:
+        """Linearize at ``values``; ``ev``: :meth:`evaluate`'s residuals there (or None)."""
+        rest = self.rest.linearize(values)
+        if self.batch is None:
+            return _LinearModel(self, rest, rest, None)
+        if ev is None:
+            ev = self.batch.evaluate(values)
+        linear = gtsam.GaussianFactorGraph()
+        linear.push_back(rest)
+        system = self.batch.linearize(ev, linear)
+        return _LinearModel(self, linear, rest, system)
 
     def linearize(self, values: Any) -> Any:
-        linear = self.rest.linearize(values)
-        if self.groups:
-            poses = self._poses(values)
-            for g in self.groups:
-                for jf in g.linearize(*poses[g.group]):
-                    linear.push_back(jf)
-        return linear
+        """Return the whole linear system at ``values`` as one ``GaussianFactorGraph``."""
+        return self.linear_model(values, None).graph
 
 
 def _positive(x: float, name: str, *, strict: bool = True, finite: bool = True) -> float:
@@ -294,21 +348,21 @@ def optimize(
 
     ordering = gtsam.Ordering.ColamdNonlinearFactorGraph(graph)
     current = gtsam.Values(values)
-    split = _SplitGraph(graph, current, batch)
+    split = _SplitGraph(graph, current, batch, ordering)
     damping = _Damping(current, keys)
-    err = split.error(current)
+    err, state = split.evaluate(current)
     initial = err
     if not np.isfinite(err):
         raise ValueError(f"values: the initial error is not finite ({err})")
     it = 0
     converged = err <= errtol
     while not converged and it < max_it:
-        linear = split.linearize(current)
+        linear = split.linear_model(current, state)
         new_err = err
         stop = False
         lin_old: float | None = None
         for _try in range(_MAX_TRIES):
-            damped = damping.damped(linear, lam)
+            damped = damping.damped(linear.graph, lam)
             try:
                 delta = damped.optimize(ordering)
             except RuntimeError:  # indeterminant system: more damping
@@ -316,19 +370,19 @@ def optimize(
             success = False
             if delta is not None:
                 if lin_old is None:  # L(0) = ½‖b‖²: the same for every λ of this iteration
-                    lin_old = float(linear.error(gtsam.VectorValues.Zero(delta)))
-                lin_new = float(linear.error(delta))
+                    lin_old = linear.error_at_zero(delta)
+                lin_new = linear.error(delta)
                 lin_change = lin_old - lin_new
                 if lin_change >= 0:
                     cand = current.retract(delta)
-                    cand_err = split.error(cand)
+                    cand_err, cand_state = split.evaluate(cand)
                     if lin_change > np.finfo(float).eps * lin_old:
                         fidelity = (err - cand_err) / lin_change
                         success = fidelity > _MIN_MODEL_FIDELITY
                     else:
                         stop = True  # the linear model cannot decrease: converged
             if success:
-                current, new_err = cand, cand_err
+                current, new_err, state = cand, cand_err, cand_state
                 lam = max(lower, lam / factor)
                 break
             if stop:
