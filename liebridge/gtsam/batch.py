@@ -145,12 +145,13 @@ def group_specs(specs: list[PoseFactorSpec]) -> list[PoseFactorGroup]:
 class BatchEvaluation:
     """Residuals of every batched factor at one ``Values``, kept for linearizing there.
 
-    ``parts[n] = (H, e)`` for group ``n`` (``H = T_i⁻¹T_j`` or ``T_i``, ``e`` the residual in the
-    group's convention); ``error = ½ Σ ‖R e‖²`` over all groups.
+    ``parts[n] = (H, e, R·e)`` for group ``n`` (``H = T_i⁻¹T_j`` or ``T_i``, ``e`` the residual in
+    the group's convention, or ξ in (ω, v) for a fused SE(3)-chart group, whitened by ``R_xi``);
+    ``error = ½ Σ ‖R e‖²`` over all groups.
     """
 
     error: float
-    parts: tuple[tuple[FloatArray, FloatArray], ...]  # e is ξ (ω, v) for a fused group
+    parts: tuple[tuple[FloatArray, FloatArray, FloatArray], ...]  # (H, e, R·e); e = ξ if fused
 
 
 @dataclass(frozen=True)
@@ -166,7 +167,7 @@ class _Plan:
 
     index: IntArray  # stacked position -> (group number, row in that group)
     pairs: IntArray  # (P, 2) stacked positions
-    v_side: IntArray  # (P, 2): 0 if v is key i of that factor, 1 if key j
+    gather: IntArray  # (4, P) rows of concatenate([A_i, A_j]): v's two blocks, the others'
     pair_keys: list[tuple[int, int, int]]  # (v, other of the first, other of the second)
     singles: IntArray
     single_keys: list[tuple[int, int]]
@@ -248,16 +249,39 @@ class PoseFactorBatch:
                     singles.append(s)
                     single_keys.append((int(ki[s]), int(kj[s])))
                     n += 1
+        pq = np.array(pairs, dtype=np.int64).reshape(-1, 2)
+        sides = np.array(v_side, dtype=np.int64).reshape(-1, 2)
+        K = len(ki)
+        gather = np.stack(
+            [
+                pq[:, 0] + K * sides[:, 0],
+                pq[:, 1] + K * sides[:, 1],
+                pq[:, 0] + K * (1 - sides[:, 0]),
+                pq[:, 1] + K * (1 - sides[:, 1]),
+            ]
+        )
         return _Plan(
             index=index,
-            pairs=np.array(pairs, dtype=np.int64).reshape(-1, 2),
-            v_side=np.array(v_side, dtype=np.int64).reshape(-1, 2),
+            pairs=pq,
+            gather=gather,
             pair_keys=pair_keys,
             singles=np.array(singles, dtype=np.int64),
             single_keys=single_keys,
             priors=priors,
             prior_keys=[int(k) for k in ki[priors]],
         )
+
+    def damping_groups(self) -> list[tuple[int, ...]]:
+        """Key triples of the factor pairs, then key pairs of the single between factors.
+
+        Each tuple's first-eliminated key has the others in its clique (they share a factor
+        with it), so one damping factor on the tuple leaves the elimination's structure as is.
+        """
+        out: list[tuple[int, ...]] = []
+        for plan in self.plans.values():
+            out += plan.pair_keys
+            out += plan.single_keys
+        return out
 
     def poses(self, values: Any) -> dict[str, FloatArray]:
         """Pose matrices of every group, rows in the order of the keys bound at construction."""
@@ -282,7 +306,7 @@ class PoseFactorBatch:
                 e = factor_math.residual(g.conv, g.Z, H)
                 w = np.einsum("kij,kj->ki", g.R, e)
             err += 0.5 * float(np.einsum("ki,ki->", w, w))
-            parts.append((H, e))
+            parts.append((H, e, w))
         return BatchEvaluation(err, tuple(parts))
 
     def whitened(self, ev: BatchEvaluation) -> dict[str, tuple[FloatArray, FloatArray, FloatArray]]:
@@ -292,16 +316,15 @@ class PoseFactorBatch:
             A_i, A_j, b = [], [], []
             for n in np.unique(plan.index[:, 0]).tolist():
                 g = self.groups[n]
-                H, e = ev.parts[n]
+                H, e, w = ev.parts[n]
                 if g.fused:
-                    R = g.R_xi
-                    J_e_i, J_e_j = factor_math.se3_chart_jacobians(g.conv, e, H, g.between)
+                    Ai, Aj = factor_math.se3_chart_jacobians(g.conv, e, H, g.between, g.R_xi)
                 else:
-                    R = g.R
                     J_e_i, J_e_j = factor_math.jacobians(g.conv, g.Z, H, g.between)
-                A_i.append(R @ J_e_i)
-                A_j.append(R @ J_e_j if J_e_j is not None else np.zeros_like(A_i[-1]))
-                b.append(-np.einsum("kij,kj->ki", R, e))
+                    Ai, Aj = g.R @ J_e_i, None if J_e_j is None else g.R @ J_e_j
+                A_i.append(Ai)
+                A_j.append(Aj if Aj is not None else np.zeros_like(Ai))
+                b.append(-w)
             out[pg] = (np.concatenate(A_i), np.concatenate(A_j), np.concatenate(b))
         return out
 
@@ -316,17 +339,19 @@ class PoseFactorBatch:
             m = b.shape[-1]
             unit = self._unit(m)
             if len(plan.pairs):
-                A = np.stack([A_i, A_j], axis=1)  # (K, 2, m, d)
-                p, q = plan.pairs[:, 0], plan.pairs[:, 1]
-                sp, sq = plan.v_side[:, 0], plan.v_side[:, 1]
-                Av = np.concatenate([A[p, sp], A[q, sq]], axis=1)
-                zero = np.zeros_like(A[p, sp])
-                Ap = np.concatenate([A[p, 1 - sp], zero], axis=1)
-                Aq = np.concatenate([zero, A[q, 1 - sq]], axis=1)
-                bb = np.concatenate([b[p], b[q]], axis=1)
+                A = np.concatenate([A_i, A_j])  # factor f's block of key i at f, of key j at K + f
+                P = len(plan.pairs)
+                blocks = np.zeros((3, P, 2 * m, A.shape[-1]))
+                blocks[0, :, :m] = A[plan.gather[0]]  # v's block: first factor, then second
+                blocks[0, :, m:] = A[plan.gather[1]]
+                blocks[1, :, :m] = A[plan.gather[2]]  # the first factor's other key
+                blocks[2, :, m:] = A[plan.gather[3]]  # the second factor's other key
+                bb = np.concatenate([b[plan.pairs[:, 0]], b[plan.pairs[:, 1]]], axis=1)
                 unit2 = self._unit(2 * m)
                 add = linear.add
-                for (v, o1, o2), a0, a1, a2, b0 in zip(plan.pair_keys, Av, Ap, Aq, bb, strict=True):
+                for (v, o1, o2), a0, a1, a2, b0 in zip(
+                    plan.pair_keys, blocks[0], blocks[1], blocks[2], bb, strict=True
+                ):
                     add(v, a0, o1, a1, o2, a2, b0, unit2)
             s = plan.singles
             for (i, j), a0, a1, b0 in zip(plan.single_keys, A_i[s], A_j[s], b[s], strict=True):

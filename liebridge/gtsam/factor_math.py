@@ -114,31 +114,35 @@ def order_permutation(conv: Convention) -> list[int]:
 def se3_q(w: FloatArray, v: FloatArray) -> FloatArray:
     """Barfoot's ``Q(ρ = v, φ = w)`` (lower-left block of SE(3)'s left Jacobian), closed form.
 
-    The products of ``P = hat(w)`` and ``U = hat(v)`` in ``liebridge.lie.se3``'s series reduce,
-    with ``hat(a)·hat(b) = b·aᵀ − (a·b)·I``, ``s = w·v`` and ``c = w × v``, to
-    ``Q = ½U + c₁(v wᵀ + w vᵀ − 2sI − sP) + c₂(c wᵀ − w cᵀ + sP) − 2c₃s(w wᵀ − θ²I)``
-    (``c₁ = (θ − sin θ)/θ³``, ``c₂``, ``c₃`` from :mod:`liebridge.lie.series`): outer products
-    instead of eight batched 3×3 matrix products.
+    ``liebridge.lie.se3`` sums products of ``P = hat(w)`` and ``U = hat(v)``:
+    ``Q = ½U + c₁(PU + UP + PUP) + c₂(P²U + UP² − 3PUP) + c₃(PUP² + P²UP)``
+    (``c₁ = (θ − sin θ)/θ³``, ``c₂``, ``c₃`` from :mod:`liebridge.lie.series`). With
+    ``hat(a)·hat(b) = b·aᵀ − (a·b)·I``, ``s = w·v`` and ``a·bᵀ − b·aᵀ = hat(b × a)`` it is a
+    symmetric part plus a skew one, each a few outer products instead of eight batched 3×3
+    matrix products::
+
+        Q = c₁(v wᵀ + w vᵀ) − 2c₃s·w wᵀ + 2s(c₃θ² − c₁)·I + hat((½ − c₂θ²)·v + s(2c₂ − c₁)·w)
     """
     th2 = np.einsum("...i,...i->...", w, w)
     th = np.sqrt(th2)
-    c1 = series.t_minus_sin_over_t3(th)[..., None, None]
-    c2 = series.q_coeff2(th)[..., None, None]
-    c3 = series.q_coeff3(th)[..., None, None]
-    s = np.einsum("...i,...i->...", w, v)[..., None, None]
-    c = np.cross(w, v)
-    P = U.so3_hat(w)
+    c1 = series.t_minus_sin_over_t3(th)
+    c2 = series.q_coeff2(th)
+    c3 = series.q_coeff3(th)
+    s = np.einsum("...i,...i->...", w, v)
     wv = w[..., :, None] * v[..., None, :]
-    wc = w[..., :, None] * c[..., None, :]
-    ww = w[..., :, None] * w[..., None, :]
-    eye = np.eye(3)
-    return np.asarray(
-        0.5 * U.so3_hat(v)
-        + c1 * (np.swapaxes(wv, -1, -2) + wv - 2.0 * s * eye - s * P)
-        + c2 * (np.swapaxes(wc, -1, -2) - wc + s * P)
-        - 2.0 * c3 * s * (ww - th2[..., None, None] * eye),
-        dtype=np.float64,
-    )
+    out = c1[..., None, None] * (wv + np.swapaxes(wv, -1, -2))
+    out -= (2.0 * c3 * s)[..., None, None] * (w[..., :, None] * w[..., None, :])
+    diag = 2.0 * s * (c3 * th2 - c1)
+    for k in range(3):
+        out[..., k, k] += diag
+    u = (0.5 - c2 * th2)[..., None] * v + (s * (2.0 * c2 - c1))[..., None] * w
+    out[..., 0, 1] -= u[..., 2]
+    out[..., 0, 2] += u[..., 1]
+    out[..., 1, 0] += u[..., 2]
+    out[..., 1, 2] -= u[..., 0]
+    out[..., 2, 0] -= u[..., 1]
+    out[..., 2, 1] += u[..., 0]
+    return out
 
 
 def se3_jl_inv(xi: FloatArray) -> FloatArray:
@@ -158,20 +162,26 @@ def se3_chart_log(conv: Convention, Z_inv: FloatArray, H: FloatArray) -> FloatAr
 
 
 def se3_chart_jacobians(
-    conv: Convention, xi: FloatArray, H: FloatArray, between: bool
+    conv: Convention,
+    xi: FloatArray,
+    H: FloatArray,
+    between: bool,
+    sqrt_info: FloatArray | None = None,
 ) -> tuple[FloatArray, FloatArray | None]:
-    """``(J_ξ_i, J_ξ_j)`` of ξ (GTSAM's (ω, v) rows) in GTSAM's tangent columns.
+    """``(W·J_ξ_i, W·J_ξ_j)``: ξ's Jacobians (GTSAM's (ω, v) rows) in GTSAM's tangent columns.
 
-    Rows are ξ's, not the convention's: ``J_e = J_ξ[perm]``. ``J_ξ_j`` is None for a prior
-    (``H = T_i``: then the first entry is ``J_e_H``).
+    ``W = sqrt_info`` (``(..., m, 6)``, e.g. ``R·P`` to whiten the convention's residual) or the
+    identity; rows are then ξ's, not the convention's (``J_e = J_ξ[perm]``). The second entry is
+    None for a prior (``H = T_i``: the first is then ``W·J_ξ_H``). ``W`` is applied before the
+    adjoint: one batched product fewer than whitening afterwards.
     """
-    if conv.side == "right":
-        J_H = se3_jl_inv(-xi)  # Jr⁻¹(ξ) = Jl⁻¹(−ξ)
-        if not between:
-            return J_H, None
-        return -J_H @ U.se3_adjoint(U.se3_inverse(H)), J_H
-    Jl_inv = se3_jl_inv(xi)
-    J_H = Jl_inv @ U.se3_adjoint(H)
+    left = conv.side == "left"
+    W = se3_jl_inv(xi if left else -xi)  # Jl⁻¹(ξ), or Jr⁻¹(ξ) = Jl⁻¹(−ξ)
+    if sqrt_info is not None:
+        W = sqrt_info @ W
+    if left:
+        J_H = W @ U.se3_adjoint(H)
+        return (-W, J_H) if between else (J_H, None)
     if not between:
-        return J_H, None
-    return -Jl_inv, J_H
+        return W, None
+    return -(W @ U.se3_adjoint(U.se3_inverse(H))), W

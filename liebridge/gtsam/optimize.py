@@ -80,9 +80,29 @@ class _Damping:
     issue 23).
     """
 
-    def __init__(self, values: Any, keys: list[int]) -> None:
+    def __init__(
+        self, values: Any, keys: list[int], together: list[tuple[int, ...]] | None = None
+    ) -> None:
+        """Damp ``keys``, sharing factors within the tuples of ``together``.
+
+        ``together``: disjoint tuples of 2–3 keys of equal dimension whose damping may share
+        one factor (``[√λI 0 0; 0 √λI 0; 0 0 √λI]``).
+
+        A shared factor changes neither the Hessian nor the elimination's structure when its
+        first-eliminated key's clique holds the others anyway (the keys of one batched factor
+        pair, :class:`~liebridge.gtsam.batch.PoseFactorBatch`); it saves Python calls.
+        """
         zero = values.zeroVectors()
-        self.dims = [(k, int(zero.at(k).shape[0])) for k in keys]
+        dim = {k: int(zero.at(k).shape[0]) for k in keys}
+        used: set[int] = set()
+        self.blocks: list[tuple[tuple[int, ...], int]] = []
+        for group in together or []:
+            if all(k in dim and k not in used for k in group) and (
+                len({dim[k] for k in group}) == 1
+            ):
+                self.blocks.append((group, dim[group[0]]))
+                used.update(group)
+        self.blocks += [((k,), dim[k]) for k in keys if k not in used]
         self.cache: dict[float, Any] = {}
 
     def graph(self, lam: float) -> Any:
@@ -91,12 +111,22 @@ class _Damping:
                 self.cache.clear()
             s = float(np.sqrt(lam))
             out = gtsam.GaussianFactorGraph()
-            parts: dict[int, tuple[Any, Any, Any]] = {}
-            for k, d in self.dims:
-                if d not in parts:
-                    parts[d] = (s * np.eye(d), np.zeros(d), gtsam.noiseModel.Unit.Create(d))
-                A, b, unit = parts[d]
-                out.push_back(gtsam.JacobianFactor(k, A, b, unit))
+            add = out.add
+            parts: dict[tuple[int, int], tuple[list[Any], Any, Any]] = {}
+            for group, d in self.blocks:
+                n = len(group)
+                if (n, d) not in parts:
+                    A = [np.zeros((n * d, d)) for _ in range(n)]
+                    for m in range(n):
+                        A[m][m * d : (m + 1) * d] = s * np.eye(d)
+                    parts[n, d] = (A, np.zeros(n * d), gtsam.noiseModel.Unit.Create(n * d))
+                A, b, unit = parts[n, d]
+                if n == 1:
+                    add(group[0], A[0], b, unit)
+                elif n == 2:
+                    add(group[0], A[0], group[1], A[1], b, unit)
+                else:
+                    add(group[0], A[0], group[1], A[1], group[2], A[2], b, unit)
             self.cache[lam] = out
         return self.cache[lam]
 
@@ -177,6 +207,10 @@ class _SplitGraph:
             offset[k] = self.total_dim
             self.total_dim += int(zero.at(k).shape[0])
         self.batch = PoseFactorBatch(group_specs(specs), values, position, offset)
+
+    def damping_groups(self) -> list[tuple[int, ...]]:
+        """Key tuples whose damping can share a factor (see :class:`_Damping`)."""
+        return [] if self.batch is None else self.batch.damping_groups()
 
     def evaluate(self, values: Any) -> tuple[float, BatchEvaluation | None]:
         """Return the graph's error at ``values`` and the batched residuals computed for it."""
@@ -349,7 +383,7 @@ def optimize(
     ordering = gtsam.Ordering.ColamdNonlinearFactorGraph(graph)
     current = gtsam.Values(values)
     split = _SplitGraph(graph, current, batch, ordering)
-    damping = _Damping(current, keys)
+    damping = _Damping(current, keys, split.damping_groups())
     err, state = split.evaluate(current)
     initial = err
     if not np.isfinite(err):
