@@ -231,3 +231,23 @@ def test_lm_equals_gtsams_lm_on_the_same_custom_graph(conv: str) -> None:
     ours = optimize(custom, init, p, progress=False)
     assert ours.iterations == opt.iterations() >= 5  # loop closures: a real run
     assert ours.final_error == pytest.approx(custom.error(ref), rel=1e-9)
+
+
+@pytest.mark.parametrize("ordering_type", ["COLAMD", "METIS"])  # NATURAL: GTSAM 4.3 refuses it
+def test_ordering_type_is_gtsams(ordering_type: str) -> None:
+    g, v = _circle("g2o", 3)
+    p = gtsam.LevenbergMarquardtParams()
+    p.setOrderingType(ordering_type)
+    opt = gtsam.LevenbergMarquardtOptimizer(g, v, p)
+    ref = opt.optimize()
+    ours = optimize(g, v, p, progress=False)
+    assert ours.iterations == opt.iterations()
+    assert ours.final_error == pytest.approx(g.error(ref), rel=1e-9)
+
+
+def test_custom_ordering_is_refused_by_name() -> None:
+    g, v = _circle("g2o", 0)
+    p = gtsam.LevenbergMarquardtParams()
+    p.setOrdering(gtsam.Ordering.ColamdNonlinearFactorGraph(g))
+    with pytest.raises(ValueError, match=r"params\.orderingType: CUSTOM"):
+        optimize(g, v, p, progress=False)

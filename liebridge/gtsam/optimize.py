@@ -7,7 +7,9 @@ sphere2500, ``docs/library-facts.md``). ``graph.linearize(values)`` and
 module runs GTSAM's Levenberg–Marquardt algorithm around those two calls:
 
 * linearize, then damp with ``λ·I`` per variable (GTSAM's ``buildDampedSystem`` without diagonal
-  damping) and solve with GTSAM's elimination under a COLAMD ordering computed once;
+  damping) and solve with GTSAM's elimination (``GaussianFactorGraph.optimize``, multifrontal,
+  Cholesky) under one ordering of the nonlinear graph computed once, of ``params.orderingType``
+  (COLAMD by default), as ``LevenbergMarquardtParams::EnsureHasOrdering`` does;
 * accept a step when the model fidelity ``(f(x) − f(x⊕δ)) / (L(0) − L(δ))`` exceeds
   ``minModelFidelity`` (1e-3), then ``λ ← max(λ / factor, lower)``; else ``λ ← λ·factor`` and
   retry until ``lambdaUpperBound``; stop on ``gtsam.checkConvergence`` (relative, absolute and
@@ -19,6 +21,11 @@ identification query with a registry number: :func:`liebridge.gtsam.custom.ident
 evaluated **all at once**, one batched numpy pass per (kind, convention), then handed to GTSAM
 as whitened ``JacobianFactor``s; per-factor Python callbacks are the slow part otherwise
 (≈0.3 ms error, ≈1.5 ms with Jacobians, against ≈4 µs of GTSAM's own per-callback overhead).
+The residuals of the error evaluation that accepted a step are reused for the next
+linearization; two factors whose first-eliminated key is the same go to GTSAM as one three-key
+``JacobianFactor`` (the Hessian and the elimination's structure are unchanged, the pybind calls
+halved), and their three keys share one damping factor; the linearized error ``L(δ)`` is
+computed in numpy from the same stacked arrays.
 Other factors — native GTSAM ones and foreign ``CustomFactor``s (called once during setup) —
 are linearized by GTSAM. All parameters come from a ``gtsam.LevenbergMarquardtParams``.
 """
@@ -260,6 +267,7 @@ class _LMSettings:
     rel: float
     absol: float
     errtol: float
+    ordering_type: str
 
 
 def _lm_settings(params: Any) -> _LMSettings:
@@ -297,6 +305,12 @@ def _lm_settings(params: Any) -> _LMSettings:
     }
     for name, tol in tols.items():
         _positive(tol, name, strict=False, finite=False)
+    ordering_type = str(params.getOrderingType())
+    if ordering_type not in ("COLAMD", "METIS", "NATURAL"):
+        raise ValueError(
+            f"params.orderingType: {ordering_type} is not supported (a custom ordering set with "
+            "setOrdering cannot be read back from Python); use COLAMD, METIS or NATURAL"
+        )
     return _LMSettings(
         lam=lam,
         factor=factor,
@@ -306,6 +320,7 @@ def _lm_settings(params: Any) -> _LMSettings:
         rel=tols["relativeErrorTol"],
         absol=tols["absoluteErrorTol"],
         errtol=tols["errorTol"],
+        ordering_type=ordering_type,
     )
 
 
@@ -345,10 +360,12 @@ def optimize(
         Initial estimate (not modified).
     params : gtsam.LevenbergMarquardtParams, optional
         ``lambdaInitial``, ``lambdaFactor``, ``lambdaUpperBound``, ``lambdaLowerBound``,
-        ``maxIterations``, ``relativeErrorTol``, ``absoluteErrorTol``, ``errorTol`` are honoured,
-        and validated before any work (λ finite and > 0, factor finite and > 1, bounds
-        ``0 ≤ lower < upper``, tolerances ≥ 0, not NaN). Keys of ``values`` that no factor uses
-        are returned unchanged, as GTSAM's ``LevenbergMarquardtOptimizer`` does.
+        ``maxIterations``, ``relativeErrorTol``, ``absoluteErrorTol``, ``errorTol`` and
+        ``orderingType`` (COLAMD, METIS, NATURAL) are honoured, and validated before any work
+        (λ finite and > 0, factor finite and > 1, bounds ``0 ≤ lower < upper``, tolerances ≥ 0,
+        not NaN; a CUSTOM ordering cannot be read back from Python and is refused). Keys of
+        ``values`` that no factor uses are returned unchanged, as GTSAM's
+        ``LevenbergMarquardtOptimizer`` does.
     progress : bool or callable, optional
         ``True``: one line per iteration on stderr; a callable receives the lines; ``None``
         (default): lines start once the run has taken :data:`AUTO_PROGRESS_AFTER` seconds.
@@ -380,7 +397,10 @@ def optimize(
         elif progress or (progress is None and time.perf_counter() - t0 > AUTO_PROGRESS_AFTER):
             print(msg, file=sys.stderr, flush=True)
 
-    ordering = gtsam.Ordering.ColamdNonlinearFactorGraph(graph)
+    # GTSAM's LM orders the nonlinear graph once, by params.orderingType (COLAMD by default)
+    ordering = gtsam.Ordering.CreateNonlinearFactorGraph(
+        gtsam.Ordering.OrderingType.__members__[P.ordering_type], graph
+    )
     current = gtsam.Values(values)
     split = _SplitGraph(graph, current, batch, ordering)
     damping = _Damping(current, keys, split.damping_groups())
