@@ -195,7 +195,7 @@ class PoseFactorBatch:
         """Bind ``groups`` to ``values``' pose keys.
 
         ``position[k]``: the place of key ``k`` in the elimination ordering; ``offset[k]``: where
-        ``k``'s block starts in ``VectorValues.vector()`` of a solution (keys sorted).
+        ``k``'s block starts in a solution's ``VectorValues.vector(sorted keys)``.
         """
         self.groups = groups
         self.keys = {pg: poses_of(values, pg)[0] for pg in {g.group for g in groups}}
@@ -364,8 +364,8 @@ class PoseFactorBatch:
     def linear_error(self, system: dict[str, Any], delta: FloatArray) -> float:
         """``½ Σ ‖A_i δ_i + A_j δ_j − b‖²`` of :meth:`linearize`'s factors at ``delta``.
 
-        ``delta``: ``VectorValues.vector()`` of a solution (blocks at the offsets bound at
-        construction). The same number as GTSAM's ``GaussianFactorGraph.error`` of those factors.
+        ``delta``: ``VectorValues.vector(sorted keys)`` of a solution (blocks at the offsets bound
+        at construction). The same number as GTSAM's ``GaussianFactorGraph.error`` of them.
         """
         err = 0.0
         for pg, (A_i, A_j, b) in system.items():

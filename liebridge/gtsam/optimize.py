@@ -161,9 +161,8 @@ class _LinearModel:
         if self.system is None:
             return err
         assert self.split.batch is not None
-        vec = np.asarray(delta.vector(), dtype=np.float64).reshape(-1)
-        if vec.size != self.split.total_dim:  # not the graph's keys: GTSAM's own evaluation
-            return float(self.graph.error(delta))
+        # blocks in the order of the graph's sorted keys, whatever the map's iteration order
+        vec = np.asarray(delta.vector(self.split.keys), dtype=np.float64).reshape(-1)
         return err + self.split.batch.linear_error(self.system, vec)
 
     def error_at_zero(self, delta: Any) -> float:
@@ -186,7 +185,7 @@ class _SplitGraph:
         self.rest = gtsam.NonlinearFactorGraph()
         self.batch: PoseFactorBatch | None = None
         self.n_batched = 0
-        self.total_dim = 0
+        self.keys: list[int] = []  # the graph's keys, sorted: the layout of linear_error's delta
         if not batch:
             self.rest = graph
             return
@@ -209,10 +208,12 @@ class _SplitGraph:
         position = {int(ordering.at(n)): n for n in range(ordering.size())}
         key_set = graph.keys()  # held: iterating the temporary KeySet reads freed memory
         zero = values.zeroVectors()
+        self.keys = sorted(int(k) for k in key_set)
         offset: dict[int, int] = {}
-        for k in sorted(int(k) for k in key_set):
-            offset[k] = self.total_dim
-            self.total_dim += int(zero.at(k).shape[0])
+        total = 0
+        for k in self.keys:
+            offset[k] = total
+            total += int(zero.at(k).shape[0])
         self.batch = PoseFactorBatch(group_specs(specs), values, position, offset)
 
     def damping_groups(self) -> list[tuple[int, ...]]:
