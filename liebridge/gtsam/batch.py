@@ -203,6 +203,7 @@ class PoseFactorBatch:
         for g in groups:
             keys = self.keys[g.group]
             self.rows.append((_rows(keys, g.i), _rows(keys, g.j) if g.between else None))
+        self.between_groups = {g.group for g in groups if g.between}
         self.offsets: dict[str, tuple[IntArray, IntArray]] = {}
         self.plans = {pg: self._plan(pg, position, offset) for pg in self.keys}
         self.units: dict[int, Any] = {}
@@ -294,11 +295,16 @@ class PoseFactorBatch:
     def evaluate(self, values: Any) -> BatchEvaluation:
         """Residuals and ``½ Σ ‖R e‖²`` of every batched factor at ``values``."""
         T = self.poses(values)
+        # each pose inverted once (not once per factor): H = (T⁻¹)[i]·T[j]
+        T_inv = {pg: factor_math.GROUP_OPS[pg][0](T[pg]) for pg in self.between_groups}
         parts = []
         err = 0.0
         for g, (ri, rj) in zip(self.groups, self.rows, strict=True):
             Tp = T[g.group]
-            H = factor_math.relative(Tp[ri], None if rj is None else Tp[rj], g.group)
+            if rj is None:
+                H = np.take(Tp, ri, axis=0)  # a prior: H = T_i
+            else:
+                H = np.take(T_inv[g.group], ri, axis=0) @ np.take(Tp, rj, axis=0)
             if g.fused:  # e = ξ[perm]: kept as ξ, whitened by R_xi
                 e = factor_math.se3_chart_log(g.conv, g.Z_inv, H)
                 w = np.einsum("kij,kj->ki", g.R_xi, e)
@@ -313,8 +319,14 @@ class PoseFactorBatch:
         """``(A_i, A_j, b)`` stacked per pose group (whitened; ``A_j = 0`` for a prior)."""
         out = {}
         for pg, plan in self.plans.items():
-            A_i, A_j, b = [], [], []
-            for n in np.unique(plan.index[:, 0]).tolist():
+            K = len(plan.index)
+            members = np.unique(plan.index[:, 0]).tolist()
+            m, d = ev.parts[members[0]][2].shape[-1], self.groups[members[0]].R.shape[-1]
+            # one array: factor f's block of key i at f, of key j at K + f (pairs gather from it)
+            A = np.empty((2 * K, m, d))
+            b = np.empty((K, m))
+            start = 0
+            for n in members:
                 g = self.groups[n]
                 H, e, w = ev.parts[n]
                 if g.fused:
@@ -322,10 +334,12 @@ class PoseFactorBatch:
                 else:
                     J_e_i, J_e_j = factor_math.jacobians(g.conv, g.Z, H, g.between)
                     Ai, Aj = g.R @ J_e_i, None if J_e_j is None else g.R @ J_e_j
-                A_i.append(Ai)
-                A_j.append(Aj if Aj is not None else np.zeros_like(Ai))
-                b.append(-w)
-            out[pg] = (np.concatenate(A_i), np.concatenate(A_j), np.concatenate(b))
+                stop = start + len(g.specs)
+                A[start:stop] = Ai
+                A[K + start : K + stop] = 0.0 if Aj is None else Aj
+                np.negative(w, out=b[start:stop])
+                start = stop
+            out[pg] = (A[:K], A[K:], b)
         return out
 
     def linearize(self, ev: BatchEvaluation, linear: Any) -> dict[str, Any]:
@@ -339,13 +353,17 @@ class PoseFactorBatch:
             m = b.shape[-1]
             unit = self._unit(m)
             if len(plan.pairs):
-                A = np.concatenate([A_i, A_j])  # factor f's block of key i at f, of key j at K + f
+                A = A_i.base  # (2K, m, d): A_i and A_j are its halves (see whitened)
+                if A is None or A_j.base is not A or A.shape[0] != 2 * len(A_i):
+                    A = np.concatenate([A_i, A_j])
                 P = len(plan.pairs)
-                blocks = np.zeros((3, P, 2 * m, A.shape[-1]))
-                blocks[0, :, :m] = A[plan.gather[0]]  # v's block: first factor, then second
-                blocks[0, :, m:] = A[plan.gather[1]]
-                blocks[1, :, :m] = A[plan.gather[2]]  # the first factor's other key
-                blocks[2, :, m:] = A[plan.gather[3]]  # the second factor's other key
+                blocks = np.empty((3, P, 2 * m, A.shape[-1]))
+                np.take(A, plan.gather[0], axis=0, out=blocks[0, :, :m])  # v: first factor's,
+                np.take(A, plan.gather[1], axis=0, out=blocks[0, :, m:])  # then the second's
+                np.take(A, plan.gather[2], axis=0, out=blocks[1, :, :m])  # first factor's other
+                np.take(A, plan.gather[3], axis=0, out=blocks[2, :, m:])  # second's other
+                blocks[1, :, m:] = 0.0
+                blocks[2, :, :m] = 0.0
                 bb = np.concatenate([b[plan.pairs[:, 0]], b[plan.pairs[:, 1]]], axis=1)
                 unit2 = self._unit(2 * m)
                 add = linear.add
