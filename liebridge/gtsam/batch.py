@@ -204,6 +204,7 @@ class PoseFactorBatch:
             keys = self.keys[g.group]
             self.rows.append((_rows(keys, g.i), _rows(keys, g.j) if g.between else None))
         self.between_groups = {g.group for g in groups if g.between}
+        # per pose group: where each factor's key-i and key-j blocks sit in a solution vector
         self.offsets: dict[str, tuple[IntArray, IntArray]] = {}
         self.plans = {pg: self._plan(pg, position, offset) for pg in self.keys}
         self.units: dict[int, Any] = {}
@@ -224,9 +225,11 @@ class PoseFactorBatch:
             [np.full(len(self.groups[n].specs), self.groups[n].between) for n in members]
         )
         priors = np.flatnonzero(~between)
+        d = np.arange(self.groups[members[0]].R.shape[-1])  # each key's block: d entries
         self.offsets[pg] = (
-            np.array([offset[int(k)] for k in ki], dtype=np.int64),
-            np.array([offset[int(k)] for k in np.where(between, kj, ki)], dtype=np.int64),
+            np.array([offset[int(k)] for k in ki], dtype=np.int64)[:, None] + d,
+            np.array([offset[int(k)] for k in np.where(between, kj, ki)], dtype=np.int64)[:, None]
+            + d,
         )
         by_v: dict[int, list[tuple[int, int, int]]] = {}
         for s in np.flatnonzero(between).tolist():
@@ -387,12 +390,10 @@ class PoseFactorBatch:
         """
         err = 0.0
         for pg, (A_i, A_j, b) in system.items():
-            oi, oj = self.offsets[pg]
-            d = A_i.shape[-1]
-            r = np.arange(d)
+            at_i, at_j = self.offsets[pg]
             res = (
-                np.einsum("kij,kj->ki", A_i, delta[oi[:, None] + r])
-                + np.einsum("kij,kj->ki", A_j, delta[oj[:, None] + r])
+                np.einsum("kij,kj->ki", A_i, np.take(delta, at_i))
+                + np.einsum("kij,kj->ki", A_j, np.take(delta, at_j))
                 - b
             )
             err += 0.5 * float(np.einsum("ki,ki->", res, res))

@@ -167,7 +167,7 @@ class _LinearModel:
 
     def error_at_zero(self, delta: Any) -> float:
         """``L(0) = ½ Σ ‖b‖²``: the same for every λ of an iteration."""
-        err = float(self.rest.error(gtsam.VectorValues.Zero(delta)))
+        err = float(self.rest.error(gtsam.VectorValues.Zero(delta))) if self.rest.size() else 0.0
         if self.system is not None:
             err += sum(0.5 * float(np.einsum("ki,ki->", b, b)) for _, _, b in self.system.values())
         return err
