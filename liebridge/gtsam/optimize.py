@@ -92,8 +92,9 @@ class _Damping:
     ) -> None:
         """Damp ``keys``, sharing factors within the tuples of ``together``.
 
-        ``together``: disjoint tuples of 2–3 keys of equal dimension whose damping may share
-        one factor (``[√λI 0 0; 0 √λI 0; 0 0 √λI]``).
+        ``together``: tuples of 2–3 keys of equal dimension whose damping may share one factor
+        (``[√λI 0 0; 0 √λI 0; 0 0 √λI]``); taken in order, a tuple with a key already damped is
+        skipped (every key is damped exactly once, its leftover keys on their own).
 
         A shared factor changes neither the Hessian nor the elimination's structure when its
         first-eliminated key's clique holds the others anyway (the keys of one batched factor
