@@ -251,3 +251,24 @@ def test_custom_ordering_is_refused_by_name() -> None:
     p.setOrdering(gtsam.Ordering.ColamdNonlinearFactorGraph(g))
     with pytest.raises(ValueError, match=r"params\.orderingType: CUSTOM"):
         optimize(g, v, p, progress=False)
+
+
+@pytest.mark.parametrize("rel", [1e-5, 0.3])
+@pytest.mark.parametrize("lam0", [1e-12, 1e2])
+@pytest.mark.parametrize("at_optimum", [False, True])
+def test_lm_equals_gtsams_across_parameters_and_starts(
+    rel: float, lam0: float, at_optimum: bool
+) -> None:
+    # the end game too: a start at GTSAM's optimum, loose tolerances, extreme initial λ
+    g, v = _circle("ros", 1)
+    if at_optimum:
+        v = gtsam.LevenbergMarquardtOptimizer(g, v, gtsam.LevenbergMarquardtParams()).optimize()
+    p = gtsam.LevenbergMarquardtParams()
+    p.setRelativeErrorTol(rel)
+    p.setlambdaInitial(lam0)
+    p.setMaxIterations(50)
+    opt = gtsam.LevenbergMarquardtOptimizer(g, v, p)
+    ref = opt.optimize()
+    ours = optimize(g, v, p, progress=False)
+    assert ours.iterations == opt.iterations()
+    assert ours.final_error == pytest.approx(g.error(ref), rel=1e-9, abs=1e-12)
