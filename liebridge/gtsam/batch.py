@@ -175,6 +175,19 @@ class _Plan:
     prior_keys: list[int]
 
 
+@dataclass(frozen=True)
+class _Calls:
+    """Buffers the whitened blocks of one pose group are written into, and the ``add`` calls."""
+
+    pair_blocks: FloatArray  # (3, P, 2m, d): v's, the first factor's other, the second's other
+    pair_b: FloatArray  # (P, 2m)
+    single_blocks: FloatArray  # (2, S, m, d)
+    single_b: FloatArray  # (S, m)
+    prior_blocks: FloatArray  # (Q, m, d)
+    prior_b: FloatArray  # (Q, m)
+    args: list[tuple[Any, ...]]  # one tuple of GaussianFactorGraph.add arguments per factor
+
+
 class PoseFactorBatch:
     """Every batched factor of a graph, bound once to the graph's pose keys and ordering.
 
@@ -208,6 +221,7 @@ class PoseFactorBatch:
         self.offsets: dict[str, tuple[IntArray, IntArray]] = {}
         self.plans = {pg: self._plan(pg, position, offset) for pg in self.keys}
         self.units: dict[int, Any] = {}
+        self.calls: dict[str, _Calls] = {}
 
     def _unit(self, m: int) -> Any:
         if m not in self.units:
@@ -351,36 +365,61 @@ class PoseFactorBatch:
         Returns the stacked ``(A_i, A_j, b)`` per pose group (for :meth:`linear_error`).
         """
         system = self.whitened(ev)
+        add = linear.add
         for pg, plan in self.plans.items():
             A_i, A_j, b = system[pg]
-            m = b.shape[-1]
-            unit = self._unit(m)
+            calls = self._calls(pg, b.shape[-1], A_i.shape[-1])
             if len(plan.pairs):
                 A = A_i.base  # (2K, m, d): A_i and A_j are its halves (see whitened)
                 if A is None or A_j.base is not A or A.shape[0] != 2 * len(A_i):
                     A = np.concatenate([A_i, A_j])
-                P = len(plan.pairs)
-                blocks = np.empty((3, P, 2 * m, A.shape[-1]))
+                m = b.shape[-1]
+                blocks, bb = calls.pair_blocks, calls.pair_b  # zero halves written once
                 np.take(A, plan.gather[0], axis=0, out=blocks[0, :, :m])  # v: first factor's,
                 np.take(A, plan.gather[1], axis=0, out=blocks[0, :, m:])  # then the second's
                 np.take(A, plan.gather[2], axis=0, out=blocks[1, :, :m])  # first factor's other
                 np.take(A, plan.gather[3], axis=0, out=blocks[2, :, m:])  # second's other
-                blocks[1, :, m:] = 0.0
-                blocks[2, :, :m] = 0.0
-                bb = np.concatenate([b[plan.pairs[:, 0]], b[plan.pairs[:, 1]]], axis=1)
-                unit2 = self._unit(2 * m)
-                add = linear.add
-                for (v, o1, o2), a0, a1, a2, b0 in zip(
-                    plan.pair_keys, blocks[0], blocks[1], blocks[2], bb, strict=True
-                ):
-                    add(v, a0, o1, a1, o2, a2, b0, unit2)
-            s = plan.singles
-            for (i, j), a0, a1, b0 in zip(plan.single_keys, A_i[s], A_j[s], b[s], strict=True):
-                linear.add(i, a0, j, a1, b0, unit)
-            s = plan.priors
-            for i, a0, b0 in zip(plan.prior_keys, A_i[s], b[s], strict=True):
-                linear.add(i, a0, b0, unit)
+                np.take(b, plan.pairs[:, 0], axis=0, out=bb[:, :m])
+                np.take(b, plan.pairs[:, 1], axis=0, out=bb[:, m:])
+            np.take(A_i, plan.singles, axis=0, out=calls.single_blocks[0])
+            np.take(A_j, plan.singles, axis=0, out=calls.single_blocks[1])
+            np.take(b, plan.singles, axis=0, out=calls.single_b)
+            np.take(A_i, plan.priors, axis=0, out=calls.prior_blocks)
+            np.take(b, plan.priors, axis=0, out=calls.prior_b)
+            for args in calls.args:
+                add(*args)
         return system
+
+    def _calls(self, pg: str, m: int, d: int) -> _Calls:
+        """Return the persistent buffers and ready-made ``add`` arguments of pose group ``pg``.
+
+        Each linearization writes its numbers into the same buffers, and the argument tuples
+        hold views of them: no array view and no tuple is made per call (GTSAM copies the
+        blocks into its own factor).
+        """
+        if pg not in self.calls:
+            plan = self.plans[pg]
+            P, S, Q = len(plan.pairs), len(plan.singles), len(plan.priors)
+            c = _Calls(
+                pair_blocks=np.zeros((3, P, 2 * m, d)),
+                pair_b=np.zeros((P, 2 * m)),
+                single_blocks=np.zeros((2, S, m, d)),
+                single_b=np.zeros((S, m)),
+                prior_blocks=np.zeros((Q, m, d)),
+                prior_b=np.zeros((Q, m)),
+                args=[],
+            )
+            unit, unit2 = self._unit(m), self._unit(2 * m)
+            for n, (v, o1, o2) in enumerate(plan.pair_keys):
+                blk = c.pair_blocks
+                c.args.append((v, blk[0, n], o1, blk[1, n], o2, blk[2, n], c.pair_b[n], unit2))
+            for n, (i, j) in enumerate(plan.single_keys):
+                blk = c.single_blocks
+                c.args.append((i, blk[0, n], j, blk[1, n], c.single_b[n], unit))
+            for n, i in enumerate(plan.prior_keys):
+                c.args.append((i, c.prior_blocks[n], c.prior_b[n], unit))
+            self.calls[pg] = c
+        return self.calls[pg]
 
     def linear_error(self, system: dict[str, Any], delta: FloatArray) -> float:
         """``½ Σ ‖A_i δ_i + A_j δ_j − b‖²`` of :meth:`linearize`'s factors at ``delta``.
