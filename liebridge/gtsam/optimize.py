@@ -7,7 +7,9 @@ sphere2500, ``docs/library-facts.md``). ``graph.linearize(values)`` and
 module runs GTSAM's Levenberg–Marquardt algorithm around those two calls:
 
 * linearize, then damp with ``λ·I`` per variable (GTSAM's ``buildDampedSystem`` without diagonal
-  damping) and solve with GTSAM's elimination under a COLAMD ordering computed once;
+  damping) and solve with GTSAM's elimination (``GaussianFactorGraph.optimize``, multifrontal,
+  Cholesky) under one ordering of the nonlinear graph computed once, of ``params.orderingType``
+  (COLAMD by default), as ``LevenbergMarquardtParams::EnsureHasOrdering`` does;
 * accept a step when the model fidelity ``(f(x) − f(x⊕δ)) / (L(0) − L(δ))`` exceeds
   ``minModelFidelity`` (1e-3), then ``λ ← max(λ / factor, lower)``; else ``λ ← λ·factor`` and
   retry until ``lambdaUpperBound``; stop on ``gtsam.checkConvergence`` (relative, absolute and
@@ -19,6 +21,11 @@ identification query with a registry number: :func:`liebridge.gtsam.custom.ident
 evaluated **all at once**, one batched numpy pass per (kind, convention), then handed to GTSAM
 as whitened ``JacobianFactor``s; per-factor Python callbacks are the slow part otherwise
 (≈0.3 ms error, ≈1.5 ms with Jacobians, against ≈4 µs of GTSAM's own per-callback overhead).
+The residuals of the error evaluation that accepted a step are reused for the next
+linearization; two factors whose first-eliminated key is the same go to GTSAM as one three-key
+``JacobianFactor`` (the Hessian and the elimination's structure are unchanged, the pybind calls
+halved), and their three keys share one damping factor; the linearized error ``L(δ)`` is
+computed in numpy from the same stacked arrays.
 Other factors — native GTSAM ones and foreign ``CustomFactor``s (called once during setup) —
 are linearized by GTSAM. All parameters come from a ``gtsam.LevenbergMarquardtParams``.
 """
@@ -35,7 +42,7 @@ from typing import Any
 import gtsam
 import numpy as np
 
-from .batch import PoseFactorGroup, PoseFactorSpec, group_specs, poses_of
+from .batch import BatchEvaluation, PoseFactorBatch, PoseFactorSpec, group_specs
 from .custom import identify, query_values
 
 __all__ = ["OptimizeResult", "optimize"]
@@ -80,9 +87,30 @@ class _Damping:
     issue 23).
     """
 
-    def __init__(self, values: Any, keys: list[int]) -> None:
+    def __init__(
+        self, values: Any, keys: list[int], together: list[tuple[int, ...]] | None = None
+    ) -> None:
+        """Damp ``keys``, sharing factors within the tuples of ``together``.
+
+        ``together``: tuples of 2–3 keys of equal dimension whose damping may share one factor
+        (``[√λI 0 0; 0 √λI 0; 0 0 √λI]``); taken in order, a tuple with a key already damped is
+        skipped (every key is damped exactly once, its leftover keys on their own).
+
+        A shared factor changes neither the Hessian nor the elimination's structure when its
+        first-eliminated key's clique holds the others anyway (the keys of one batched factor
+        pair, :class:`~liebridge.gtsam.batch.PoseFactorBatch`); it saves Python calls.
+        """
         zero = values.zeroVectors()
-        self.dims = [(k, int(zero.at(k).shape[0])) for k in keys]
+        dim = {k: int(zero.at(k).shape[0]) for k in keys}
+        used: set[int] = set()
+        self.blocks: list[tuple[tuple[int, ...], int]] = []
+        for group in together or []:
+            if all(k in dim and k not in used for k in group) and (
+                len({dim[k] for k in group}) == 1
+            ):
+                self.blocks.append((group, dim[group[0]]))
+                used.update(group)
+        self.blocks += [((k,), dim[k]) for k in keys if k not in used]
         self.cache: dict[float, Any] = {}
 
     def graph(self, lam: float) -> Any:
@@ -91,12 +119,22 @@ class _Damping:
                 self.cache.clear()
             s = float(np.sqrt(lam))
             out = gtsam.GaussianFactorGraph()
-            parts: dict[int, tuple[Any, Any, Any]] = {}
-            for k, d in self.dims:
-                if d not in parts:
-                    parts[d] = (s * np.eye(d), np.zeros(d), gtsam.noiseModel.Unit.Create(d))
-                A, b, unit = parts[d]
-                out.push_back(gtsam.JacobianFactor(k, A, b, unit))
+            add = out.add
+            parts: dict[tuple[int, int], tuple[list[Any], Any, Any]] = {}
+            for group, d in self.blocks:
+                n = len(group)
+                if (n, d) not in parts:
+                    A = [np.zeros((n * d, d)) for _ in range(n)]
+                    for m in range(n):
+                        A[m][m * d : (m + 1) * d] = s * np.eye(d)
+                    parts[n, d] = (A, np.zeros(n * d), gtsam.noiseModel.Unit.Create(n * d))
+                A, b, unit = parts[n, d]
+                if n == 1:
+                    add(group[0], A[0], b, unit)
+                elif n == 2:
+                    add(group[0], A[0], group[1], A[1], b, unit)
+                else:
+                    add(group[0], A[0], group[1], A[1], group[2], A[2], b, unit)
             self.cache[lam] = out
         return self.cache[lam]
 
@@ -108,17 +146,52 @@ class _Damping:
         return out
 
 
-class _SplitGraph:
-    """A graph split into GTSAM-evaluated factors and batched liebridge groups."""
+class _LinearModel:
+    """One linearization: the ``GaussianFactorGraph`` GTSAM eliminates and its error in numpy.
 
-    def __init__(self, graph: Any, values: Any, batch: bool) -> None:
+    ``error(delta)`` is GTSAM's ``GaussianFactorGraph.error`` of ``graph`` at ``delta``
+    (``½ Σ ‖A δ − b‖²``): GTSAM's part through GTSAM, the batched part from the stacked numpy
+    arrays (one pybind call instead of one per factor).
+    """
+
+    def __init__(self, split: _SplitGraph, graph: Any, rest: Any, system: Any) -> None:
+        self.split, self.graph, self.rest, self.system = split, graph, rest, system
+
+    def error(self, delta: Any) -> float:
+        err = float(self.rest.error(delta))
+        if self.system is None:
+            return err
+        assert self.split.batch is not None
+        # blocks in the order of the graph's sorted keys, whatever the map's iteration order
+        vec = np.asarray(delta.vector(self.split.keys), dtype=np.float64).reshape(-1)
+        return err + self.split.batch.linear_error(self.system, vec)
+
+    def error_at_zero(self, delta: Any) -> float:
+        """``L(0) = ½ Σ ‖b‖²``: the same for every λ of an iteration."""
+        err = float(self.rest.error(gtsam.VectorValues.Zero(delta))) if self.rest.size() else 0.0
+        if self.system is not None:
+            err += sum(0.5 * float(np.einsum("ki,ki->", b, b)) for _, _, b in self.system.values())
+        return err
+
+
+class _SplitGraph:
+    """A graph split into GTSAM-evaluated factors and batched liebridge factors.
+
+    The batched factors are bound once to the graph's keys and elimination ordering
+    (:class:`~liebridge.gtsam.batch.PoseFactorBatch`); ``evaluate`` returns the residuals it
+    computed with the error, and ``linear_model`` linearizes from them.
+    """
+
+    def __init__(self, graph: Any, values: Any, batch: bool, ordering: Any = None) -> None:
         self.rest = gtsam.NonlinearFactorGraph()
-        specs: list[PoseFactorSpec] = []
+        self.batch: PoseFactorBatch | None = None
+        self.n_batched = 0
+        self.keys: list[int] = []  # the graph's keys, sorted: the layout of linear_error's delta
         if not batch:
             self.rest = graph
-            self.groups: list[PoseFactorGroup] = []
             return
         query = query_values()
+        specs: list[PoseFactorSpec] = []
         for k in range(graph.size()):
             f = graph.at(k)
             if f is None:
@@ -128,28 +201,52 @@ class _SplitGraph:
                 specs.append(spec)
                 continue
             self.rest.add(f)
-        self.groups = group_specs(specs)
         self.n_batched = len(specs)
+        if not specs:
+            return
+        if ordering is None:
+            ordering = gtsam.Ordering.ColamdNonlinearFactorGraph(graph)
+        position = {int(ordering.at(n)): n for n in range(ordering.size())}
+        key_set = graph.keys()  # held: iterating the temporary KeySet reads freed memory
+        zero = values.zeroVectors()
+        self.keys = sorted(int(k) for k in key_set)
+        offset: dict[int, int] = {}
+        total = 0
+        for k in self.keys:
+            offset[k] = total
+            total += int(zero.at(k).shape[0])
+        self.batch = PoseFactorBatch(group_specs(specs), values, position, offset)
 
-    def _poses(self, values: Any) -> dict[str, tuple[Any, Any]]:
-        """Keys and matrices of every group the batched factors live on (one extraction each)."""
-        return {group: poses_of(values, group) for group in {g.group for g in self.groups}}
+    def damping_groups(self) -> list[tuple[int, ...]]:
+        """Key tuples whose damping can share a factor (see :class:`_Damping`)."""
+        return [] if self.batch is None else self.batch.damping_groups()
+
+    def evaluate(self, values: Any) -> tuple[float, BatchEvaluation | None]:
+        """Return the graph's error at ``values`` and the batched residuals computed for it."""
+        err = float(self.rest.error(values))
+        if self.batch is None:
+            return err, None
+        ev = self.batch.evaluate(values)
+        return err + ev.error, ev
 
     def error(self, values: Any) -> float:
-        err = float(self.rest.error(values))
-        if self.groups:
-            poses = self._poses(values)
-            err += sum(g.error(*poses[g.group]) for g in self.groups)
-        return err
+        return self.evaluate(values)[0]
+
+    def linear_model(self, values: Any, ev: BatchEvaluation | None) -> _LinearModel:
+        """Linearize at ``values``; ``ev``: :meth:`evaluate`'s residuals there (or None)."""
+        rest = self.rest.linearize(values)
+        if self.batch is None:
+            return _LinearModel(self, rest, rest, None)
+        if ev is None:
+            ev = self.batch.evaluate(values)
+        linear = gtsam.GaussianFactorGraph()
+        linear.push_back(rest)
+        system = self.batch.linearize(ev, linear)
+        return _LinearModel(self, linear, rest, system)
 
     def linearize(self, values: Any) -> Any:
-        linear = self.rest.linearize(values)
-        if self.groups:
-            poses = self._poses(values)
-            for g in self.groups:
-                for jf in g.linearize(*poses[g.group]):
-                    linear.push_back(jf)
-        return linear
+        """Return the whole linear system at ``values`` as one ``GaussianFactorGraph``."""
+        return self.linear_model(values, None).graph
 
 
 def _positive(x: float, name: str, *, strict: bool = True, finite: bool = True) -> float:
@@ -172,6 +269,7 @@ class _LMSettings:
     rel: float
     absol: float
     errtol: float
+    ordering_type: str
 
 
 def _lm_settings(params: Any) -> _LMSettings:
@@ -209,6 +307,12 @@ def _lm_settings(params: Any) -> _LMSettings:
     }
     for name, tol in tols.items():
         _positive(tol, name, strict=False, finite=False)
+    ordering_type = str(params.getOrderingType())
+    if ordering_type not in ("COLAMD", "METIS", "NATURAL"):
+        raise ValueError(
+            f"params.orderingType: {ordering_type} is not supported (a custom ordering set with "
+            "setOrdering cannot be read back from Python); use COLAMD, METIS or NATURAL"
+        )
     return _LMSettings(
         lam=lam,
         factor=factor,
@@ -218,6 +322,7 @@ def _lm_settings(params: Any) -> _LMSettings:
         rel=tols["relativeErrorTol"],
         absol=tols["absoluteErrorTol"],
         errtol=tols["errorTol"],
+        ordering_type=ordering_type,
     )
 
 
@@ -257,10 +362,12 @@ def optimize(
         Initial estimate (not modified).
     params : gtsam.LevenbergMarquardtParams, optional
         ``lambdaInitial``, ``lambdaFactor``, ``lambdaUpperBound``, ``lambdaLowerBound``,
-        ``maxIterations``, ``relativeErrorTol``, ``absoluteErrorTol``, ``errorTol`` are honoured,
-        and validated before any work (λ finite and > 0, factor finite and > 1, bounds
-        ``0 ≤ lower < upper``, tolerances ≥ 0, not NaN). Keys of ``values`` that no factor uses
-        are returned unchanged, as GTSAM's ``LevenbergMarquardtOptimizer`` does.
+        ``maxIterations``, ``relativeErrorTol``, ``absoluteErrorTol``, ``errorTol`` and
+        ``orderingType`` (COLAMD, METIS, NATURAL) are honoured, and validated before any work
+        (λ finite and > 0, factor finite and > 1, bounds ``0 ≤ lower < upper``, tolerances ≥ 0,
+        not NaN; a CUSTOM ordering cannot be read back from Python and is refused). Keys of
+        ``values`` that no factor uses are returned unchanged, as GTSAM's
+        ``LevenbergMarquardtOptimizer`` does.
     progress : bool or callable, optional
         ``True``: one line per iteration on stderr; a callable receives the lines; ``None``
         (default): lines start once the run has taken :data:`AUTO_PROGRESS_AFTER` seconds.
@@ -292,23 +399,26 @@ def optimize(
         elif progress or (progress is None and time.perf_counter() - t0 > AUTO_PROGRESS_AFTER):
             print(msg, file=sys.stderr, flush=True)
 
-    ordering = gtsam.Ordering.ColamdNonlinearFactorGraph(graph)
+    # GTSAM's LM orders the nonlinear graph once, by params.orderingType (COLAMD by default)
+    ordering = gtsam.Ordering.CreateNonlinearFactorGraph(
+        gtsam.Ordering.OrderingType.__members__[P.ordering_type], graph
+    )
     current = gtsam.Values(values)
-    split = _SplitGraph(graph, current, batch)
-    damping = _Damping(current, keys)
-    err = split.error(current)
+    split = _SplitGraph(graph, current, batch, ordering)
+    damping = _Damping(current, keys, split.damping_groups())
+    err, state = split.evaluate(current)
     initial = err
     if not np.isfinite(err):
         raise ValueError(f"values: the initial error is not finite ({err})")
     it = 0
     converged = err <= errtol
     while not converged and it < max_it:
-        linear = split.linearize(current)
+        linear = split.linear_model(current, state)
         new_err = err
         stop = False
         lin_old: float | None = None
         for _try in range(_MAX_TRIES):
-            damped = damping.damped(linear, lam)
+            damped = damping.damped(linear.graph, lam)
             try:
                 delta = damped.optimize(ordering)
             except RuntimeError:  # indeterminant system: more damping
@@ -316,19 +426,19 @@ def optimize(
             success = False
             if delta is not None:
                 if lin_old is None:  # L(0) = ½‖b‖²: the same for every λ of this iteration
-                    lin_old = float(linear.error(gtsam.VectorValues.Zero(delta)))
-                lin_new = float(linear.error(delta))
+                    lin_old = linear.error_at_zero(delta)
+                lin_new = linear.error(delta)
                 lin_change = lin_old - lin_new
                 if lin_change >= 0:
                     cand = current.retract(delta)
-                    cand_err = split.error(cand)
+                    cand_err, cand_state = split.evaluate(cand)
                     if lin_change > np.finfo(float).eps * lin_old:
                         fidelity = (err - cand_err) / lin_change
                         success = fidelity > _MIN_MODEL_FIDELITY
                     else:
                         stop = True  # the linear model cannot decrease: converged
             if success:
-                current, new_err = cand, cand_err
+                current, new_err, state = cand, cand_err, cand_state
                 lam = max(lower, lam / factor)
                 break
             if stop:
