@@ -43,6 +43,7 @@ import os
 import platform
 import subprocess
 import sys
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -126,6 +127,15 @@ def _blocked(f: Callable[..., Any], *args: Any) -> Callable[[], Any]:
     return run
 
 
+def _cpu_per_wall(fn: Callable[[], Any]) -> float:
+    """Process CPU seconds per wall second over calls filling ≥ 0.05 s (1 = one core busy)."""
+    c0, w0, k = time.process_time(), time.perf_counter(), 0
+    while time.perf_counter() - w0 < 0.05 or k < 3:
+        fn()
+        k += 1
+    return (time.process_time() - c0) / (time.perf_counter() - w0)
+
+
 def _memory_pass(inp: np.ndarray, like: np.ndarray) -> Callable[[], Any]:
     """One pass over the bytes a kernel touches: a copy of its input and of its output's size."""
 
@@ -199,6 +209,8 @@ def rows_for(
         }
         t = interleaved(fns, repeat, min_time=min_time)  # first call of each: warm-up (jit)
         med = {k: v["median_s"] for k, v in t.items()}
+        # cores used: process CPU time / wall time over a few calls (XLA may run threads)
+        cpu_per_wall = {k: _cpu_per_wall(fns[k]) for k in ("liebridge", "jaxlie_matrix")}
         mp = med["memory_pass"]
         row = {
             "op": op,
@@ -209,6 +221,7 @@ def rows_for(
             "x_memory_pass": {k: v / mp for k, v in med.items() if k != "memory_pass"},
             "speedup_vs_jaxlie_matrix": med["jaxlie_matrix"] / med["liebridge"],
             "speedup_vs_jaxlie_native": med["jaxlie_native"] / med["liebridge"],
+            "cpu_per_wall": cpu_per_wall,
             "agreement": agree,
             "within_3x_memory_pass": bool(med["liebridge"] <= 3 * mp),
             "ahead_of_jaxlie_jit": bool(med["liebridge"] < med["jaxlie_matrix"]),
@@ -364,6 +377,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any] | None:
             "jaxlie's SE(3) tangent and adjoint are (v, w); inputs permuted before timing, "
             "results permuted back for the agreement check.",
             "memory_pass: a copy of the input and of an output-sized array (target <= 3x).",
+            "cpu_per_wall: process CPU time / wall time of the candidate (1 = one core); "
+            "liebridge's kernels are single-threaded.",
         ],
         "rows": rows,
         "edge_cases": edges,
