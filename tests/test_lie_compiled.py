@@ -182,3 +182,25 @@ def test_inputs_are_not_mutated_and_outputs_are_new() -> None:
     _both(lambda: se3.log(ro), 1e-14)
     _both(lambda: se3.exp(xi.tolist()))  # lists go through numpy
     _both(lambda: se3.log(np.stack([Tm, Tm], axis=1)[:, 0]), 1e-14)  # a strided view
+
+
+@pytest.mark.skipif(not _compiled.COMPILED, reason="compiled kernels not built")
+def test_vectorized_trig_sweep_matches_numpy() -> None:
+    """The polynomial sin/cos/atan2 of the chunked passes against libm through numpy.
+
+    Dense angles over [0, 2.6 π] (every quadrant of the half angle, across FAST_MAX and
+    SMALL_ANGLE, chunk boundaries: the batch is not a multiple of 256), random axes.
+    """
+    rng = np.random.default_rng(5)
+    n = 20_011
+    theta = np.concatenate([np.linspace(0.0, 2.6 * np.pi, n - 11), np.pi - 10.0 ** -np.arange(11)])
+    u = rng.normal(size=(n, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    xi = np.concatenate([theta[:, None] * u, 30.0 * rng.normal(size=(n, 3))], axis=1)
+    w = np.ascontiguousarray(xi[:, :3])
+    _both(lambda: so3.exp(w), 2e-15)
+    _both(lambda: se3.exp(xi), 2e-15)
+    T = _numpy(lambda: se3.exp(xi))
+    R = np.ascontiguousarray(T[:, :3, :3])
+    _both(lambda: so3.log(R), 2e-15)
+    _both(lambda: se3.log(T), 2e-15)
