@@ -476,15 +476,18 @@ VEC_CLONES static void log_chunk2(LogTmp *restrict L, int m, const double *restr
         L->cot[i] = (c >= 0.0 ? r + c : y) / (c >= 0.0 ? y : r - c);
         double dot = u0 * s0 + u1 * s1 + u2 * s2;
         double hs = HORNER9(sinc_c, theta * theta);
-        /* w = num / den * (u or s): the axis branch, the series, the closed form */
-        double num = theta < small ? 1.0 : theta * r, den = theta < small ? hs : y;
+        /* w = num / den * (u or s): the axis branch (c < -1/2), the series, the closed form;
+           the conditions as 0/1 values first (so the SSE2 clone is if-converted too) */
+        double sm = theta < small ? 1.0 : 0.0, pib = c < -0.5 ? 1.0 : 0.0;
+        double num = sm > 0.0 ? 1.0 : theta * r, den = sm > 0.0 ? hs : y;
         double sth = dot < 0.0 ? -theta : theta;
-        num = c < -0.5 ? sth : num;
-        den = c < -0.5 ? norm : den;
+        num = pib > 0.0 ? sth : num;
+        den = pib > 0.0 ? norm : den;
         double q = num / den;
-        L->w0[i] = q * (c < -0.5 ? u0 : s0);
-        L->w1[i] = q * (c < -0.5 ? u1 : s1);
-        L->w2[i] = q * (c < -0.5 ? u2 : s2);
+        double v0 = pib > 0.0 ? u0 : s0, v1 = pib > 0.0 ? u1 : s1, v2 = pib > 0.0 ? u2 : s2;
+        L->w0[i] = q * v0;
+        L->w1[i] = q * v1;
+        L->w2[i] = q * v2;
         L->y[i] = L->w0[i] * L->w0[i] + L->w1[i] * L->w1[i] + L->w2[i] * L->w2[i];
     }
 }
@@ -502,52 +505,69 @@ VEC_CLONES static void logD_chunk(LogTmp *restrict L, int m, const double *restr
     }
 }
 
+/* log pass 1: load and certify a chunk of rotations (row stride s) or poses (se), and the
+   entries so3_log needs, into L; returns how many elements were refused (rotation_ok, pose_ok) */
+INLINE double log_load(const double *restrict xc, LogTmp *restrict L, int m, double tol2,
+                       const int se) {
+    const int is = se ? 16 : 9, s = se ? 4 : 3;
+    double bad = 0.0;
+    for (int i = 0; i < m; i++) {
+        const double *R = xc + (Py_ssize_t)i * is;
+        double r00 = R[0], r01 = R[1], r02 = R[2];
+        double r10 = R[s], r11 = R[s + 1], r12 = R[s + 2];
+        double r20 = R[2 * s], r21 = R[2 * s + 1], r22 = R[2 * s + 2];
+        /* rotation_ok above */
+        double e0 = r00 * r00 + r10 * r10 + r20 * r20 - 1.0;
+        double e1 = r01 * r01 + r11 * r11 + r21 * r21 - 1.0;
+        double e2 = r02 * r02 + r12 * r12 + r22 * r22 - 1.0;
+        double e3 = r00 * r01 + r10 * r11 + r20 * r21;
+        double e4 = r00 * r02 + r10 * r12 + r20 * r22;
+        double e5 = r01 * r02 + r11 * r12 + r21 * r22;
+        double det = r00 * (r11 * r22 - r12 * r21) - r01 * (r10 * r22 - r12 * r20) +
+                     r02 * (r10 * r21 - r11 * r20);
+        int ok = (e0 * e0 + e1 * e1 + e2 * e2 + 2.0 * (e3 * e3 + e4 * e4 + e5 * e5) <= tol2) &
+                 (det > 0.0);
+        if (se)
+            ok &= (R[12] == 0.0) & (R[13] == 0.0) & (R[14] == 0.0) & (R[15] == 1.0) &
+                  (fabs(R[3] + R[7] + R[11]) <= DBL_MAX);
+        bad += ok ? 0.0 : 1.0;
+        double c = 0.5 * (r00 + r11 + r22 - 1.0);
+        L->s0[i] = 0.5 * (r21 - r12);
+        L->s1[i] = 0.5 * (r02 - r20);
+        L->s2[i] = 0.5 * (r10 - r01);
+        L->c[i] = c;
+        L->d0[i] = r00 - c;
+        L->d1[i] = r11 - c;
+        L->d2[i] = r22 - c;
+        L->s01[i] = 0.5 * (r01 + r10);
+        L->s02[i] = 0.5 * (r02 + r20);
+        L->s12[i] = 0.5 * (r12 + r21);
+    }
+    return bad;
+}
+VEC_CLONES static double log_load3(const double *restrict xc, LogTmp *restrict L, int m,
+                                   double tol2) {
+    return log_load(xc, L, m, tol2, 0);
+}
+VEC_CLONES static double log_load4(const double *restrict xc, LogTmp *restrict L, int m,
+                                   double tol2) {
+    return log_load(xc, L, m, tol2, 1);
+}
+
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC pop_options
 #endif
 
 static Py_ssize_t run_log(int se, const Coef *C, const double *x, double *out, Py_ssize_t N,
                           double tol) {
-    const int is = se ? 16 : 9, os = se ? 6 : 3, s = se ? 4 : 3;
+    const int is = se ? 16 : 9, os = se ? 6 : 3;
     const double tol2 = tol * tol;
     LogTmp L;
     for (Py_ssize_t base = 0; base < N; base += CH) {
         const int m = (int)(N - base < CH ? N - base : CH);
         const double *xc = x + base * is;
         double *oc = out + base * os;
-        double bad = 0.0;
-        for (int i = 0; i < m; i++) {
-            const double *R = xc + (Py_ssize_t)i * is;
-            double r00 = R[0], r01 = R[1], r02 = R[2];
-            double r10 = R[s], r11 = R[s + 1], r12 = R[s + 2];
-            double r20 = R[2 * s], r21 = R[2 * s + 1], r22 = R[2 * s + 2];
-            /* rotation_ok above */
-            double e0 = r00 * r00 + r10 * r10 + r20 * r20 - 1.0;
-            double e1 = r01 * r01 + r11 * r11 + r21 * r21 - 1.0;
-            double e2 = r02 * r02 + r12 * r12 + r22 * r22 - 1.0;
-            double e3 = r00 * r01 + r10 * r11 + r20 * r21;
-            double e4 = r00 * r02 + r10 * r12 + r20 * r22;
-            double e5 = r01 * r02 + r11 * r12 + r21 * r22;
-            double det = r00 * (r11 * r22 - r12 * r21) - r01 * (r10 * r22 - r12 * r20) +
-                         r02 * (r10 * r21 - r11 * r20);
-            int ok = (e0 * e0 + e1 * e1 + e2 * e2 + 2.0 * (e3 * e3 + e4 * e4 + e5 * e5) <= tol2) &
-                     (det > 0.0);
-            if (se)
-                ok &= (R[12] == 0.0) & (R[13] == 0.0) & (R[14] == 0.0) & (R[15] == 1.0) &
-                      (fabs(R[3] + R[7] + R[11]) <= DBL_MAX);
-            bad += ok ? 0.0 : 1.0;
-            double c = 0.5 * (r00 + r11 + r22 - 1.0);
-            L.s0[i] = 0.5 * (r21 - r12);
-            L.s1[i] = 0.5 * (r02 - r20);
-            L.s2[i] = 0.5 * (r10 - r01);
-            L.c[i] = c;
-            L.d0[i] = r00 - c;
-            L.d1[i] = r11 - c;
-            L.d2[i] = r22 - c;
-            L.s01[i] = 0.5 * (r01 + r10);
-            L.s02[i] = 0.5 * (r02 + r20);
-            L.s12[i] = 0.5 * (r12 + r21);
-        }
+        double bad = se ? log_load4(xc, &L, m, tol2) : log_load3(xc, &L, m, tol2);
         if (bad > 0.0) /* the first element pose_ok / rotation_ok refuses */
             for (int i = 0; i < m; i++) {
                 const double *R = xc + (Py_ssize_t)i * is;
