@@ -505,18 +505,46 @@ VEC_CLONES static void logD_chunk(LogTmp *restrict L, int m, const double *restr
     }
 }
 
-/* log pass 1: load and certify a chunk of rotations (row stride s) or poses (se), and the
-   entries so3_log needs, into L; returns how many elements were refused (rotation_ok, pose_ok) */
-INLINE double log_load(const double *restrict xc, LogTmp *restrict L, int m, double tol2,
-                       const int se) {
+/* log pass 0: the chunk's rotation entries transposed into L (r21 r02 r10 r00 r11 r22 r01 r02 r12
+   into s0 s1 s2 d0 d1 d2 s01 s02 s12), rotations of row stride s or poses (se: the bottom row
+   and a finite translation certified here); returns how many poses were refused */
+INLINE double log_load(const double *restrict xc, LogTmp *restrict L, int m, const int se) {
     const int is = se ? 16 : 9, s = se ? 4 : 3;
     double bad = 0.0;
     for (int i = 0; i < m; i++) {
         const double *R = xc + (Py_ssize_t)i * is;
-        double r00 = R[0], r01 = R[1], r02 = R[2];
-        double r10 = R[s], r11 = R[s + 1], r12 = R[s + 2];
-        double r20 = R[2 * s], r21 = R[2 * s + 1], r22 = R[2 * s + 2];
-        /* rotation_ok above */
+        L->d0[i] = R[0];
+        L->s01[i] = R[1];
+        L->s02[i] = R[2];
+        L->s2[i] = R[s];
+        L->d1[i] = R[s + 1];
+        L->s12[i] = R[s + 2];
+        L->s1[i] = R[2 * s];
+        L->s0[i] = R[2 * s + 1];
+        L->d2[i] = R[2 * s + 2];
+        if (se) {
+            int ok = (R[12] == 0.0) & (R[13] == 0.0) & (R[14] == 0.0) & (R[15] == 1.0) &
+                     (fabs(R[3] + R[7] + R[11]) <= DBL_MAX);
+            bad += ok ? 0.0 : 1.0;
+        }
+    }
+    return bad;
+}
+VEC_CLONES static double log_load3(const double *restrict xc, LogTmp *restrict L, int m) {
+    return log_load(xc, L, m, 0);
+}
+VEC_CLONES static double log_load4(const double *restrict xc, LogTmp *restrict L, int m) {
+    return log_load(xc, L, m, 1);
+}
+
+/* log pass 1: certify the transposed rotations (rotation_ok above) and form in place the
+   entries so3_log needs; returns how many were refused */
+VEC_CLONES static double log_prep(LogTmp *restrict L, int m, double tol2) {
+    double bad = 0.0;
+    for (int i = 0; i < m; i++) {
+        double r00 = L->d0[i], r01 = L->s01[i], r02 = L->s02[i];
+        double r10 = L->s2[i], r11 = L->d1[i], r12 = L->s12[i];
+        double r20 = L->s1[i], r21 = L->s0[i], r22 = L->d2[i];
         double e0 = r00 * r00 + r10 * r10 + r20 * r20 - 1.0;
         double e1 = r01 * r01 + r11 * r11 + r21 * r21 - 1.0;
         double e2 = r02 * r02 + r12 * r12 + r22 * r22 - 1.0;
@@ -525,12 +553,9 @@ INLINE double log_load(const double *restrict xc, LogTmp *restrict L, int m, dou
         double e5 = r01 * r02 + r11 * r12 + r21 * r22;
         double det = r00 * (r11 * r22 - r12 * r21) - r01 * (r10 * r22 - r12 * r20) +
                      r02 * (r10 * r21 - r11 * r20);
-        int ok = (e0 * e0 + e1 * e1 + e2 * e2 + 2.0 * (e3 * e3 + e4 * e4 + e5 * e5) <= tol2) &
-                 (det > 0.0);
-        if (se)
-            ok &= (R[12] == 0.0) & (R[13] == 0.0) & (R[14] == 0.0) & (R[15] == 1.0) &
-                  (fabs(R[3] + R[7] + R[11]) <= DBL_MAX);
-        bad += ok ? 0.0 : 1.0;
+        double err = e0 * e0 + e1 * e1 + e2 * e2 + 2.0 * (e3 * e3 + e4 * e4 + e5 * e5);
+        /* refused: err > tol^2 (or NaN), det <= 0 (or NaN) */
+        bad += (err <= tol2 ? 0.0 : 1.0) + (det > 0.0 ? 0.0 : 1.0);
         double c = 0.5 * (r00 + r11 + r22 - 1.0);
         L->s0[i] = 0.5 * (r21 - r12);
         L->s1[i] = 0.5 * (r02 - r20);
@@ -544,14 +569,6 @@ INLINE double log_load(const double *restrict xc, LogTmp *restrict L, int m, dou
         L->s12[i] = 0.5 * (r12 + r21);
     }
     return bad;
-}
-VEC_CLONES static double log_load3(const double *restrict xc, LogTmp *restrict L, int m,
-                                   double tol2) {
-    return log_load(xc, L, m, tol2, 0);
-}
-VEC_CLONES static double log_load4(const double *restrict xc, LogTmp *restrict L, int m,
-                                   double tol2) {
-    return log_load(xc, L, m, tol2, 1);
 }
 
 #if defined(__GNUC__) && !defined(__clang__)
@@ -567,7 +584,8 @@ static Py_ssize_t run_log(int se, const Coef *C, const double *x, double *out, P
         const int m = (int)(N - base < CH ? N - base : CH);
         const double *xc = x + base * is;
         double *oc = out + base * os;
-        double bad = se ? log_load4(xc, &L, m, tol2) : log_load3(xc, &L, m, tol2);
+        double bad = se ? log_load4(xc, &L, m) : log_load3(xc, &L, m);
+        bad += log_prep(&L, m, tol2);
         if (bad > 0.0) /* the first element pose_ok / rotation_ok refuses */
             for (int i = 0; i < m; i++) {
                 const double *R = xc + (Py_ssize_t)i * is;
