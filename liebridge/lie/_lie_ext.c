@@ -5,7 +5,10 @@
  * The formulas are those of liebridge/lie/so3.py (_poly_into, _log) and se3.py (_exp_block,
  * _log_block, _adjoint), entry by entry, with the coefficient functions of series.py: the closed
  * forms above SMALL_ANGLE and the same Maclaurin series (their coefficients are passed in) below.
- * tests/test_lie_compiled.py compares every output with the numpy kernels.
+ * exp and log run in chunks of 256 elements, structure of arrays, with sin/cos/atan from the
+ * fdlibm kernels and the arithmetic vectorized (see "Chunked structure-of-arrays passes" below);
+ * the adjoint is one scalar loop. tests/test_lie_compiled.py compares every output with the numpy
+ * kernels.
  *
  *   op 0  so3.exp      w (..., 3)      -> R (..., 3, 3)
  *   op 1  so3.log      R (..., 3, 3)   -> w (..., 3)
@@ -16,8 +19,9 @@
  * Validation is the certificate liebridge/_validate.py runs first (it can only accept valid
  * input): a tangent is finite with every rotation component at most max_component (so its norm
  * is at most MAX_ANGLE); a rotation has ||R^T R - I||_F <= tol and det R > 0; a pose also its
- * bottom row exactly (0, 0, 0, 1) and a finite translation; the output is finite. The first
- * element that is not certified stops the pass and its flat index is returned: the caller then
+ * bottom row exactly (0, 0, 0, 1) and a finite translation; the output is finite. An element
+ * that is not certified stops the pass (chunks are certified in order; within a chunk the input
+ * before the output) and its flat index is returned: the caller then
  * runs the numpy path, which accepts it or raises the error naming the argument, the batch index
  * and the size of the violation.
  *
@@ -41,6 +45,7 @@
 #define INLINE static inline __attribute__((always_inline))
 #elif defined(_MSC_VER)
 #define INLINE static __forceinline
+#define restrict __restrict
 #else
 #define INLINE static inline
 #endif
@@ -361,10 +366,10 @@ INLINE double atan2_poly(double y, double c) {
     return c < 0.0 ? PI_HI - (a - PI_LO) : a;
 }
 
-/* exp coefficients of a chunk: A, B (and C for se3) from t2 = |w|^2; returns how many elements
+/* exp coefficients of a chunk: A, B, C from |w|; returns how many elements
    were left to the scalar code (t < small or t > FAST_MAX) */
 VEC_CLONES static int exp_chunk(const double *restrict tt, double *restrict A, double *restrict B,
-                                double *restrict Cc, int m, double small, int want_c) {
+                                double *restrict Cc, int m, double small) {
     double nspecial = 0.0;
     for (int i = 0; i < m; i++) {
         double t = tt[i];
@@ -377,7 +382,6 @@ VEC_CLONES static int exp_chunk(const double *restrict tt, double *restrict A, d
         B[i] = 2.0 * (q * q);
         Cc[i] = (ts - st) * (it * it * it);
     }
-    (void)want_c;
     return (int)nspecial;
 }
 
@@ -403,7 +407,7 @@ static Py_ssize_t run_exp(int se, const Coef *C, const double *x, double *out, P
             for (int i = 0; i < m; i++)
                 if (!tangent_ok(xc + (Py_ssize_t)i * is, is, maxc)) return base + i;
         sqrt_arr(t2, m); /* t2 now holds |w| */
-        if (exp_chunk(t2, A, B, Cc, m, C->small, se))
+        if (exp_chunk(t2, A, B, Cc, m, C->small))
             for (int i = 0; i < m; i++) {
                 double t = t2[i];
                 if (!(t >= C->small && t <= FAST_MAX)) exp_coefs(C, t, &A[i], &B[i], &Cc[i]);
