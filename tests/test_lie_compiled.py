@@ -182,3 +182,56 @@ def test_inputs_are_not_mutated_and_outputs_are_new() -> None:
     _both(lambda: se3.log(ro), 1e-14)
     _both(lambda: se3.exp(xi.tolist()))  # lists go through numpy
     _both(lambda: se3.log(np.stack([Tm, Tm], axis=1)[:, 0]), 1e-14)  # a strided view
+
+
+@pytest.mark.skipif(not _compiled.COMPILED, reason="compiled kernels not built")
+def test_vectorized_trig_sweep_matches_numpy() -> None:
+    """The polynomial sin/cos/atan2 of the chunked passes against libm through numpy.
+
+    Dense angles over [0, 2.6 π] (every quadrant of the half angle, across FAST_MAX and
+    SMALL_ANGLE, chunk boundaries: the batch is not a multiple of 256), random axes.
+    """
+    rng = np.random.default_rng(5)
+    n = 20_011
+    theta = np.concatenate([np.linspace(0.0, 2.6 * np.pi, n - 11), np.pi - 10.0 ** -np.arange(11)])
+    u = rng.normal(size=(n, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    xi = np.concatenate([theta[:, None] * u, 30.0 * rng.normal(size=(n, 3))], axis=1)
+    w = np.ascontiguousarray(xi[:, :3])
+    _both(lambda: so3.exp(w), 2e-15)
+    _both(lambda: se3.exp(xi), 2e-15)
+    T = _numpy(lambda: se3.exp(xi))
+    R = np.ascontiguousarray(T[:, :3, :3])
+    _both(lambda: so3.log(R), 2e-15)
+    _both(lambda: se3.log(T), 2e-15)
+
+
+@pytest.mark.parametrize("where", [0, 255, 256, 700, 999])
+def test_bad_element_in_any_chunk_is_refused(where: int) -> None:
+    """The chunked passes (256 elements a chunk) certify every element: one bad element at a chunk
+    edge or in the tail gets numpy's error naming its index (the same text), whatever the kind."""
+    rng = np.random.default_rng(where)
+    xi = np.concatenate([rng.normal(size=(1000, 3)), 30.0 * rng.normal(size=(1000, 3))], axis=1)
+    Tm = _numpy(lambda: se3.exp(xi))
+    R = np.ascontiguousarray(Tm[:, :3, :3])
+
+    def bad(a: np.ndarray, index: tuple[int, ...], value: float) -> np.ndarray:
+        b = a.copy()
+        b[(where, *index)] = value
+        return b
+
+    cases = [
+        lambda: so3.exp(bad(xi[:, :3].copy(), (1,), np.nan)),
+        lambda: se3.exp(bad(xi, (4,), np.inf)),  # the translation part
+        lambda: se3.exp(bad(xi, (2,), 2e12)),
+        lambda: so3.log(bad(R, (1, 2), np.nan)),
+        lambda: so3.log(-R[:] if where == 0 else bad(R, (0, 0), -R[where, 0, 0])),
+        lambda: se3.log(bad(Tm, (3, 1), 1e-9)),  # bottom row
+        lambda: se3.log(bad(Tm, (1, 3), np.inf)),  # translation
+        lambda: se3.log(bad(Tm, (2, 2), 1.01 * Tm[where, 2, 2])),
+        lambda: se3.adjoint(bad(Tm, (0, 3), np.nan)),
+    ]
+    for fn in cases:
+        a, b = _errors(fn)
+        assert a == b
+        assert f"({where},)" in a
