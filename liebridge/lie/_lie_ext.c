@@ -292,6 +292,19 @@ static void sqrt_arr(double *a, int m) {
     for (; i < m; i++) a[i] = sqrt(a[i]);
 }
 
+/* The polynomial coefficients and interval reductions below are those of fdlibm 5.3, whose
+ * notice follows, as its terms require:
+ *
+ * ====================================================
+ * Copyright (C) 1993 by Sun Microsystems, Inc. All rights reserved.
+ *
+ * Developed at SunSoft, a Sun Microsystems, Inc. business.
+ * Permission to use, copy, modify, and distribute this
+ * software is freely granted, provided that this notice
+ * is preserved.
+ * ====================================================
+ */
+
 /* fdlibm 5.3 k_sin.c / k_cos.c (FreeBSD msun, musl src/math/__sin.c, __cos.c): sin and cos of
    x + y, |x| <= pi/4, y the tail of the argument; error below 1 ulp. */
 static const double S1 = -1.66666666666666324348e-01, S2 = 8.33333333332248946124e-03,
