@@ -936,20 +936,28 @@ def _read_tables(
     )
     if information == "g2o" and (np.abs(np.cos(e3.values[:, 4])) < 1e-9).any():
         return None
-    if e3.lines.shape[0] == 0:  # views of the table, no copy (the common case)
-        raw7 = np.concatenate([eq.values[:, :3], qe], axis=-1)
-        nums = eq.values[:, 7:]
+    if eq.lines.shape[0] == 0 and e3.lines.shape[0]:  # EDGE3 only (TORO / iSAM): batched
+        got3 = _edge3_table(e3.values[:, 3:6], e3.values[:, 6:], information, edge3)
+        if got3 is None:
+            return None
+        measured = np.empty((e3.lines.shape[0], 7))
+        measured[:, :3], (measured[:, 3:], info) = e3.values[:, :3], got3
     else:
-        raw7_q = np.concatenate([eq.values[:, :3], qe], axis=-1)
-        raw7_3 = np.concatenate([e3.values[:, :6], np.zeros((e3.values.shape[0], 1))], axis=-1)
-        raw7 = in_file_order([(eq.lines, raw7_q), (e3.lines, raw7_3)])
-        nums = in_file_order([(eq.lines, eq.values[:, 7:]), (e3.lines, e3.values[:, 6:])])
-    try:
-        measured, info = _edge_arrays(raw7, nums, euler, information, edge3)
-    except _BadEdge:
-        return None
+        if e3.lines.shape[0] == 0:  # views of the table, no copy (the common case)
+            raw7 = np.concatenate([eq.values[:, :3], qe], axis=-1)
+            nums = eq.values[:, 7:]
+        else:
+            raw7_q = np.concatenate([eq.values[:, :3], qe], axis=-1)
+            raw7_3 = np.concatenate([e3.values[:, :6], np.zeros((e3.values.shape[0], 1))], axis=-1)
+            raw7 = in_file_order([(eq.lines, raw7_q), (e3.lines, raw7_3)])
+            nums = in_file_order([(eq.lines, eq.values[:, 7:]), (e3.lines, e3.values[:, 6:])])
+        try:
+            measured, info = _edge_arrays(raw7, nums, euler, information, edge3)
+        except _BadEdge:
+            return None
+        del nums, raw7
     edges = np.array(edges)
-    del tables, vq, v3, eq, e3, nums, raw7, got  # the parsed tables: freed before the copies
+    del tables, vq, v3, eq, e3, got  # the parsed tables: freed before the copies
     P = _Parser(path)
     try:
         ids, vpar, from_odometry = vertices(
@@ -958,6 +966,7 @@ def _read_tables(
             (edges, e_lines, lambda: _layouts.to_matrix(measured, layout="xyz_qxyzw")),
             fixed,
             lambda T: _layouts.from_matrix(T, layout="xyz_qxyzw"),
+            chain=lambda: _chain_odometry(edges, measured),
         )
         return G2OGraph._adopt(
             vertex_ids=ids,
@@ -971,6 +980,258 @@ def _read_tables(
         )
     except ValueError:
         return None
+
+
+# ---------------------------------------------------------------- EDGE3 fast path (issue 23)
+
+
+def _edge3_table(
+    rpy: FloatArray, nums: FloatArray, information: InformationReading, edge3: Edge3Numbers
+) -> tuple[FloatArray, FloatArray] | None:
+    """Quaternions ``(K, 4)`` and information over ``(ω, v)`` ``(K, 6, 6)`` of ``EDGE3`` rows.
+
+    The batched form of :func:`_edge_information` for a table of ``EDGE3`` lines (gimbal lock
+    already excluded by the caller). With ``E = [[0, R], [W, 0]]`` (:func:`_euler_error_map`)
+    the product ``Eᵀ Λ_e E`` is written by blocks, ``Λ_ωω = Wᵀ Λ_rr W``, ``Λ_ωv = Wᵀ Λ_rt R``,
+    ``Λ_vv = Rᵀ Λ_tt R`` (``Λ_e`` in the file's ``(x, y, z, roll, pitch, yaw)`` order), entry
+    by entry on columns of the batch (:func:`_mul3`: numpy's stacked 3×3 ``matmul`` costs
+    several times more per product), skipping the zeros of ``W`` and of ``Λ_e``. When every edge
+    holds the same 21 numbers (TORO / iSAM files usually do) ``Λ_e`` is formed once. The
+    diagonal blocks are computed on and above the diagonal and mirrored (exactly symmetric).
+    Equal to :func:`_edge_information` to rounding (``tests/test_g2o_fast.py``); ``None`` if a
+    conversion overflows (the line reader names the line).
+    """
+    m = rpy.shape[0]
+    q = np.empty((m, 4))
+    info = np.empty((m, 6, 6))
+    lam_common = None
+    if information == "g2o" and m and bool((nums == nums[0]).all()):
+        lam_common = _lambda_e(nums[:1], edge3)[0].tolist()
+    step = 8192  # columns of this many rows: the temporaries stay in cache
+    for lo in range(0, m, step):
+        sl = slice(lo, lo + step)
+        q[sl] = _rpy_quaternion(rpy[sl])
+        if information == "gtsam":
+            info[sl] = _triu_to_sym(nums[sl])
+            continue
+        roll, pitch, yaw = (np.ascontiguousarray(rpy[sl, c]) for c in range(3))
+        cr, sr, cp, sp, cy, sy = (f(a) for a in (roll, pitch, yaw) for f in (np.cos, np.sin))
+        R = [  # Rz(yaw)·Ry(pitch)·Rx(roll), as in euler_to_matrix
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ]
+        W = [  # ZYX Euler rates per body rate, as in euler_rate_map
+            [1.0, sr * sp / cp, cr * sp / cp],
+            [0.0, cr, -sr],
+            [0.0, sr / cp, cr / cp],
+        ]
+        if lam_common is not None:
+            L: list[list[Any]] = lam_common
+        else:
+            cols = [np.ascontiguousarray(nums[sl, c]) for c in range(21)]
+            L = _lambda_e_columns(cols, edge3)
+        rr = [row[3:] for row in L[3:]]
+        rt = [row[:3] for row in L[3:]]
+        tt = [row[:3] for row in L[:3]]
+        out = info[sl]
+        with np.errstate(over="ignore", invalid="ignore"):  # reported below
+            blocks = (
+                (_mul3(_transpose3(W), _mul3(rr, W), sym=True), 0, 0),
+                (_mul3(_transpose3(W), _mul3(rt, R)), 0, 3),
+                (_mul3(_transpose3(R), _mul3(tt, R), sym=True), 3, 3),
+            )
+            for block, r0, c0 in blocks:
+                for i in range(3):
+                    for j in range(3):
+                        out[:, r0 + i, c0 + j] = block[i][j]
+                        if (r0, c0) == (0, 3):
+                            out[:, c0 + j, r0 + i] = block[i][j]
+        if not _all_finite(out):
+            return None
+    return q, info
+
+
+def _transpose3(A: list[list[Any]]) -> list[list[Any]]:
+    return [[A[j][i] for j in range(3)] for i in range(3)]
+
+
+def _mul3(A: list[list[Any]], B: list[list[Any]], sym: bool = False) -> list[list[Any]]:
+    """Return ``A @ B`` of 3×3 matrices given entry by entry (floats or columns of a batch).
+
+    Terms with a float factor ``0.0`` are skipped and float factors ``1.0`` not multiplied. With
+    ``sym`` the product is known symmetric: the entries below the diagonal are mirrored.
+    """
+    out: list[list[Any]] = [[0.0] * 3 for _ in range(3)]
+    for i in range(3):
+        for j in range(i if sym else 0, 3):
+            acc: Any = 0.0
+            for k in range(3):
+                a, b = A[i][k], B[k][j]
+                if (isinstance(a, float) and a == 0.0) or (isinstance(b, float) and b == 0.0):
+                    continue
+                term = (
+                    b
+                    if isinstance(a, float) and a == 1.0
+                    else a
+                    if (isinstance(b, float) and b == 1.0)
+                    else a * b
+                )
+                acc = term if isinstance(acc, float) and acc == 0.0 else acc + term
+            out[i][j] = acc
+            if sym:
+                out[j][i] = acc
+    return out
+
+
+def _lambda_e_columns(cols: list[FloatArray], edge3: Edge3Numbers) -> list[list[Any]]:
+    """:func:`_lambda_e` entry by entry on the 21 columns of a batch (``SᵀS`` or as is)."""
+    U: list[list[Any]] = [[0.0] * 6 for _ in range(6)]
+    for k, (r, c) in enumerate(zip(*_TRIU, strict=True)):
+        U[r][c] = cols[k]
+    if edge3 == "information":
+        return [[U[min(i, j)][max(i, j)] for j in range(6)] for i in range(6)]
+    out: list[list[Any]] = [[0.0] * 6 for _ in range(6)]
+    for i in range(6):
+        for j in range(i, 6):
+            acc: Any = 0.0
+            for k in range(min(i, j) + 1):  # (SᵀS)[i, j] = Σ_k S[k, i]·S[k, j], S upper
+                acc = U[k][i] * U[k][j] if k == 0 else acc + U[k][i] * U[k][j]
+            out[i][j] = out[j][i] = acc
+    return out
+
+
+def _rpy_quaternion(rpy: FloatArray) -> FloatArray:
+    """Return quaternions ``(K, 4)``, ``x y z w``, ``w ≥ 0``, of ``Rz(yaw)·Ry(pitch)·Rx(roll)``.
+
+    In closed form, ``q = q_z(yaw) ⊗ q_y(pitch) ⊗ q_x(roll)`` (half angles; no matrix →
+    quaternion round trip), the sign chosen with ``w ≥ 0`` as
+    :func:`liebridge.lie.quaternion.from_matrix` chooses it. Equal to
+    ``quat.from_matrix(_rpy_matrix(rpy))`` to rounding (``tests/test_g2o_fast.py``).
+    """
+    h = 0.5 * rpy
+    cr, sr = np.cos(h[:, 0]), np.sin(h[:, 0])
+    cp, sp = np.cos(h[:, 1]), np.sin(h[:, 1])
+    cy, sy = np.cos(h[:, 2]), np.sin(h[:, 2])
+    q = np.empty((rpy.shape[0], 4))
+    q[:, 0] = sr * cp * cy - cr * sp * sy
+    q[:, 1] = cr * sp * cy + sr * cp * sy
+    q[:, 2] = cr * cp * sy - sr * sp * cy
+    q[:, 3] = cr * cp * cy + sr * sp * sy
+    q[q[:, 3] < 0] *= -1.0
+    return q
+
+
+def _lambda_e(nums: FloatArray, edge3: Edge3Numbers) -> FloatArray:
+    """``Λ_e`` over ``(x, y, z, roll, pitch, yaw)`` from the 21 numbers (``SᵀS`` or as is)."""
+    if edge3 == "sqrt_information":
+        S = _triu_to_upper(nums)
+        return np.swapaxes(S, -1, -2) @ S
+    return _triu_to_sym(nums)
+
+
+def _compose(
+    qa: FloatArray, ta: FloatArray, qb: FloatArray, tb: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """``(qa, ta)·(qb, tb) = (qa ⊗ qb, ta + R(qa)·tb)``: rigid transforms, quaternions ``x y z w``.
+
+    Hamilton product; ``R(q)·v = v + w·c + u × c`` with ``c = 2u × v``, ``u = (x, y, z)``
+    (unit ``q``). Columns are the last axis; leading axes broadcast.
+    """
+    x1, y1, z1, w1 = (qa[..., i] for i in range(4))
+    x2, y2, z2, w2 = (qb[..., i] for i in range(4))
+    q = np.empty(np.broadcast_shapes(qa.shape, qb.shape))
+    q[..., 0] = w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2
+    q[..., 1] = w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2
+    q[..., 2] = w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2
+    q[..., 3] = w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2
+    vx, vy, vz = (tb[..., i] for i in range(3))
+    cx = 2.0 * (y1 * vz - z1 * vy)
+    cy = 2.0 * (z1 * vx - x1 * vz)
+    cz = 2.0 * (x1 * vy - y1 * vx)
+    t = np.empty(np.broadcast_shapes(ta.shape, tb.shape))
+    t[..., 0] = ta[..., 0] + vx + w1 * cx + (y1 * cz - z1 * cy)
+    t[..., 1] = ta[..., 1] + vy + w1 * cy + (z1 * cx - x1 * cz)
+    t[..., 2] = ta[..., 2] + vz + w1 * cz + (x1 * cy - y1 * cx)
+    return q, t
+
+
+def _prefix_compose(q: FloatArray, t: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Inclusive prefix products ``P_k = s_0·s_1·…·s_k`` of rigid transforms ``(q, t)``.
+
+    A blocked scan (no Python loop over the elements): the ``n`` transforms are cut into blocks
+    of 32; the prefixes inside all blocks are formed together, one position at a time (32
+    batched products); the blocks' totals are scanned the same way, recursively; each block's
+    prefixes are then composed with the product of the blocks before it (one batched product).
+    Products are associated differently from a left-to-right loop, so results agree with it
+    to rounding.
+    """
+    n, B = q.shape[0], 32
+    if n <= B:
+        Q, T = np.array(q), np.array(t)
+        for k in range(1, n):
+            Q[k], T[k] = _compose(Q[k - 1], T[k - 1], q[k], t[k])
+        return Q, T
+    nb = -(-n // B)
+    Qp = np.zeros((nb * B, 4))
+    Qp[:, 3] = 1.0  # identity padding
+    Tp = np.zeros((nb * B, 3))
+    Qp[:n], Tp[:n] = q, t
+    Q = np.ascontiguousarray(Qp.reshape(nb, B, 4).swapaxes(0, 1))  # (B, nb, 4): position-major
+    T = np.ascontiguousarray(Tp.reshape(nb, B, 3).swapaxes(0, 1))
+    for k in range(1, B):
+        Q[k], T[k] = _compose(Q[k - 1], T[k - 1], Q[k], T[k])
+    bq, bt = _prefix_compose(Q[-1], T[-1])  # products of blocks 0..b
+    Q[:, 1:], T[:, 1:] = _compose(bq[None, :-1], bt[None, :-1], Q[:, 1:], T[:, 1:])
+    Q = Q.swapaxes(0, 1).reshape(nb * B, 4)[:n]
+    T = T.swapaxes(0, 1).reshape(nb * B, 3)[:n]
+    return Q, T
+
+
+def _chain_odometry(edges: KeyArray, measured: FloatArray) -> tuple[KeyArray, FloatArray] | None:
+    """Chain initial poses from odometry edges, batched; None where :func:`vertices` must say why.
+
+    The same choice of edges as the loop in :func:`vertices` — for vertex ``k`` the first edge
+    ``(k−1, k)`` in the file, else the last ``(k, k−1)``, inverted — and the same poses
+    ``T_k = T_{k−1}·Z``, from the identity at the smallest id, formed by
+    :func:`_prefix_compose` on ``(q, t)`` instead of one 4×4 product per vertex. ``None`` if
+    the ids have a gap or a vertex has no odometry edge (the loop then raises its error).
+    Returns ``(ids, "xyz_qxyzw" rows)`` (quaternions ``w ≥ 0``).
+    """
+    lo, hi = int(edges.min()), int(edges.max())
+    n = hi - lo + 1
+    if n > edges.size:  # some id in [lo, hi] is missing
+        return None
+    rel = (edges - np.uint64(lo)).astype(np.intp)
+    present = np.zeros(n, dtype=bool)
+    present[rel.reshape(-1)] = True
+    fwd = np.flatnonzero(rel[:, 1] == rel[:, 0] + 1)
+    rev = np.flatnonzero(rel[:, 0] == rel[:, 1] + 1)
+    step = np.full(n, -1, dtype=np.intp)
+    tgt, first = np.unique(rel[rev[::-1], 0], return_index=True)
+    step[tgt] = rev[::-1][first]  # the last (k, k−1) in the file ...
+    inverted = np.zeros(n, dtype=bool)
+    inverted[tgt] = True
+    tgt, first = np.unique(rel[fwd, 1], return_index=True)
+    step[tgt] = fwd[first]  # ... unless there is a (k−1, k): the first one
+    inverted[tgt] = False
+    if not present.all() or (step[1:] < 0).any():
+        return None
+    z = measured[step[1:]]
+    qs, ts = z[:, 3:], z[:, :3]
+    inv = inverted[1:]
+    if inv.any():  # (R, t)⁻¹ = (Rᵀ, −Rᵀ t): conjugate quaternion, rotated back
+        qi = qs[inv] * np.array([-1.0, -1.0, -1.0, 1.0])
+        _, ti = _compose(qi, np.zeros((qi.shape[0], 3)), np.zeros_like(qi), -ts[inv])
+        qs, ts = np.array(qs), np.array(ts)
+        qs[inv], ts[inv] = qi, ti
+    Q, T = _prefix_compose(qs, ts)
+    out = np.empty((n, 7))
+    out[0] = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+    out[1:, :3], out[1:, 3:] = T, Q
+    neg = out[:, 6] < 0
+    out[neg, 3:] *= -1.0
+    return np.uint64(lo) + np.arange(n, dtype=np.uint64), out
 
 
 def _params_from_raw(raw: FloatArray, euler: npt.NDArray[np.bool_]) -> FloatArray:
@@ -987,6 +1248,7 @@ def vertices(
     read_edges: tuple[KeyArray, Sequence[int] | npt.NDArray[np.intp], Callable[[], FloatArray]],
     fixed: list[int],
     to_params: Any,
+    chain: Callable[[], tuple[KeyArray, FloatArray] | None] | None = None,
 ) -> tuple[KeyArray, FloatArray, bool]:
     """Vertex ids and poses of a graph file (2-D and 3-D alike), checked against its edges.
 
@@ -994,7 +1256,9 @@ def vertices(
     each edge, a function returning the measurements as homogeneous matrices (M, n, n))``.
     Without vertex lines the poses are chained from the odometry edges ``(k−1, k)`` (or
     ``(k, k−1)``, inverted) from the identity at the smallest id and returned as
-    ``to_params(T)``. Returns ``(ids, params, chained)``. Raises naming the file and line for an
+    ``to_params(T)``; ``chain``, if given, is tried first: a batched chaining returning
+    ``(ids, params)`` the same, or ``None`` (the loop then runs, and names any gap). Returns
+    ``(ids, params, chained)``. Raises naming the file and line for an
     edge to a missing vertex, a gap in the odometry chain, or a ``FIX`` of a vertex that does not
     exist.
     """
@@ -1012,6 +1276,8 @@ def vertices(
     elif edges.shape[0] == 0:
         Z = measured_matrices()
         ids, vpar = np.zeros(0, dtype=np.uint64), to_params(np.zeros((0, *Z.shape[1:])))
+    elif chain is not None and (batched := chain()) is not None:
+        ids, vpar = batched
     else:
         Z = measured_matrices()
         ids = np.unique(edges)
