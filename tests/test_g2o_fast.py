@@ -438,3 +438,146 @@ def test_empty_and_comment_only_files_give_empty_graphs_on_both_paths(
     fast2 = g2o2d._read_tables(path, "auto")
     assert fast2 is not None
     _same_2d(fast2, g2o2d._read_lines(path, "auto"))
+
+
+# ----------------------------------------------- EDGE3 only (TORO / iSAM layout), issue 23
+def _edge3(i: int, j: int, rng: np.random.Generator, S: Any = None, big: bool = False) -> str:
+    """An ``EDGE3`` line: translation, roll pitch yaw (pitch away from ±π/2), 21 numbers."""
+    rpy = rng.uniform(-np.pi, np.pi, size=3) * (1.0 if big else 0.2)
+    rpy[1] = np.clip(rpy[1], -1.4, 1.4)
+    if S is None:
+        # diagonally dominant: positive definite read as S (SᵀS) or as the information itself
+        S = np.triu(rng.uniform(-0.8, 0.8, size=(6, 6)), 1) + np.diag(rng.uniform(5, 50, 6))
+    nums = [*rng.normal(size=3) * 3, *rpy, *np.asarray(S)[np.triu_indices(6)]]
+    return f"EDGE3 {i} {j} " + " ".join(repr(float(x)) for x in nums)
+
+
+def _edge3_graph(layout: str, n: int, seed: int = 0, first: int = 0) -> list[str]:
+    """EDGE3-only files: odometry in several shapes, loop closures, varied or shared numbers."""
+    rng = np.random.default_rng(seed)
+    shared = np.diag([10.0, 10.0, 10.0, 100.0, 100.0, 25.0])  # sphere2500's numbers
+    S = shared if layout == "shared" else None
+    ids = [first + k for k in range(n)]
+    lines = [_edge3(ids[k], ids[k + 1], rng, S, big=layout == "big") for k in range(n - 1)]
+    for _ in range(n // 3):  # loop closures: not odometry
+        a, b = sorted(int(x) for x in rng.choice(n, 2, replace=False))
+        if b > a + 1:
+            lines.append(_edge3(ids[a], ids[b], rng, S))
+    if layout == "reversed":  # (k, k-1) edges, some alone (inverted), some besides (k-1, k)
+        for k in range(1, n, 3):
+            lines[k - 1] = _edge3(ids[k], ids[k - 1], rng)  # alone: the last of them is used
+            lines.append(_edge3(ids[k], ids[k - 1], rng))
+        for k in range(2, n, 5):
+            lines.append(_edge3(ids[k], ids[k - 1], rng))  # a (k-1, k) exists: ignored
+            lines.insert(0, _edge3(ids[k - 1], ids[k], rng))  # two (k-1, k): the first wins
+    if layout in ("shuffled", "reversed"):
+        order = rng.permutation(len(lines))
+        lines = [lines[k] for k in order]
+    return lines
+
+
+@pytest.mark.parametrize("layout", ["chain", "shared", "big", "shuffled", "reversed"])
+@pytest.mark.parametrize(
+    ("information", "edge3"),
+    [("g2o", "sqrt_information"), ("g2o", "information"), ("gtsam", "sqrt_information")],
+)
+def test_edge3_only_fast_equals_line_reader(
+    tmp_path: Path, layout: str, information: str, edge3: str
+) -> None:
+    """1,100 vertices: the blocked scan runs two levels of blocks and a tail."""
+    path = _write(tmp_path, _edge3_graph(layout, 1100, first=7))
+    g = _fast_equals_slow_3d(path, information=information, edge3=edge3)
+    assert g.vertices_from_odometry
+    assert g.vertex_ids.tolist() == list(range(7, 1107))
+
+
+def test_edge3_near_2_64_and_small_chains(tmp_path: Path) -> None:
+    for n, first in ((2, 0), (3, 5), (33, 0), (40, 2**64 - 41)):
+        path = _write(tmp_path, _edge3_graph("reversed", n, seed=n, first=first))
+        g = _fast_equals_slow_3d(path)
+        assert g.vertex_ids.tolist() == list(range(first, first + n))
+
+
+def test_edge3_chunk_boundaries(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    path = _write(tmp_path, _edge3_graph("chain", 50))
+    monkeypatch.setattr(g2o, "_CHUNK", 7)
+    _fast_equals_slow_3d(path)
+    _fast_equals_slow_3d(path, information="gtsam")
+
+
+@pytest.mark.parametrize(
+    ("drop", "message"),
+    [
+        ("gap", "no vertex lines and no odometry edge 10 -> 11"),  # ids 0..9 and 11..
+        ("no_odometry", "no vertex lines and no odometry edge 4 -> 5"),  # 5 only in a loop
+    ],
+)
+def test_edge3_chain_gaps_name_the_missing_edge(tmp_path: Path, drop: str, message: str) -> None:
+    rng = np.random.default_rng(1)
+    if drop == "gap":
+        lines = [_edge3(k, k + 1, rng) for k in range(19) if k not in (9, 10)]  # 10 absent
+    else:
+        lines = [_edge3(k, k + 1, rng) for k in range(10) if k != 4]
+        lines.append(_edge3(2, 5, rng))
+    path = _write(tmp_path, lines)
+    msg = _error(lambda: g2o.read(path))
+    assert msg == _error(lambda: g2o._read_lines(path, "g2o", "sqrt_information"))
+    assert message in msg, msg
+
+
+@pytest.mark.parametrize("what", ["count", "word", "nan", "inf", "self", "id_negative"])
+def test_malformed_edge3_line_keeps_its_message_and_line(tmp_path: Path, what: str) -> None:
+    lines = ["# TORO", *_edge3_graph("chain", 12)]
+    k = 6  # line 7 of the file
+    path = _write(tmp_path, _corrupt(lines, k, what))
+    msg = _error(lambda: g2o.read(path))
+    assert msg == _error(lambda: g2o._read_lines(path, "g2o", "sqrt_information"))
+    assert msg.startswith(f"{path}:{k + 1}: "), msg
+
+
+def test_edge3_information_overflow_names_its_line(tmp_path: Path) -> None:
+    rng = np.random.default_rng(2)
+    lines = [_edge3(k, k + 1, rng) for k in range(6)]
+    lines[3] = _edge3(3, 4, rng, S=np.diag([1e200, 1.0, 1.0, 1.0, 1.0, 1.0]))  # SᵀS: inf
+    path = _write(tmp_path, lines)
+    assert g2o._read_tables(path, "g2o", "sqrt_information") is None
+    msg = _error(lambda: g2o.read(path))
+    assert msg == _error(lambda: g2o._read_lines(path, "g2o", "sqrt_information"))
+    assert msg.startswith(f"{path}:4: "), msg
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_closed_form_euler_quaternion_matches_the_matrix_route(seed: int) -> None:
+    from liebridge.conventions.rotation_coords import euler_to_matrix
+    from liebridge.lie import quaternion as quat
+
+    rng = np.random.default_rng(seed)
+    rpy = rng.uniform(-np.pi, np.pi, size=(500, 3))
+    rpy[:, 1] /= 2.0
+    rpy[:5] = [[0, 0, 0], [np.pi, 0, 0], [0, 0, np.pi], [1e-12, -1e-12, 3.0], [3.1, 1.5, -3.1]]
+    q = g2o._rpy_quaternion(rpy)
+    ref = quat.from_matrix(euler_to_matrix(rpy, "euler_rpy"), order="xyzw")
+    sign = np.where(np.sum(q * ref, axis=-1) < 0, -1.0, 1.0)  # w = 0 exactly: either sign
+    np.testing.assert_allclose(q, sign[:, None] * ref, rtol=0, atol=1e-15)
+    assert (q[:, 3] >= 0).all()
+    np.testing.assert_allclose(
+        quat.to_matrix(q, order="xyzw"), euler_to_matrix(rpy, "euler_rpy"), rtol=0, atol=1e-15
+    )
+
+
+@pytest.mark.parametrize("n", [1, 2, 32, 33, 1025, 1100])
+def test_prefix_compose_equals_the_left_to_right_product(n: int) -> None:
+    from liebridge.lie import quaternion as quat
+
+    rng = np.random.default_rng(n)
+    q = rng.normal(size=(n, 4))
+    q /= np.linalg.norm(q, axis=-1, keepdims=True)
+    t = rng.normal(size=(n, 3)) * 10
+    Q, T = g2o._prefix_compose(q, t)
+    M = np.eye(4)
+    for k in range(n):
+        S = np.eye(4)
+        S[:3, :3], S[:3, 3] = quat.to_matrix(q[k], order="xyzw"), t[k]
+        M = M @ S
+        np.testing.assert_allclose(quat.to_matrix(Q[k], order="xyzw"), M[:3, :3], atol=1e-12)
+        np.testing.assert_allclose(T[k], M[:3, 3], atol=1e-12 * max(1.0, np.abs(M).max()))

@@ -1006,7 +1006,8 @@ def _edge3_table(
     info = np.empty((m, 6, 6))
     lam_common = None
     if information == "g2o" and m and bool((nums == nums[0]).all()):
-        lam_common = _lambda_e(nums[:1], edge3)[0].tolist()
+        with np.errstate(over="ignore", invalid="ignore"):  # reported below
+            lam_common = _lambda_e(nums[:1], edge3)[0].tolist()
     step = 8192  # columns of this many rows: the temporaries stay in cache
     for lo in range(0, m, step):
         sl = slice(lo, lo + step)
@@ -1026,16 +1027,16 @@ def _edge3_table(
             [0.0, cr, -sr],
             [0.0, sr / cp, cr / cp],
         ]
-        if lam_common is not None:
-            L: list[list[Any]] = lam_common
-        else:
-            cols = [np.ascontiguousarray(nums[sl, c]) for c in range(21)]
-            L = _lambda_e_columns(cols, edge3)
-        rr = [row[3:] for row in L[3:]]
-        rt = [row[:3] for row in L[3:]]
-        tt = [row[:3] for row in L[:3]]
         out = info[sl]
         with np.errstate(over="ignore", invalid="ignore"):  # reported below
+            if lam_common is not None:
+                L: list[list[Any]] = lam_common
+            else:
+                cols = [np.ascontiguousarray(nums[sl, c]) for c in range(21)]
+                L = _lambda_e_columns(cols, edge3)
+            rr = [row[3:] for row in L[3:]]
+            rt = [row[:3] for row in L[3:]]
+            tt = [row[:3] for row in L[:3]]
             blocks = (
                 (_mul3(_transpose3(W), _mul3(rr, W), sym=True), 0, 0),
                 (_mul3(_transpose3(W), _mul3(rt, R)), 0, 3),
