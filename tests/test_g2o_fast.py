@@ -499,8 +499,9 @@ def test_edge3_near_2_64_and_small_chains(tmp_path: Path) -> None:
 
 
 def test_edge3_chunk_boundaries(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
-    path = _write(tmp_path, _edge3_graph("chain", 50))
+    path = _write(tmp_path, ["# TORO", *_edge3_graph("shuffled", 50), "# end"])
     monkeypatch.setattr(g2o, "_CHUNK", 7)
+    monkeypatch.setattr(g2o, "_STREAM_ROWS", 6)  # rows parsed and converted 6 at a time
     _fast_equals_slow_3d(path)
     _fast_equals_slow_3d(path, information="gtsam")
 

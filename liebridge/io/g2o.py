@@ -762,8 +762,31 @@ class _Table(NamedTuple):
     values: FloatArray
 
 
+class RowSink:
+    """Takes the rows of one tag chunk by chunk as :func:`read_tagged` parses them.
+
+    ``start(n)`` is called once with the number of rows, then ``take(lo, values)`` for the
+    values of rows ``lo .. lo + len(values)`` (file order, already checked finite); ``take``
+    returns False to refuse the file (the line reader then names the fault).
+    """
+
+    def start(self, n: int) -> None:  # pragma: no cover - interface
+        raise NotImplementedError
+
+    def take(self, lo: int, values: FloatArray) -> bool:  # pragma: no cover - interface
+        raise NotImplementedError
+
+
+#: Rows per ``loadtxt`` call when a tag's rows go to a :class:`RowSink` (a few MiB of records,
+#: reused by the allocator: the parsed table of the whole file is never held).
+_STREAM_ROWS = 1 << 15
+
+
 def read_tagged(
-    path: PathLike, columns: dict[str, tuple[int, int]], skip: Sequence[str] = ()
+    path: PathLike,
+    columns: dict[str, tuple[int, int]],
+    skip: Sequence[str] = (),
+    sinks: dict[str, RowSink] | None = None,
 ) -> tuple[dict[str, _Table], list[int], dict[str, int]] | None:
     """Parse a well-formed graph file with ``numpy.loadtxt``, one pass per tag (issue 23).
 
@@ -777,7 +800,10 @@ def read_tagged(
     go to one ``loadtxt`` call: read from the file itself (``skiprows``, ``max_rows``) when
     they form one block with nothing but comments between them (vertices, then edges: the
     usual layout), else picked out by :func:`itertools.compress`. Memory is the tables, never
-    a copy of the file.
+    a copy of the file. The rows of a tag in ``sinks`` are instead parsed
+    :data:`_STREAM_ROWS` at a time (``loadtxt`` on :func:`itertools.islice` of the tag's lines)
+    and handed to its :class:`RowSink` (issue 23: the table of the whole file is never held, and
+    its memory is not touched twice); that tag's table then has ``values`` of width 0.
     """
     if not isinstance(path, str | os.PathLike):
         return None
@@ -821,6 +847,12 @@ def read_tagged(
             lines = np.flatnonzero(mask) + 1
             dtype = np.dtype([("tag", "S1"), ("ids", "u8", (n_ids,)), ("x", "f8", (n_values,))])
             block = tag_of_line[lines[0] - 1 : lines[-1]] if lines.shape[0] else tag_of_line[:0]
+            if sinks is not None and tag in sinks:
+                ids = _stream_rows(path, mask, dtype, sinks[tag], lines.shape[0])
+                if ids is None:
+                    return None
+                tables[tag] = _Table(lines, ids, np.zeros((lines.shape[0], 0)))
+                continue
             if lines.shape[0] == 0:
                 rec = np.zeros(0, dtype=dtype)
             elif ((block == code[tag]) | (block == 0)).all():  # one block: numpy reads the file
@@ -855,6 +887,33 @@ def read_tagged(
 
 #: Tag code of a line :func:`read_tagged` has taken (FIX, a skipped tag): not a blank line.
 _OTHER = 255
+
+
+def _stream_rows(
+    path: PathLike, mask: npt.NDArray[np.bool_], dtype: np.dtype[Any], sink: RowSink, n: int
+) -> KeyArray | None:
+    """Parse the lines ``mask`` picks, :data:`_STREAM_ROWS` at a time, into ``sink``; the ids."""
+    sink.start(n)
+    ids = np.empty((n, dtype["ids"].shape[0]), dtype=np.uint64)
+    lo = 0
+    with open(path, encoding="utf-8") as fh, warnings.catch_warnings():
+        warnings.simplefilter("error")  # not a number numpy would read with a warning
+        rows = itertools.compress(fh, mask.tobytes())
+        while lo < n:
+            rec = np.loadtxt(
+                itertools.islice(rows, _STREAM_ROWS), dtype=dtype, comments="#", ndmin=1
+            )
+            k = rec.shape[0]
+            if k == 0 or lo + k > n:
+                return None
+            x = rec["x"]
+            if (rec["ids"] > validate.MAX_KEY).any() or not _all_finite(x):
+                return None
+            ids[lo : lo + k] = rec["ids"]
+            if not sink.take(lo, x):
+                return None
+            lo += k
+    return ids
 
 
 def _all_finite(x: FloatArray) -> bool:
@@ -901,9 +960,11 @@ def _read_tables(
     path: PathLike, information: InformationReading, edge3: Edge3Numbers
 ) -> G2OGraph | None:
     """Read with :func:`read_tagged` and batched checks; None if anything is unusual."""
+    sink = _Edge3Sink(information, edge3)
     got = read_tagged(
         path,
         {"VERTEX_SE3:QUAT": (1, 7), "VERTEX3": (1, 6), "EDGE_SE3:QUAT": (2, 28), "EDGE3": (2, 27)},
+        sinks={"EDGE3": sink},
     )
     if got is None:
         return None
@@ -931,31 +992,18 @@ def _read_tables(
     edges = in_file_order([(eq.lines, eq.ids), (e3.lines, e3.ids)])
     if (edges[:, 0] == edges[:, 1]).any():
         return None
-    euler = in_file_order(
-        [(eq.lines, np.zeros(eq.lines.shape, bool)), (e3.lines, np.ones(e3.lines.shape, bool))]
-    )
-    if information == "g2o" and (np.abs(np.cos(e3.values[:, 4])) < 1e-9).any():
+    # EDGE3 rows: converted by the sink as they were parsed; EDGE_SE3:QUAT rows: here
+    raw7 = np.concatenate([eq.values[:, :3], qe], axis=-1)
+    try:
+        measured_q, info_q = _edge_arrays(
+            raw7, eq.values[:, 7:], np.zeros(eq.lines.shape, bool), information, edge3
+        )
+    except _BadEdge:
         return None
-    if eq.lines.shape[0] == 0 and e3.lines.shape[0]:  # EDGE3 only (TORO / iSAM): batched
-        got3 = _edge3_table(e3.values[:, 3:6], e3.values[:, 6:], information, edge3)
-        if got3 is None:
-            return None
-        measured = np.empty((e3.lines.shape[0], 7))
-        measured[:, :3], (measured[:, 3:], info) = e3.values[:, :3], got3
-    else:
-        if e3.lines.shape[0] == 0:  # views of the table, no copy (the common case)
-            raw7 = np.concatenate([eq.values[:, :3], qe], axis=-1)
-            nums = eq.values[:, 7:]
-        else:
-            raw7_q = np.concatenate([eq.values[:, :3], qe], axis=-1)
-            raw7_3 = np.concatenate([e3.values[:, :6], np.zeros((e3.values.shape[0], 1))], axis=-1)
-            raw7 = in_file_order([(eq.lines, raw7_q), (e3.lines, raw7_3)])
-            nums = in_file_order([(eq.lines, eq.values[:, 7:]), (e3.lines, e3.values[:, 6:])])
-        try:
-            measured, info = _edge_arrays(raw7, nums, euler, information, edge3)
-        except _BadEdge:
-            return None
-        del nums, raw7
+    del raw7
+    measured = in_file_order([(eq.lines, measured_q), (e3.lines, sink.measured)])
+    info = in_file_order([(eq.lines, info_q), (e3.lines, sink.info)])
+    del measured_q, info_q, sink
     edges = np.array(edges)
     del tables, vq, v3, eq, e3, got  # the parsed tables: freed before the copies
     P = _Parser(path)
@@ -985,37 +1033,76 @@ def _read_tables(
 # ---------------------------------------------------------------- EDGE3 fast path (issue 23)
 
 
-def _edge3_table(
-    rpy: FloatArray, nums: FloatArray, information: InformationReading, edge3: Edge3Numbers
-) -> tuple[FloatArray, FloatArray] | None:
-    """Quaternions ``(K, 4)`` and information over ``(ω, v)`` ``(K, 6, 6)`` of ``EDGE3`` rows.
+class _Edge3Sink(RowSink):
+    """``EDGE3`` rows → measurements ``"xyz_qxyzw"`` and information over ``(ω, v)``, by chunk.
 
-    The batched form of :func:`_edge_information` for a table of ``EDGE3`` lines (gimbal lock
-    already excluded by the caller). With ``E = [[0, R], [W, 0]]`` (:func:`_euler_error_map`)
-    the product ``Eᵀ Λ_e E`` is written by blocks, ``Λ_ωω = Wᵀ Λ_rr W``, ``Λ_ωv = Wᵀ Λ_rt R``,
-    ``Λ_vv = Rᵀ Λ_tt R`` (``Λ_e`` in the file's ``(x, y, z, roll, pitch, yaw)`` order), entry
-    by entry on columns of the batch (:func:`_mul3`: numpy's stacked 3×3 ``matmul`` costs
-    several times more per product), skipping the zeros of ``W`` and of ``Λ_e``. When every edge
-    holds the same 21 numbers (TORO / iSAM files usually do) ``Λ_e`` is formed once. The
-    diagonal blocks are computed on and above the diagonal and mirrored (exactly symmetric).
-    Equal to :func:`_edge_information` to rounding (``tests/test_g2o_fast.py``); ``None`` if a
-    conversion overflows (the line reader names the line).
+    Values are ``x y z roll pitch yaw`` + the 21 numbers; :meth:`take` refuses a
+    gimbal-locked measurement (``information="g2o"``) or a conversion that overflows, which
+    the line reader then names.
+    """
+
+    def __init__(self, information: InformationReading, edge3: Edge3Numbers) -> None:
+        self.information, self.edge3 = information, edge3
+        self.measured = np.zeros((0, 7))
+        self.info = np.zeros((0, 6, 6))
+
+    def start(self, n: int) -> None:
+        self.measured = np.empty((n, 7))
+        self.info = np.empty((n, 6, 6))
+
+    def take(self, lo: int, values: FloatArray) -> bool:
+        hi = lo + values.shape[0]
+        if self.information == "g2o" and (np.abs(np.cos(values[:, 4])) < GIMBAL_TOL).any():
+            return False
+        self.measured[lo:hi, :3] = values[:, :3]
+        return _edge3_table(
+            values[:, 3:6],
+            values[:, 6:],
+            self.information,
+            self.edge3,
+            self.measured[lo:hi, 3:],
+            self.info[lo:hi],
+        )
+
+
+def _edge3_table(
+    rpy: FloatArray,
+    nums: FloatArray,
+    information: InformationReading,
+    edge3: Edge3Numbers,
+    q: FloatArray,
+    info: FloatArray,
+) -> bool:
+    """Write the quaternions ``(K, 4)`` and information over ``(ω, v)`` of ``EDGE3`` rows.
+
+    The batched form of :func:`_edge_information` for ``EDGE3`` rows (gimbal lock excluded by
+    the caller), written into ``q`` and ``info``. With ``E = [[0, R], [W, 0]]``
+    (:func:`_euler_error_map`) the product ``Eᵀ Λ_e E`` is formed by blocks,
+    ``Λ_ωω = Wᵀ Λ_rr W``, ``Λ_ωv = Wᵀ Λ_rt R``, ``Λ_vv = Rᵀ Λ_tt R`` (``Λ_e`` in the file's
+    ``(x, y, z, roll, pitch, yaw)`` order), entry by entry on columns of the batch
+    (:func:`_mul3`; numpy's stacked 3×3 ``matmul`` costs several times more per product),
+    skipping the zeros of ``W`` and of ``Λ_e``. When every row holds the same 21 numbers (TORO /
+    iSAM files usually do) ``Λ_e`` is formed once, and ``Λ_tt = c·I`` gives ``Λ_vv = c·I``
+    (``RᵀR = I``). The diagonal blocks are computed on and above the diagonal and mirrored
+    (exactly symmetric). Equal to :func:`_edge_information` to rounding
+    (``tests/test_g2o_fast.py``). Returns False if a conversion overflows.
     """
     m = rpy.shape[0]
-    q = np.empty((m, 4))
-    info = np.empty((m, 6, 6))
     lam_common = None
     if information == "g2o" and m and bool((nums == nums[0]).all()):
         with np.errstate(over="ignore", invalid="ignore"):  # reported below
-            lam_common = _lambda_e(nums[:1], edge3)[0].tolist()
+            lam_common = _lambda_e(nums[:1], edge3)[0]
+    # |numbers| ≤ 1e100, |W| ≤ 1/GIMBAL_TOL: every product below stays far below 1.8e308
+    bounded = bool(np.abs(nums[:1] if lam_common is not None else nums).max(initial=0) <= 1e100)
     step = 8192  # columns of this many rows: the temporaries stay in cache
     for lo in range(0, m, step):
         sl = slice(lo, lo + step)
-        q[sl] = _rpy_quaternion(rpy[sl])
-        if information == "gtsam":
-            info[sl] = _triu_to_sym(nums[sl])
-            continue
         roll, pitch, yaw = (np.ascontiguousarray(rpy[sl, c]) for c in range(3))
+        q[sl] = _rpy_quaternion(rpy[sl])
+        out = info[sl]
+        if information == "gtsam":
+            out[...] = _triu_to_sym(nums[sl])
+            continue
         cr, sr, cp, sp, cy, sy = (f(a) for a in (roll, pitch, yaw) for f in (np.cos, np.sin))
         R = [  # Rz(yaw)·Ry(pitch)·Rx(roll), as in euler_to_matrix
             [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
@@ -1027,30 +1114,35 @@ def _edge3_table(
             [0.0, cr, -sr],
             [0.0, sr / cp, cr / cp],
         ]
-        out = info[sl]
         with np.errstate(over="ignore", invalid="ignore"):  # reported below
             if lam_common is not None:
-                L: list[list[Any]] = lam_common
+                L: list[list[Any]] = lam_common.tolist()
             else:
                 cols = [np.ascontiguousarray(nums[sl, c]) for c in range(21)]
                 L = _lambda_e_columns(cols, edge3)
             rr = [row[3:] for row in L[3:]]
             rt = [row[:3] for row in L[3:]]
             tt = [row[:3] for row in L[:3]]
-            blocks = (
-                (_mul3(_transpose3(W), _mul3(rr, W), sym=True), 0, 0),
-                (_mul3(_transpose3(W), _mul3(rt, R)), 0, 3),
-                (_mul3(_transpose3(R), _mul3(tt, R), sym=True), 3, 3),
-            )
-            for block, r0, c0 in blocks:
-                for i in range(3):
-                    for j in range(3):
-                        out[:, r0 + i, c0 + j] = block[i][j]
-                        if (r0, c0) == (0, 3):
-                            out[:, c0 + j, r0 + i] = block[i][j]
-        if not _all_finite(out):
-            return None
-    return q, info
+            Wt = _transpose3(W)
+            ww = _mul3(Wt, _mul3(rr, W), sym=True)
+            wv = _mul3(Wt, _mul3(rt, R))
+            if lam_common is not None and _is_scaled_identity(lam_common[:3, :3]):
+                vv = [[tt[i][i] if i == j else 0.0 for j in range(3)] for i in range(3)]
+            else:
+                vv = _mul3(_transpose3(R), _mul3(tt, R), sym=True)
+            for i in range(3):
+                for j in range(3):
+                    out[:, i, j] = ww[i][j]
+                    out[:, i, 3 + j] = wv[i][j]
+                    out[:, 3 + j, i] = wv[i][j]
+                    out[:, 3 + i, 3 + j] = vv[i][j]
+        if not bounded and not _all_finite(out):
+            return False
+    return True
+
+
+def _is_scaled_identity(A: FloatArray) -> bool:
+    return bool((A == A[0, 0] * np.eye(A.shape[0])).all())
 
 
 def _transpose3(A: list[list[Any]]) -> list[list[Any]]:
@@ -1114,12 +1206,13 @@ def _rpy_quaternion(rpy: FloatArray) -> FloatArray:
     cr, sr = np.cos(h[:, 0]), np.sin(h[:, 0])
     cp, sp = np.cos(h[:, 1]), np.sin(h[:, 1])
     cy, sy = np.cos(h[:, 2]), np.sin(h[:, 2])
+    w = cr * cp * cy + sr * sp * sy
+    sign = np.where(w < 0.0, -1.0, 1.0)
     q = np.empty((rpy.shape[0], 4))
-    q[:, 0] = sr * cp * cy - cr * sp * sy
-    q[:, 1] = cr * sp * cy + sr * cp * sy
-    q[:, 2] = cr * cp * sy - sr * sp * cy
-    q[:, 3] = cr * cp * cy + sr * sp * sy
-    q[q[:, 3] < 0] *= -1.0
+    q[:, 0] = sign * (sr * cp * cy - cr * sp * sy)
+    q[:, 1] = sign * (cr * sp * cy + sr * cp * sy)
+    q[:, 2] = sign * (cr * cp * sy - sr * sp * cy)
+    q[:, 3] = sign * w
     return q
 
 
@@ -1136,57 +1229,103 @@ def _compose(
 ) -> tuple[FloatArray, FloatArray]:
     """``(qa, ta)·(qb, tb) = (qa ⊗ qb, ta + R(qa)·tb)``: rigid transforms, quaternions ``x y z w``.
 
-    Hamilton product; ``R(q)·v = v + w·c + u × c`` with ``c = 2u × v``, ``u = (x, y, z)``
-    (unit ``q``). Columns are the last axis; leading axes broadcast.
+    Arrays ``(..., 4)`` and ``(..., 3)``; :func:`_compose_columns` on their columns.
     """
-    x1, y1, z1, w1 = (qa[..., i] for i in range(4))
-    x2, y2, z2, w2 = (qb[..., i] for i in range(4))
-    q = np.empty(np.broadcast_shapes(qa.shape, qb.shape))
-    q[..., 0] = w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2
-    q[..., 1] = w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2
-    q[..., 2] = w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2
-    q[..., 3] = w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2
-    vx, vy, vz = (tb[..., i] for i in range(3))
+    a = tuple(qa[..., i] for i in range(4)) + tuple(ta[..., i] for i in range(3))
+    b = tuple(qb[..., i] for i in range(4)) + tuple(tb[..., i] for i in range(3))
+    c = _compose_columns(a, b)
+    return np.stack(c[:4], axis=-1), np.stack(c[4:], axis=-1)
+
+
+Columns = tuple[FloatArray, ...]
+
+
+def _compose_columns(a: Columns, b: Columns) -> Columns:
+    """Compose rigid transforms given as 7 columns ``(qx, qy, qz, qw, tx, ty, tz)`` (broadcast).
+
+    ``(qa, ta)·(qb, tb) = (qa ⊗ qb, ta + R(qa)·tb)``, Hamilton product; ``R(q)·v = v + w·c +
+    u × c`` with ``c = 2u × v``, ``u = (x, y, z)`` (unit ``q``).
+    """
+    x1, y1, z1, w1, ax, ay, az = a
+    x2, y2, z2, w2, vx, vy, vz = b
     cx = 2.0 * (y1 * vz - z1 * vy)
     cy = 2.0 * (z1 * vx - x1 * vz)
     cz = 2.0 * (x1 * vy - y1 * vx)
-    t = np.empty(np.broadcast_shapes(ta.shape, tb.shape))
-    t[..., 0] = ta[..., 0] + vx + w1 * cx + (y1 * cz - z1 * cy)
-    t[..., 1] = ta[..., 1] + vy + w1 * cy + (z1 * cx - x1 * cz)
-    t[..., 2] = ta[..., 2] + vz + w1 * cz + (x1 * cy - y1 * cx)
-    return q, t
+    return (
+        w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+        w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+        w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
+        w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
+        ax + vx + w1 * cx + (y1 * cz - z1 * cy),
+        ay + vy + w1 * cy + (z1 * cx - x1 * cz),
+        az + vz + w1 * cz + (x1 * cy - y1 * cx),
+    )
 
 
 def _prefix_compose(q: FloatArray, t: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Inclusive prefix products ``P_k = s_0·s_1·…·s_k`` of rigid transforms ``(q, t)``.
 
-    A blocked scan (no Python loop over the elements): the ``n`` transforms are cut into blocks
-    of 32; the prefixes inside all blocks are formed together, one position at a time (32
-    batched products); the blocks' totals are scanned the same way, recursively; each block's
-    prefixes are then composed with the product of the blocks before it (one batched product).
+    ``q`` ``(n, 4)`` (``x y z w``), ``t`` ``(n, 3)``; :func:`_prefix_columns` on their columns.
     Products are associated differently from a left-to-right loop, so results agree with it
     to rounding.
     """
-    n, B = q.shape[0], 32
-    if n <= B:
-        Q, T = np.array(q), np.array(t)
-        for k in range(1, n):
-            Q[k], T[k] = _compose(Q[k - 1], T[k - 1], q[k], t[k])
-        return Q, T
+    cols = _prefix_columns(tuple(q[:, i] for i in range(4)) + tuple(t[:, i] for i in range(3)))
+    return np.stack(cols[:4], axis=-1), np.stack(cols[4:], axis=-1)
+
+
+def _prefix_columns(s: Columns) -> Columns:
+    """Inclusive prefix products of rigid transforms given as 7 columns ``(n,)`` each.
+
+    :func:`_prefix_blocks` on the columns laid out in blocks of 32, identity-padded.
+    """
+    n, B = s[0].shape[0], _SCAN_BLOCK
     nb = -(-n // B)
-    Qp = np.zeros((nb * B, 4))
-    Qp[:, 3] = 1.0  # identity padding
-    Tp = np.zeros((nb * B, 3))
-    Qp[:n], Tp[:n] = q, t
-    Q = np.ascontiguousarray(Qp.reshape(nb, B, 4).swapaxes(0, 1))  # (B, nb, 4): position-major
-    T = np.ascontiguousarray(Tp.reshape(nb, B, 3).swapaxes(0, 1))
+    blocks = []
+    for i, c in enumerate(s):
+        padded = np.full(nb * B, 1.0 if i == 3 else 0.0)  # identity padding: q = (0, 0, 0, 1)
+        padded[:n] = c
+        blocks.append(np.ascontiguousarray(padded.reshape(nb, B).T))  # (B, nb)
+    _prefix_blocks(blocks)
+    return tuple(c.T.reshape(-1)[:n] for c in blocks)
+
+
+#: Block length of the scan in :func:`_prefix_blocks`.
+_SCAN_BLOCK = 32
+
+
+def _prefix_blocks(blocks: list[FloatArray]) -> None:
+    """Replace transforms ``s`` by their inclusive prefix products ``s_0·s_1·…·s_(b·B + k)``.
+
+    ``blocks``: 7 columns (``qx qy qz qw tx ty tz``), each ``(B, nb)``, element ``b·B + k`` at
+    ``[k, b]``; replaced in place.
+
+    A blocked scan with no Python loop over the elements: the prefixes inside all ``nb``
+    blocks are formed together, one position at a time (``B − 1`` batched products of rows);
+    the blocks' totals (the last row) are scanned the same way, recursively; each block's
+    prefixes are then composed with the product of the blocks before it, row by row (the
+    temporaries stay a row's size). Products are associated differently from a left-to-right
+    loop, so results agree with it to rounding.
+    """
+    B, nb = blocks[0].shape
     for k in range(1, B):
-        Q[k], T[k] = _compose(Q[k - 1], T[k - 1], Q[k], T[k])
-    bq, bt = _prefix_compose(Q[-1], T[-1])  # products of blocks 0..b
-    Q[:, 1:], T[:, 1:] = _compose(bq[None, :-1], bt[None, :-1], Q[:, 1:], T[:, 1:])
-    Q = Q.swapaxes(0, 1).reshape(nb * B, 4)[:n]
-    T = T.swapaxes(0, 1).reshape(nb * B, 3)[:n]
-    return Q, T
+        new = _compose_columns(tuple(c[k - 1] for c in blocks), tuple(c[k] for c in blocks))
+        for c, v in zip(blocks, new, strict=True):
+            c[k] = v
+    if nb == 1:
+        return
+    totals = [c[-1] for c in blocks]  # products of each block
+    m = -(-nb // B)
+    tb = []
+    for i, c in enumerate(totals):
+        padded = np.full(m * B, 1.0 if i == 3 else 0.0)
+        padded[:nb] = c
+        tb.append(np.ascontiguousarray(padded.reshape(m, B).T))
+    _prefix_blocks(tb)
+    before = tuple(c.T.reshape(-1)[: nb - 1] for c in tb)  # products of blocks 0..b
+    for k in range(B):
+        new = _compose_columns(before, tuple(c[k, 1:] for c in blocks))
+        for c, v in zip(blocks, new, strict=True):
+            c[k, 1:] = v
 
 
 def _chain_odometry(edges: KeyArray, measured: FloatArray) -> tuple[KeyArray, FloatArray] | None:
@@ -1195,44 +1334,64 @@ def _chain_odometry(edges: KeyArray, measured: FloatArray) -> tuple[KeyArray, Fl
     The same choice of edges as the loop in :func:`vertices` — for vertex ``k`` the first edge
     ``(k−1, k)`` in the file, else the last ``(k, k−1)``, inverted — and the same poses
     ``T_k = T_{k−1}·Z``, from the identity at the smallest id, formed by
-    :func:`_prefix_compose` on ``(q, t)`` instead of one 4×4 product per vertex. ``None`` if
+    :func:`_prefix_blocks` on ``(q, t)`` instead of one 4×4 product per vertex. ``None`` if
     the ids have a gap or a vertex has no odometry edge (the loop then raises its error).
-    Returns ``(ids, "xyz_qxyzw" rows)`` (quaternions ``w ≥ 0``).
+    Returns ``(ids, "xyz_qxyzw" rows)`` (quaternions ``w ≥ 0``). Memory: a few columns of the
+    vertex count besides the result (issue 23: fresh memory is most of the cost).
     """
     lo, hi = int(edges.min()), int(edges.max())
-    n = hi - lo + 1
-    if n > edges.size:  # some id in [lo, hi] is missing
+    n = hi - lo  # steps: vertices lo + 1 .. hi
+    if n + 1 > edges.size:  # some id in [lo, hi] is missing
         return None
-    rel = (edges - np.uint64(lo)).astype(np.intp)
-    present = np.zeros(n, dtype=bool)
-    present[rel.reshape(-1)] = True
-    fwd = np.flatnonzero(rel[:, 1] == rel[:, 0] + 1)
-    rev = np.flatnonzero(rel[:, 0] == rel[:, 1] + 1)
-    step = np.full(n, -1, dtype=np.intp)
-    tgt, first = np.unique(rel[rev[::-1], 0], return_index=True)
-    step[tgt] = rev[::-1][first]  # the last (k, k−1) in the file ...
-    inverted = np.zeros(n, dtype=bool)
-    inverted[tgt] = True
-    tgt, first = np.unique(rel[fwd, 1], return_index=True)
-    step[tgt] = fwd[first]  # ... unless there is a (k−1, k): the first one
-    inverted[tgt] = False
-    if not present.all() or (step[1:] < 0).any():
+    i, j = edges[:, 0], edges[:, 1]
+    none = edges.shape[0]
+    fwd = np.flatnonzero(j == i + np.uint64(1))
+    first_fwd = np.full(n + 1, none, dtype=np.intp)
+    np.minimum.at(first_fwd, (j[fwd] - np.uint64(lo)).astype(np.intp), fwd)  # the first (k−1, k)
+    rev = np.flatnonzero(i == j + np.uint64(1))
+    last_rev = np.full(n + 1, -1, dtype=np.intp)
+    np.maximum.at(last_rev, (i[rev] - np.uint64(lo)).astype(np.intp), rev)  # else the last (k, k−1)
+    inverted = first_fwd[1:] == none
+    step = np.where(inverted, last_rev[1:], first_fwd[1:])
+    del first_fwd, last_rev, fwd, rev
+    if (step < 0).any():  # a vertex without an odometry edge (every id then has one: no gap)
         return None
-    z = measured[step[1:]]
-    qs, ts = z[:, 3:], z[:, :3]
-    inv = inverted[1:]
-    if inv.any():  # (R, t)⁻¹ = (Rᵀ, −Rᵀ t): conjugate quaternion, rotated back
-        qi = qs[inv] * np.array([-1.0, -1.0, -1.0, 1.0])
-        _, ti = _compose(qi, np.zeros((qi.shape[0], 3)), np.zeros_like(qi), -ts[inv])
-        qs, ts = np.array(qs), np.array(ts)
-        qs[inv], ts[inv] = qi, ti
-    Q, T = _prefix_compose(qs, ts)
-    out = np.empty((n, 7))
+    B = _SCAN_BLOCK
+    nb = -(-n // B)
+    pos = np.zeros(nb * B, dtype=np.intp)  # element b·B + k of the chain at [k, b]
+    pos[:n] = step
+    pos = np.ascontiguousarray(pos.reshape(nb, B).T)
+    pad = np.zeros(nb * B, dtype=bool)
+    pad[n:] = True
+    pad = pad.reshape(nb, B).T
+    blocks = []
+    for column in (3, 4, 5, 6, 0, 1, 2):  # qx qy qz qw tx ty tz
+        col = np.take(measured[:, column], pos)
+        col[pad] = 1.0 if column == 6 else 0.0  # identity padding
+        blocks.append(col)
+    inv = np.zeros(nb * B, dtype=bool)
+    inv[:n] = inverted
+    inv = inv.reshape(nb, B).T
+    if inverted.any():  # (q, t)⁻¹ = (q*, −R(q)ᵀ t): conjugate quaternion, rotated back
+        q_inv = (-blocks[0][inv], -blocks[1][inv], -blocks[2][inv], blocks[3][inv])
+        zero = np.zeros(q_inv[0].shape[0])
+        t_inv = _compose_columns(
+            (*q_inv, zero, zero, zero), (*q_inv, *(-blocks[4 + a][inv] for a in range(3)))
+        )[4:]
+        for c, v in zip(blocks, (*q_inv, *t_inv), strict=True):
+            c[inv] = v
+    del pos, pad, inv
+    _prefix_blocks(blocks)
+    sign = np.where(blocks[3] < 0.0, -1.0, 1.0)  # w ≥ 0, as from_matrix chooses
+    out = np.empty((1 + nb * B, 7))
     out[0] = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
-    out[1:, :3], out[1:, 3:] = T, Q
-    neg = out[:, 6] < 0
-    out[neg, 3:] *= -1.0
-    return np.uint64(lo) + np.arange(n, dtype=np.uint64), out
+    rows = out[1:].reshape(nb, B, 7)
+    for a in range(3):
+        rows[:, :, a] = blocks[4 + a].T
+    for a in range(4):
+        blocks[a] *= sign
+        rows[:, :, 3 + a] = blocks[a].T
+    return np.uint64(lo) + np.arange(n + 1, dtype=np.uint64), out[: n + 1]
 
 
 def _params_from_raw(raw: FloatArray, euler: npt.NDArray[np.bool_]) -> FloatArray:
