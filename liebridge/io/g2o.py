@@ -1130,12 +1130,21 @@ def _edge3_table(
                 vv = [[tt[i][i] if i == j else 0.0 for j in range(3)] for i in range(3)]
             else:
                 vv = _mul3(_transpose3(R), _mul3(tt, R), sym=True)
+            entries = {}
             for i in range(3):
                 for j in range(3):
-                    out[:, i, j] = ww[i][j]
-                    out[:, i, 3 + j] = wv[i][j]
-                    out[:, 3 + j, i] = wv[i][j]
-                    out[:, 3 + i, 3 + j] = vv[i][j]
+                    entries[i, j] = ww[i][j]
+                    entries[i, 3 + j] = entries[3 + j, i] = wv[i][j]
+                    entries[3 + i, 3 + j] = vv[i][j]
+            const = {ij: v for ij, v in entries.items() if isinstance(v, float)}
+            if len(const) > 9:  # constants (zeros, c·I): one contiguous fill, then the columns
+                template = np.zeros((6, 6))
+                for ij, v in const.items():
+                    template[ij] = v
+                out[...] = template
+                entries = {ij: v for ij, v in entries.items() if ij not in const}
+            for (i, j), v in entries.items():
+                out[:, i, j] = v
         if not bounded and not _all_finite(out):
             return False
     return True
