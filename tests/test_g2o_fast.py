@@ -582,3 +582,42 @@ def test_prefix_compose_equals_the_left_to_right_product(n: int) -> None:
         M = M @ S
         np.testing.assert_allclose(quat.to_matrix(Q[k], order="xyzw"), M[:3, :3], atol=1e-12)
         np.testing.assert_allclose(T[k], M[:3, 3], atol=1e-12 * max(1.0, np.abs(M).max()))
+
+
+@pytest.mark.parametrize(
+    "variant",
+    ["plain", "no_final_newline", "crlf", "comment", "blank", "fix", "vertex", "tab", "bare_cr"],
+)
+def test_edge3_first_files_take_the_shortcut_or_fall_back(tmp_path: Path, variant: str) -> None:
+    """A file starting with ``EDGE3`` is read without the tag pass when it is nothing else."""
+    lines = _edge3_graph("chain", 40)
+    end, tail = "\n", ""
+    if variant == "crlf":
+        end = "\r\n"
+    elif variant == "comment":
+        lines.insert(20, "# a comment")
+    elif variant == "blank":
+        lines.insert(20, "")
+    elif variant == "fix":
+        lines.append("FIX 0")
+    elif variant == "vertex":
+        lines.append("VERTEX3 0 0 0 0 0 0 0")
+    elif variant == "tab":
+        lines[5] = lines[5].replace(" ", "\t", 3)
+    text = end.join(lines) + end
+    if variant == "no_final_newline":
+        text = text[:-1]
+    if variant == "bare_cr":  # a lone carriage return: two lines for Python, one for the count
+        text = text.replace("\n", "\r", 1)
+    path = tmp_path / "g.g2o"
+    path.write_bytes((text + tail).encode())
+    shortcut = g2o._read_edge3_only(path, {"EDGE3": (2, 27)}, g2o._Edge3Sink("g2o", "information"))
+    assert (shortcut is not None) == (variant in ("plain", "no_final_newline", "crlf", "tab"))
+    if variant == "vertex":  # vertex lines: every edge's vertices need one
+        msg = _error(lambda: g2o.read(path))
+        assert msg == _error(lambda: g2o._read_lines(path, "g2o", "sqrt_information"))
+        assert "which has no VERTEX line" in msg
+        return
+    g = _fast_equals_slow_3d(path)
+    assert g.edges.shape[0] == sum(ln.startswith("EDGE3") for ln in lines)
+    assert g.fixed == ((0,) if variant == "fix" else ())

@@ -960,12 +960,17 @@ def _read_tables(
     path: PathLike, information: InformationReading, edge3: Edge3Numbers
 ) -> G2OGraph | None:
     """Read with :func:`read_tagged` and batched checks; None if anything is unusual."""
+    columns = {
+        "VERTEX_SE3:QUAT": (1, 7),
+        "VERTEX3": (1, 6),
+        "EDGE_SE3:QUAT": (2, 28),
+        "EDGE3": (2, 27),
+    }
     sink = _Edge3Sink(information, edge3)
-    got = read_tagged(
-        path,
-        {"VERTEX_SE3:QUAT": (1, 7), "VERTEX3": (1, 6), "EDGE_SE3:QUAT": (2, 28), "EDGE3": (2, 27)},
-        sinks={"EDGE3": sink},
-    )
+    got = _read_edge3_only(path, columns, sink)
+    if got is None:
+        sink = _Edge3Sink(information, edge3)
+        got = read_tagged(path, columns, sinks={"EDGE3": sink})
     if got is None:
         return None
     tables, fixed, _ = got
@@ -1028,6 +1033,62 @@ def _read_tables(
         )
     except ValueError:
         return None
+
+
+def _read_edge3_only(
+    path: PathLike, columns: dict[str, tuple[int, int]], sink: RowSink
+) -> tuple[dict[str, _Table], list[int], dict[str, int]] | None:
+    """:func:`read_tagged` for a file of ``EDGE3`` lines only (TORO / iSAM), without its tag pass.
+
+    Tried when the file starts with ``EDGE3``: the lines are counted (bytes, in blocks), then
+    parsed :data:`_STREAM_ROWS` at a time into ``sink`` with the tag read as a field and
+    checked. ``None`` — and :func:`read_tagged` decides — unless every line is an ``EDGE3``
+    line with ids and 27 finite numbers (a comment, a blank line, another tag, a bad field).
+    """
+    if not isinstance(path, str | os.PathLike):
+        return None
+    try:
+        with open(path, "rb") as fb:
+            if not fb.read(6) == b"EDGE3 ":
+                return None
+            fb.seek(0)
+            n, last = 0, b"\n"
+            while block := fb.read(1 << 24):
+                n += block.count(b"\n")
+                last = block[-1:]
+            n += last != b"\n"  # a last line without its newline
+        dtype = np.dtype([("tag", "S8"), ("ids", "u8", (2,)), ("x", "f8", (27,))])
+        sink.start(n)
+        ids = np.empty((n, 2), dtype=np.uint64)
+        lo = 0
+        with open(path, encoding="utf-8") as fh, warnings.catch_warnings():
+            warnings.simplefilter("error")  # an empty read, a number read with a warning
+            while lo < n:
+                rec = np.loadtxt(
+                    itertools.islice(fh, _STREAM_ROWS), dtype=dtype, comments="#", ndmin=1
+                )
+                k = rec.shape[0]
+                if k == 0 or lo + k > n or not (rec["tag"] == b"EDGE3").all():
+                    return None
+                x = rec["x"]
+                if (rec["ids"] > validate.MAX_KEY).any() or not _all_finite(x):
+                    return None
+                ids[lo : lo + k] = rec["ids"]
+                if not sink.take(lo, x):
+                    return None
+                lo += k
+            if fh.readline():  # more lines than counted (a lone carriage return)
+                return None
+    except (ValueError, Warning, OSError):
+        return None
+    tables = {
+        tag: _Table(
+            np.zeros(0, dtype=np.intp), np.zeros((0, k_ids), np.uint64), np.zeros((0, k_values))
+        )
+        for tag, (k_ids, k_values) in columns.items()
+    }
+    tables["EDGE3"] = _Table(np.arange(1, n + 1), ids, np.zeros((n, 0)))
+    return tables, [], {}
 
 
 # ---------------------------------------------------------------- EDGE3 fast path (issue 23)
