@@ -526,9 +526,14 @@ def test_edge3_chain_gaps_name_the_missing_edge(tmp_path: Path, drop: str, messa
     assert message in msg, msg
 
 
-@pytest.mark.parametrize("what", ["count", "word", "nan", "inf", "self", "id_negative"])
-def test_malformed_edge3_line_keeps_its_message_and_line(tmp_path: Path, what: str) -> None:
-    lines = ["# TORO", *_edge3_graph("chain", 12)]
+@pytest.mark.parametrize("header", [True, False])  # False: the file starts with EDGE3
+@pytest.mark.parametrize(
+    "what", ["count", "word", "nan", "inf", "self", "id_negative", "id_2_64", "tag"]
+)
+def test_malformed_edge3_line_keeps_its_message_and_line(
+    tmp_path: Path, what: str, header: bool
+) -> None:
+    lines = ["# TORO"] * header + _edge3_graph("chain", 12)
     k = 6  # line 7 of the file
     path = _write(tmp_path, _corrupt(lines, k, what))
     msg = _error(lambda: g2o.read(path))
@@ -621,3 +626,10 @@ def test_edge3_first_files_take_the_shortcut_or_fall_back(tmp_path: Path, varian
     g = _fast_equals_slow_3d(path)
     assert g.edges.shape[0] == sum(ln.startswith("EDGE3") for ln in lines)
     assert g.fixed == ((0,) if variant == "fix" else ())
+
+
+def test_edge3_underscore_number_is_read_as_python_reads_it(tmp_path: Path) -> None:
+    lines = _edge3_graph("chain", 5)
+    path = _write(tmp_path, _corrupt(lines, 2, "underscore"))  # field 4 (y) = "1_0.5"
+    assert g2o._read_tables(path, "g2o", "sqrt_information") is None
+    assert g2o.read(path).measured_xyz_qxyzw[2, 1] == 10.5
