@@ -301,18 +301,20 @@ def _replicate_edge3(src: Path, dst: Path, mib: float) -> tuple[int, int]:
     """Write copies of an ``EDGE3``-only file, ids shifted by ``n`` per copy; return the sizes.
 
     Each copy's first vertex is joined to the previous copy's last by a copy of the edge
-    ``0 -> 1``: one odometry chain. Returns ``(vertices, edges)``.
+    ``0 -> 1``: one odometry chain; copies are added until the file holds ``mib`` MiB (ASCII).
+    Returns ``(vertices, edges)``.
     """
     edges = [ln.split(" ", 3) for ln in src.read_text().splitlines() if ln.startswith("EDGE3 ")]
     n = 1 + max(max(int(i), int(j)) for _, i, j, _ in edges)
     link = next(rest for _, i, j, rest in edges if (int(i), int(j)) == (0, 1))
-    copies = max(1, round(mib * 2**20 / src.stat().st_size))
+    copies, size = 0, 0
     with open(dst, "w", encoding="utf-8") as fh:
-        for r in range(copies):
-            o = n * r
-            if r:
-                fh.write(f"EDGE3 {o - 1} {o} {link}\n")
-            fh.writelines(f"{t} {int(i) + o} {int(j) + o} {rest}\n" for t, i, j, rest in edges)
+        while copies == 0 or size < mib * 2**20:  # copies until the file holds mib MiB
+            o = n * copies
+            text = f"EDGE3 {o - 1} {o} {link}\n" if copies else ""
+            text += "".join(f"{t} {int(i) + o} {int(j) + o} {rest}\n" for t, i, j, rest in edges)
+            size += fh.write(text)
+            copies += 1
     return n * copies, len(edges) * copies + copies - 1
 
 
