@@ -1009,7 +1009,8 @@ def _read_tables(
     measured = in_file_order([(eq.lines, measured_q), (e3.lines, sink.measured)])
     info = in_file_order([(eq.lines, info_q), (e3.lines, sink.info)])
     del measured_q, info_q, sink
-    edges = np.array(edges)
+    if edges.base is not None:  # a view of a parsed table: copied, so that the table is freed
+        edges = np.array(edges)
     del tables, vq, v3, eq, e3, got  # the parsed tables: freed before the copies
     P = _Parser(path)
     try:
@@ -1452,7 +1453,9 @@ def _chain_odometry(edges: KeyArray, measured: FloatArray) -> tuple[KeyArray, Fl
             c[inv] = v
     del pos, pad, inv
     _prefix_blocks(blocks)
-    sign = np.where(blocks[3] < 0.0, -1.0, 1.0)  # w ≥ 0, as from_matrix chooses
+    # w ≥ 0, as from_matrix chooses; unit norm again (n products drift by ~√n ulps)
+    norm = np.sqrt(blocks[0] ** 2 + blocks[1] ** 2 + blocks[2] ** 2 + blocks[3] ** 2)
+    sign = np.where(blocks[3] < 0.0, -1.0, 1.0) / norm
     out = np.empty((1 + nb * B, 7))
     out[0] = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
     rows = out[1:].reshape(nb, B, 7)
