@@ -1453,17 +1453,17 @@ def _chain_odometry(edges: KeyArray, measured: FloatArray) -> tuple[KeyArray, Fl
             c[inv] = v
     del pos, pad, inv
     _prefix_blocks(blocks)
-    # w ≥ 0, as from_matrix chooses; unit norm again (n products drift by ~√n ulps)
-    norm = np.sqrt(blocks[0] ** 2 + blocks[1] ** 2 + blocks[2] ** 2 + blocks[3] ** 2)
-    sign = np.where(blocks[3] < 0.0, -1.0, 1.0) / norm
     out = np.empty((1 + nb * B, 7))
     out[0] = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
     rows = out[1:].reshape(nb, B, 7)
-    for a in range(3):
-        rows[:, :, a] = blocks[4 + a].T
-    for a in range(4):
-        blocks[a] *= sign
-        rows[:, :, 3 + a] = blocks[a].T
+    for k in range(B):  # row by row: the temporaries stay a row's size
+        x, y, z, w = (blocks[a][k] for a in range(4))
+        # w ≥ 0, as from_matrix chooses; unit norm again (n products drift by ~√n ulps)
+        scale = np.where(w < 0.0, -1.0, 1.0) / np.sqrt(x * x + y * y + z * z + w * w)
+        for a in range(4):
+            rows[:, k, 3 + a] = blocks[a][k] * scale
+        for a in range(3):
+            rows[:, k, a] = blocks[4 + a][k]
     return np.uint64(lo) + np.arange(n + 1, dtype=np.uint64), out[: n + 1]
 
 
