@@ -338,10 +338,11 @@ def test_gimbal_locked_edge3_names_its_line(tmp_path: Path) -> None:
 
 def test_graph_arrays_from_the_fast_path_are_read_only_and_owned(tmp_path: Path) -> None:
     g = g2o.read(_write(tmp_path, _graph_lines(5)))
+    g3 = g2o.read(_write(tmp_path, _edge3_graph("reversed", 70), "e3.txt"))  # EDGE3 only
     for f in FIELDS_3D:
-        a = getattr(g, f)
-        assert not a.flags.writeable
-        assert a.dtype.names is None and a.flags.c_contiguous  # not a view of a parsed table
+        for a in (getattr(g, f), getattr(g3, f)):
+            assert not a.flags.writeable
+            assert a.dtype.names is None and a.flags.c_contiguous  # not a view of a table
     # the public constructor still copies what the caller passes
     info = np.array(g.information)
     h = g2o.G2OGraph(
