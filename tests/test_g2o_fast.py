@@ -618,7 +618,7 @@ def test_edge3_first_files_take_the_shortcut_or_fall_back(tmp_path: Path, varian
     path = tmp_path / "g.g2o"
     path.write_bytes((text + tail).encode())
     shortcut = g2o._read_edge3_only(path, {"EDGE3": (2, 27)}, g2o._Edge3Sink("g2o", "information"))
-    assert (shortcut is not None) == (variant in ("plain", "no_final_newline", "crlf", "tab"))
+    assert (shortcut is not None) == (variant not in ("fix", "vertex"))
     if variant == "vertex":  # vertex lines: every edge's vertices need one
         msg = _error(lambda: g2o.read(path))
         assert msg == _error(lambda: g2o._read_lines(path, "g2o", "sqrt_information"))
@@ -634,3 +634,33 @@ def test_edge3_underscore_number_is_read_as_python_reads_it(tmp_path: Path) -> N
     path = _write(tmp_path, _corrupt(lines, 2, "underscore"))  # field 4 (y) = "1_0.5"
     assert g2o._read_tables(path, "g2o", "sqrt_information") is None
     assert g2o.read(path).measured_xyz_qxyzw[2, 1] == 10.5
+
+
+def test_edge3_shortcut_estimates_grows_and_refuses_comment_blocks(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """Rows sized from the first chunk's bytes: longer lines later make the arrays grow."""
+    monkeypatch.setattr(g2o, "_STREAM_ROWS", 4)
+    monkeypatch.setattr(g2o, "_EDGE3_SLACK_ROWS", 0)
+    sizes: list[int] = []
+    resize = g2o._Edge3Sink.resize
+
+    def spy(self: g2o._Edge3Sink, n: int, keep: int) -> None:
+        sizes.append(n)
+        resize(self, n, keep)
+
+    monkeypatch.setattr(g2o._Edge3Sink, "resize", spy)
+    lines = _edge3_graph("chain", 60)
+    lines[:8] = [" ".join(ln.split()[:3] + ["0"] * 27) for ln in lines[:8]]  # short lines first
+    lines[8:20] = [ln.replace(" ", "   ") for ln in lines[8:20]]  # then long ones
+    path = _write(tmp_path, lines)
+    sink = g2o._Edge3Sink("g2o", "sqrt_information")
+    assert g2o._read_edge3_only(path, {"EDGE3": (2, 27)}, sink) is not None
+    assert sink.info.shape[0] == len(lines)
+    assert len(sizes) > 2 and sizes[-2] > sizes[0]  # grown at least once, then trimmed
+    _fast_equals_slow_3d(path)
+    lines = _edge3_graph("chain", 20)
+    path = _write(tmp_path, [*lines[:8], *["# c"] * 4, *lines[8:]])  # a chunk of comments only
+    sink = g2o._Edge3Sink("g2o", "sqrt_information")
+    assert g2o._read_edge3_only(path, {"EDGE3": (2, 27)}, sink) is None
+    _fast_equals_slow_3d(path)

@@ -75,6 +75,7 @@ the pose parameters are stored exactly as read, so ``read(write(g))`` reproduces
 
 from __future__ import annotations
 
+import io
 import itertools
 import math
 import os
@@ -1009,8 +1010,8 @@ def _read_tables(
     measured = in_file_order([(eq.lines, measured_q), (e3.lines, sink.measured)])
     info = in_file_order([(eq.lines, info_q), (e3.lines, sink.info)])
     del measured_q, info_q, sink
-    if edges.base is not None:  # a view of a parsed table: copied, so that the table is freed
-        edges = np.array(edges)
+    if isinstance(edges.base, np.ndarray) and edges.base.dtype.names:  # a view of a parsed
+        edges = np.array(edges)  # table: copied, so that the table is freed
     del tables, vq, v3, eq, e3, got  # the parsed tables: freed before the copies
     P = _Parser(path)
     try:
@@ -1036,15 +1037,21 @@ def _read_tables(
         return None
 
 
+#: Rows added to the estimate of :func:`_read_edge3_only` (the arrays grow if it falls short).
+_EDGE3_SLACK_ROWS = 1024
+
+
 def _read_edge3_only(
-    path: PathLike, columns: dict[str, tuple[int, int]], sink: RowSink
+    path: PathLike, columns: dict[str, tuple[int, int]], sink: _Edge3Sink
 ) -> tuple[dict[str, _Table], list[int], dict[str, int]] | None:
     """:func:`read_tagged` for a file of ``EDGE3`` lines only (TORO / iSAM), without its tag pass.
 
-    Tried when the file starts with ``EDGE3``: the lines are counted (bytes, in blocks), then
-    parsed :data:`_STREAM_ROWS` at a time into ``sink`` with the tag read as a field and
-    checked. ``None`` — and :func:`read_tagged` decides — unless every line is an ``EDGE3``
-    line with ids and 27 finite numbers (a comment, a blank line, another tag, a bad field).
+    Tried when the file starts with ``EDGE3``: the lines are parsed :data:`_STREAM_ROWS` at a
+    time into ``sink`` with the tag read as a field and checked, the sink's arrays sized from
+    the bytes the first rows took (grown if the estimate falls short, trimmed at the end).
+    Comments and blank lines are skipped as ``loadtxt`` skips them (no line number is needed
+    unless a line is faulty). ``None`` — and :func:`read_tagged` decides — unless every other
+    line is an ``EDGE3`` line with ids and 27 finite numbers (another tag, ``FIX``, a bad field).
     """
     if not isinstance(path, str | os.PathLike):
         return None
@@ -1052,24 +1059,34 @@ def _read_edge3_only(
         with open(path, "rb") as fb:
             if not fb.read(6) == b"EDGE3 ":
                 return None
-            fb.seek(0)
-            n, last = 0, b"\n"
-            while block := fb.read(1 << 24):
-                n += block.count(b"\n")
-                last = block[-1:]
-            n += last != b"\n"  # a last line without its newline
+            size = os.fstat(fb.fileno()).st_size
         dtype = np.dtype([("tag", "S8"), ("ids", "u8", (2,)), ("x", "f8", (27,))])
-        sink.start(n)
-        ids = np.empty((n, 2), dtype=np.uint64)
+        ids = np.empty((0, 2), dtype=np.uint64)
         lo = 0
-        with open(path, encoding="utf-8") as fh, warnings.catch_warnings():
-            warnings.simplefilter("error")  # an empty read, a number read with a warning
-            while lo < n:
+        with (
+            open(path, "rb") as raw,
+            io.TextIOWrapper(raw, encoding="utf-8") as fh,
+            warnings.catch_warnings(),
+        ):
+            warnings.simplefilter("error")  # a number read with a warning
+            warnings.filterwarnings("ignore", "loadtxt: input contained no data", UserWarning)
+            warnings.filterwarnings("ignore", "Input line", UserWarning)  # comment lines
+            while True:
                 rec = np.loadtxt(
                     itertools.islice(fh, _STREAM_ROWS), dtype=dtype, comments="#", ndmin=1
                 )
                 k = rec.shape[0]
-                if k == 0 or lo + k > n or not (rec["tag"] == b"EDGE3").all():
+                if k == 0:
+                    if fh.readline():  # a block of comment or blank lines only: unusual
+                        return None
+                    break
+                if lo + k > ids.shape[0]:  # rows so far, per byte so far: the rest, and 5 % more
+                    done = max(raw.tell(), 1)
+                    cap = lo + k + int(1.05 * (lo + k) * max(size - done, 0) / done)
+                    cap += _EDGE3_SLACK_ROWS
+                    sink.resize(cap, lo)
+                    ids = np.concatenate([ids[:lo], np.empty((cap - lo, 2), np.uint64)])
+                if not (rec["tag"] == b"EDGE3").all():
                     return None
                 x = rec["x"]
                 if (rec["ids"] > validate.MAX_KEY).any() or not _all_finite(x):
@@ -1078,17 +1095,17 @@ def _read_edge3_only(
                 if not sink.take(lo, x):
                     return None
                 lo += k
-            if fh.readline():  # more lines than counted (a lone carriage return)
-                return None
     except (ValueError, Warning, OSError):
         return None
+    sink.resize(lo, lo)
     tables = {
         tag: _Table(
             np.zeros(0, dtype=np.intp), np.zeros((0, k_ids), np.uint64), np.zeros((0, k_values))
         )
         for tag, (k_ids, k_values) in columns.items()
     }
-    tables["EDGE3"] = _Table(np.arange(1, n + 1), ids, np.zeros((n, 0)))
+    # rows numbered 1..n: on this path no line is named (a faulty one goes to the line reader)
+    tables["EDGE3"] = _Table(np.arange(1, lo + 1), ids[:lo], np.zeros((lo, 0)))
     return tables, [], {}
 
 
@@ -1111,6 +1128,15 @@ class _Edge3Sink(RowSink):
     def start(self, n: int) -> None:
         self.measured = np.empty((n, 7))
         self.info = np.empty((n, 6, 6))
+
+    def resize(self, n: int, keep: int) -> None:
+        """Room for ``n`` rows, the first ``keep`` kept: trimmed as views, grown by a copy."""
+        if n <= self.measured.shape[0]:
+            self.measured, self.info = self.measured[:n], self.info[:n]
+        else:
+            measured, info = np.empty((n, 7)), np.empty((n, 6, 6))
+            measured[:keep], info[:keep] = self.measured[:keep], self.info[:keep]
+            self.measured, self.info = measured, info
 
     def take(self, lo: int, values: FloatArray) -> bool:
         hi = lo + values.shape[0]
