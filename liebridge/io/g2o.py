@@ -548,7 +548,10 @@ def read(
     precision allows and beyond the precision it was printed with, an id out of range, a
     duplicate vertex, a singular Euler chart, an information matrix that is not positive
     semi-definite — sends the file to the line-by-line reader, which gives the same graph and
-    names the first faulty line.
+    names the first faulty line. A file of ``EDGE3`` lines only (TORO / iSAM, ``sphere2500.txt``)
+    is parsed and converted in chunks (:func:`_read_edge3_only`), its information maps written by
+    3×3 blocks on columns and its initial values chained by a blocked scan; equal to the line
+    reader's to rounding.
     """
     information = validate.option(information, "information", ("g2o", "gtsam"))  # type: ignore[assignment]
     edge3 = validate.option(edge3, "edge3", ("sqrt_information", "information"))  # type: ignore[assignment]
