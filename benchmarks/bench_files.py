@@ -16,7 +16,16 @@ Rows (each file generated here, in a temporary directory):
   TUM, KITTI, EuRoC and bags only), so this row has no evo column;
 * ``read_g2o_2d``: ``liebridge.io.g2o2d.read`` on ``--g2o2d-mib`` (default 64) MiB of GTSAM's
   ``w10000.graph`` read, written as ``VERTEX_SE2``/``EDGE_SE2`` and replicated; baseline the
-  same way (``usecols=range(1, 5)`` and ``range(1, 12)``).
+  same way (``usecols=range(1, 5)`` and ``range(1, 12)``);
+* ``read_g2o_edge3``: ``g2o.read EDGE3 (TORO layout)``, ``liebridge.io.g2o.read`` on
+  ``--edge3-mib`` (default 254) MiB of GTSAM's ``sphere2500.txt`` **as it is** (``EDGE3`` lines
+  only, no vertex lines, 6 significant digits) replicated with renumbered ids and one odometry
+  edge joining each copy to the previous one, so that the initial values chain over the whole
+  file (the issue's 254 MiB file). Baseline: ``numpy.loadtxt(path, usecols=range(1, 30))`` on
+  the same file (the tag dropped: ids as float64, no conversion, no chaining).
+
+``--only edge3`` (or ``tum,kitti,g2o3d,g2o2d,edge3``) runs only those rows and replaces them in
+an existing ``--out`` file, keeping its other rows.
 
 Times: the candidates interleaved, ``--repeat`` times, median (``run.interleaved``). Memory: each
 reader once in a fresh subprocess: peak traced by ``tracemalloc`` (numpy and Python allocations),
@@ -77,7 +86,7 @@ if kind == "read_tum":
     from liebridge.io.trajectory import read_tum as fn
 elif kind == "read_kitti":
     from liebridge.io.trajectory import read_kitti as fn
-elif kind == "read_g2o_3d":
+elif kind in ("read_g2o_3d", "read_g2o_edge3"):
     from liebridge.io.g2o import read as fn
 elif kind == "read_g2o_2d":
     from liebridge.io.g2o2d import read as fn
@@ -288,6 +297,54 @@ def graphs(mib3: float, mib2: float, repeat: int, d: Path) -> list[dict[str, Any
     return rows
 
 
+def _replicate_edge3(src: Path, dst: Path, mib: float) -> tuple[int, int]:
+    """Write copies of an ``EDGE3``-only file, ids shifted by ``n`` per copy; return the sizes.
+
+    Each copy's first vertex is joined to the previous copy's last by a copy of the edge
+    ``0 -> 1``: one odometry chain; copies are added until the file holds ``mib`` MiB (ASCII).
+    Returns ``(vertices, edges)``.
+    """
+    edges = [ln.split(" ", 3) for ln in src.read_text().splitlines() if ln.startswith("EDGE3 ")]
+    n = 1 + max(max(int(i), int(j)) for _, i, j, _ in edges)
+    link = next(rest for _, i, j, rest in edges if (int(i), int(j)) == (0, 1))
+    copies, size = 0, 0
+    with open(dst, "w", encoding="utf-8") as fh:
+        while copies == 0 or size < mib * 2**20:  # copies until the file holds mib MiB
+            o = n * copies
+            text = f"EDGE3 {o - 1} {o} {link}\n" if copies else ""
+            text += "".join(f"{t} {int(i) + o} {int(j) + o} {rest}\n" for t, i, j, rest in edges)
+            size += fh.write(text)
+            copies += 1
+    return n * copies, len(edges) * copies + copies - 1
+
+
+def edge3_graph(mib: float, repeat: int, d: Path) -> list[dict[str, Any]]:
+    import gtsam
+
+    if mib <= 0:
+        return []
+    path = d / "sphere2500_edge3.txt"
+    n_vertices, n_edges = _replicate_edge3(
+        Path(gtsam.findExampleDataFile("sphere2500.txt")), path, mib
+    )
+    return [
+        _row(
+            "read_g2o_edge3",
+            path,
+            lambda: g2o.read(path),
+            lambda: np.loadtxt(path, usecols=range(1, 30)),
+            (str(path), "1:30"),
+            None,
+            repeat,
+            "numpy.loadtxt(path, usecols=range(1, 30)) on the same file (the tag dropped)",
+            vertices=n_vertices,
+            edges=n_edges,
+            source="sphere2500.txt (GTSAM example data, EDGE3 lines only, no vertex lines) "
+            "replicated with renumbered ids, one odometry edge joining the copies",
+        )
+    ]
+
+
 def main(argv: list[str] | None = None) -> dict[str, Any]:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="benchmarks/results/files.json")
@@ -295,13 +352,21 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     ap.add_argument("--lines", type=int, default=None)
     ap.add_argument("--g2o-mib", type=float, default=None)
     ap.add_argument("--g2o2d-mib", type=float, default=None)
+    ap.add_argument("--edge3-mib", type=float, default=None)
     ap.add_argument("--repeat", type=int, default=None)
+    ap.add_argument("--only", default=None, help="comma list of tum,kitti,g2o3d,g2o2d,edge3")
     args = ap.parse_args(argv)
     q = args.quick
     repeat = args.repeat or (1 if q else 3)
     lines = args.lines or (2000 if q else 1_000_000)
     mib3 = args.g2o_mib if args.g2o_mib is not None else (2.0 if q else 254.0)
     mib2 = args.g2o2d_mib if args.g2o2d_mib is not None else (1.0 if q else 64.0)
+    mibe = args.edge3_mib if args.edge3_mib is not None else (2.0 if q else 254.0)
+    only = set(args.only.split(",")) if args.only else None
+    if only is not None:
+        mib3 = mib3 if "g2o3d" in only else 0.0
+        mib2 = mib2 if "g2o2d" in only else 0.0
+        mibe = mibe if "edge3" in only else 0.0
     lscpu = subprocess.run(["lscpu"], capture_output=True, text=True, check=False).stdout
     out: dict[str, Any] = {
         "command": " ".join(["python benchmarks/bench_files.py", *(argv or sys.argv[1:])]),
@@ -312,7 +377,19 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     }
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
-        out["rows"] = trajectories(lines, repeat, d) + graphs(mib3, mib2, repeat, d)
+        rows = trajectories(lines, repeat, d) if only is None or {"tum", "kitti"} & only else []
+        if only is not None:
+            keep = {"tum": "read_tum", "kitti": "read_kitti"}
+            rows = [r for r in rows if any(r["op"] == keep[k] for k in only if k in keep)]
+        rows += graphs(mib3, mib2, repeat, d) + edge3_graph(mibe, repeat, d)
+    if only is not None and Path(args.out).exists():  # replace these rows, keep the others
+        old = json.loads(Path(args.out).read_text())
+        for r in rows:
+            r["command"] = out["command"]
+        new_ops = {r["op"] for r in rows}
+        rows = [r for r in old["rows"] if r["op"] not in new_ops] + rows
+        out = {**old, **{k: v for k, v in out.items() if k != "command"}}
+    out["rows"] = rows
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Path(args.out).write_text(json.dumps(out, indent=2) + "\n")
     return out

@@ -26,11 +26,22 @@ def _data(name: str) -> str:
 
 
 def _same_3d(a: g2o.G2OGraph, b: g2o.G2OGraph, euler: bool = False) -> None:
+    """Same graph: bitwise, except what goes through other arithmetic on the two paths.
+
+    With ``euler`` (``EDGE3`` lines): the information ``Eᵀ Λ E`` (matmul there, entry by entry
+    in the batched ``EDGE3`` path) and the measured quaternions (from the matrix there, in
+    closed form here), to rounding relative to the largest entry. Without vertex lines: the
+    chained poses (one product per vertex there, a blocked scan here), likewise.
+    """
     for f in FIELDS_3D:
         x, y = getattr(a, f), getattr(b, f)
         assert x.dtype == y.dtype and x.shape == y.shape, f
-        if f == "information" and euler:  # E^T Λ E through matmul (BLAS): tolerance
-            np.testing.assert_allclose(x, y, rtol=1e-15, atol=0, err_msg=f)
+        rounded = euler and f in ("information", "measured_xyz_qxyzw")
+        rounded |= b.vertices_from_odometry and f == "vertex_xyz_qxyzw"
+        if rounded:
+            scale = max(1.0, float(np.abs(y).max())) if y.size else 1.0
+            tol = 1e-13 if f == "vertex_xyz_qxyzw" else 4e-16
+            np.testing.assert_allclose(x, y, rtol=0, atol=tol * scale, err_msg=f)
         else:  # parsed numbers, normalised quaternions, gathered and scaled by 2^-k: exact
             assert x.tobytes() == y.tobytes(), f
     assert a.fixed == b.fixed
@@ -327,10 +338,11 @@ def test_gimbal_locked_edge3_names_its_line(tmp_path: Path) -> None:
 
 def test_graph_arrays_from_the_fast_path_are_read_only_and_owned(tmp_path: Path) -> None:
     g = g2o.read(_write(tmp_path, _graph_lines(5)))
+    g3 = g2o.read(_write(tmp_path, _edge3_graph("reversed", 70), "e3.txt"))  # EDGE3 only
     for f in FIELDS_3D:
-        a = getattr(g, f)
-        assert not a.flags.writeable
-        assert a.dtype.names is None and a.flags.c_contiguous  # not a view of a parsed table
+        for a in (getattr(g, f), getattr(g3, f)):
+            assert not a.flags.writeable
+            assert a.dtype.names is None and a.flags.c_contiguous  # not a view of a table
     # the public constructor still copies what the caller passes
     info = np.array(g.information)
     h = g2o.G2OGraph(
@@ -427,3 +439,228 @@ def test_empty_and_comment_only_files_give_empty_graphs_on_both_paths(
     fast2 = g2o2d._read_tables(path, "auto")
     assert fast2 is not None
     _same_2d(fast2, g2o2d._read_lines(path, "auto"))
+
+
+# ----------------------------------------------- EDGE3 only (TORO / iSAM layout), issue 23
+def _edge3(i: int, j: int, rng: np.random.Generator, S: Any = None, big: bool = False) -> str:
+    """An ``EDGE3`` line: translation, roll pitch yaw (pitch away from ±π/2), 21 numbers."""
+    rpy = rng.uniform(-np.pi, np.pi, size=3) * (1.0 if big else 0.2)
+    rpy[1] = np.clip(rpy[1], -1.4, 1.4)
+    if S is None:
+        # diagonally dominant: positive definite read as S (SᵀS) or as the information itself
+        S = np.triu(rng.uniform(-0.8, 0.8, size=(6, 6)), 1) + np.diag(rng.uniform(5, 50, 6))
+    nums = [*rng.normal(size=3) * 3, *rpy, *np.asarray(S)[np.triu_indices(6)]]
+    return f"EDGE3 {i} {j} " + " ".join(repr(float(x)) for x in nums)
+
+
+def _edge3_graph(layout: str, n: int, seed: int = 0, first: int = 0) -> list[str]:
+    """EDGE3-only files: odometry in several shapes, loop closures, varied or shared numbers."""
+    rng = np.random.default_rng(seed)
+    shared = np.diag([10.0, 10.0, 10.0, 100.0, 100.0, 25.0])  # sphere2500's numbers
+    S = shared if layout == "shared" else None
+    ids = [first + k for k in range(n)]
+    lines = [_edge3(ids[k], ids[k + 1], rng, S, big=layout == "big") for k in range(n - 1)]
+    for _ in range(n // 3):  # loop closures: not odometry
+        a, b = sorted(int(x) for x in rng.choice(n, 2, replace=False))
+        if b > a + 1:
+            lines.append(_edge3(ids[a], ids[b], rng, S))
+    if layout == "reversed":  # (k, k-1) edges, some alone (inverted), some besides (k-1, k)
+        for k in range(1, n, 3):
+            lines[k - 1] = _edge3(ids[k], ids[k - 1], rng)  # alone: the last of them is used
+            lines.append(_edge3(ids[k], ids[k - 1], rng))
+        for k in range(2, n, 5):
+            lines.append(_edge3(ids[k], ids[k - 1], rng))  # a (k-1, k) exists: ignored
+            lines.insert(0, _edge3(ids[k - 1], ids[k], rng))  # two (k-1, k): the first wins
+    if layout in ("shuffled", "reversed"):
+        order = rng.permutation(len(lines))
+        lines = [lines[k] for k in order]
+    return lines
+
+
+@pytest.mark.parametrize("layout", ["chain", "shared", "big", "shuffled", "reversed"])
+@pytest.mark.parametrize(
+    ("information", "edge3"),
+    [("g2o", "sqrt_information"), ("g2o", "information"), ("gtsam", "sqrt_information")],
+)
+def test_edge3_only_fast_equals_line_reader(
+    tmp_path: Path, layout: str, information: str, edge3: str
+) -> None:
+    """1,100 vertices: the blocked scan runs two levels of blocks and a tail."""
+    path = _write(tmp_path, _edge3_graph(layout, 1100, first=7))
+    g = _fast_equals_slow_3d(path, information=information, edge3=edge3)
+    assert g.vertices_from_odometry
+    assert g.vertex_ids.tolist() == list(range(7, 1107))
+
+
+def test_edge3_near_2_64_and_small_chains(tmp_path: Path) -> None:
+    for n, first in ((2, 0), (3, 5), (33, 0), (40, 2**64 - 41)):
+        path = _write(tmp_path, _edge3_graph("reversed", n, seed=n, first=first))
+        g = _fast_equals_slow_3d(path)
+        assert g.vertex_ids.tolist() == list(range(first, first + n))
+
+
+def test_edge3_chunk_boundaries(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    path = _write(tmp_path, ["# TORO", *_edge3_graph("shuffled", 50), "# end"])
+    monkeypatch.setattr(g2o, "_CHUNK", 7)
+    monkeypatch.setattr(g2o, "_STREAM_ROWS", 6)  # rows parsed and converted 6 at a time
+    _fast_equals_slow_3d(path)
+    _fast_equals_slow_3d(path, information="gtsam")
+
+
+@pytest.mark.parametrize(
+    ("drop", "message"),
+    [
+        ("gap", "no vertex lines and no odometry edge 10 -> 11"),  # ids 0..9 and 11..
+        ("no_odometry", "no vertex lines and no odometry edge 4 -> 5"),  # 5 only in a loop
+    ],
+)
+def test_edge3_chain_gaps_name_the_missing_edge(tmp_path: Path, drop: str, message: str) -> None:
+    rng = np.random.default_rng(1)
+    if drop == "gap":
+        lines = [_edge3(k, k + 1, rng) for k in range(19) if k not in (9, 10)]  # 10 absent
+    else:
+        lines = [_edge3(k, k + 1, rng) for k in range(10) if k != 4]
+        lines.append(_edge3(2, 5, rng))
+    path = _write(tmp_path, lines)
+    msg = _error(lambda: g2o.read(path))
+    assert msg == _error(lambda: g2o._read_lines(path, "g2o", "sqrt_information"))
+    assert message in msg, msg
+
+
+@pytest.mark.parametrize("header", [True, False])  # False: the file starts with EDGE3
+@pytest.mark.parametrize(
+    "what", ["count", "word", "nan", "inf", "self", "id_negative", "id_2_64", "tag"]
+)
+def test_malformed_edge3_line_keeps_its_message_and_line(
+    tmp_path: Path, what: str, header: bool
+) -> None:
+    lines = ["# TORO"] * header + _edge3_graph("chain", 12)
+    k = 6  # line 7 of the file
+    path = _write(tmp_path, _corrupt(lines, k, what))
+    msg = _error(lambda: g2o.read(path))
+    assert msg == _error(lambda: g2o._read_lines(path, "g2o", "sqrt_information"))
+    assert msg.startswith(f"{path}:{k + 1}: "), msg
+
+
+def test_edge3_information_overflow_names_its_line(tmp_path: Path) -> None:
+    rng = np.random.default_rng(2)
+    lines = [_edge3(k, k + 1, rng) for k in range(6)]
+    lines[3] = _edge3(3, 4, rng, S=np.diag([1e200, 1.0, 1.0, 1.0, 1.0, 1.0]))  # SᵀS: inf
+    path = _write(tmp_path, lines)
+    assert g2o._read_tables(path, "g2o", "sqrt_information") is None
+    msg = _error(lambda: g2o.read(path))
+    assert msg == _error(lambda: g2o._read_lines(path, "g2o", "sqrt_information"))
+    assert msg.startswith(f"{path}:4: "), msg
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_closed_form_euler_quaternion_matches_the_matrix_route(seed: int) -> None:
+    from liebridge.conventions.rotation_coords import euler_to_matrix
+    from liebridge.lie import quaternion as quat
+
+    rng = np.random.default_rng(seed)
+    rpy = rng.uniform(-np.pi, np.pi, size=(500, 3))
+    rpy[:, 1] /= 2.0
+    rpy[:5] = [[0, 0, 0], [np.pi, 0, 0], [0, 0, np.pi], [1e-12, -1e-12, 3.0], [3.1, 1.5, -3.1]]
+    q = g2o._rpy_quaternion(rpy)
+    ref = quat.from_matrix(euler_to_matrix(rpy, "euler_rpy"), order="xyzw")
+    sign = np.where(np.sum(q * ref, axis=-1) < 0, -1.0, 1.0)  # w = 0 exactly: either sign
+    np.testing.assert_allclose(q, sign[:, None] * ref, rtol=0, atol=1e-15)
+    assert (q[:, 3] >= 0).all()
+    np.testing.assert_allclose(
+        quat.to_matrix(q, order="xyzw"), euler_to_matrix(rpy, "euler_rpy"), rtol=0, atol=1e-15
+    )
+
+
+@pytest.mark.parametrize("n", [1, 2, 32, 33, 1025, 1100])
+def test_prefix_compose_equals_the_left_to_right_product(n: int) -> None:
+    from liebridge.lie import quaternion as quat
+
+    rng = np.random.default_rng(n)
+    q = rng.normal(size=(n, 4))
+    q /= np.linalg.norm(q, axis=-1, keepdims=True)
+    t = rng.normal(size=(n, 3)) * 10
+    Q, T = g2o._prefix_compose(q, t)
+    M = np.eye(4)
+    for k in range(n):
+        S = np.eye(4)
+        S[:3, :3], S[:3, 3] = quat.to_matrix(q[k], order="xyzw"), t[k]
+        M = M @ S
+        np.testing.assert_allclose(quat.to_matrix(Q[k], order="xyzw"), M[:3, :3], atol=1e-12)
+        np.testing.assert_allclose(T[k], M[:3, 3], atol=1e-12 * max(1.0, np.abs(M).max()))
+
+
+@pytest.mark.parametrize(
+    "variant",
+    ["plain", "no_final_newline", "crlf", "comment", "blank", "fix", "vertex", "tab", "bare_cr"],
+)
+def test_edge3_first_files_take_the_shortcut_or_fall_back(tmp_path: Path, variant: str) -> None:
+    """A file starting with ``EDGE3`` is read without the tag pass when it is nothing else."""
+    lines = _edge3_graph("chain", 40)
+    end, tail = "\n", ""
+    if variant == "crlf":
+        end = "\r\n"
+    elif variant == "comment":
+        lines.insert(20, "# a comment")
+    elif variant == "blank":
+        lines.insert(20, "")
+    elif variant == "fix":
+        lines.append("FIX 0")
+    elif variant == "vertex":
+        lines.append("VERTEX3 0 0 0 0 0 0 0")
+    elif variant == "tab":
+        lines[5] = lines[5].replace(" ", "\t", 3)
+    text = end.join(lines) + end
+    if variant == "no_final_newline":
+        text = text[:-1]
+    if variant == "bare_cr":  # a lone carriage return: two lines for Python, one for the count
+        text = text.replace("\n", "\r", 1)
+    path = tmp_path / "g.g2o"
+    path.write_bytes((text + tail).encode())
+    shortcut = g2o._read_edge3_only(path, {"EDGE3": (2, 27)}, g2o._Edge3Sink("g2o", "information"))
+    assert (shortcut is not None) == (variant not in ("fix", "vertex"))
+    if variant == "vertex":  # vertex lines: every edge's vertices need one
+        msg = _error(lambda: g2o.read(path))
+        assert msg == _error(lambda: g2o._read_lines(path, "g2o", "sqrt_information"))
+        assert "which has no VERTEX line" in msg
+        return
+    g = _fast_equals_slow_3d(path)
+    assert g.edges.shape[0] == sum(ln.startswith("EDGE3") for ln in lines)
+    assert g.fixed == ((0,) if variant == "fix" else ())
+
+
+def test_edge3_underscore_number_is_read_as_python_reads_it(tmp_path: Path) -> None:
+    lines = _edge3_graph("chain", 5)
+    path = _write(tmp_path, _corrupt(lines, 2, "underscore"))  # field 4 (y) = "1_0.5"
+    assert g2o._read_tables(path, "g2o", "sqrt_information") is None
+    assert g2o.read(path).measured_xyz_qxyzw[2, 1] == 10.5
+
+
+def test_edge3_shortcut_estimates_grows_and_refuses_comment_blocks(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """Rows sized from the first chunk's bytes: longer lines later make the arrays grow."""
+    monkeypatch.setattr(g2o, "_STREAM_ROWS", 4)
+    monkeypatch.setattr(g2o, "_EDGE3_SLACK_ROWS", 0)
+    sizes: list[int] = []
+    resize = g2o._Edge3Sink.resize
+
+    def spy(self: g2o._Edge3Sink, n: int, keep: int) -> None:
+        sizes.append(n)
+        resize(self, n, keep)
+
+    monkeypatch.setattr(g2o._Edge3Sink, "resize", spy)
+    lines = _edge3_graph("chain", 60)
+    lines[:8] = [" ".join(ln.split()[:3] + ["0"] * 27) for ln in lines[:8]]  # short lines first
+    lines[8:20] = [ln.replace(" ", "   ") for ln in lines[8:20]]  # then long ones
+    path = _write(tmp_path, lines)
+    sink = g2o._Edge3Sink("g2o", "sqrt_information")
+    assert g2o._read_edge3_only(path, {"EDGE3": (2, 27)}, sink) is not None
+    assert sink.info.shape[0] == len(lines)
+    assert len(sizes) > 2 and sizes[-2] > sizes[0]  # grown at least once, then trimmed
+    _fast_equals_slow_3d(path)
+    lines = _edge3_graph("chain", 20)
+    path = _write(tmp_path, [*lines[:8], *["# c"] * 4, *lines[8:]])  # a chunk of comments only
+    sink = g2o._Edge3Sink("g2o", "sqrt_information")
+    assert g2o._read_edge3_only(path, {"EDGE3": (2, 27)}, sink) is None
+    _fast_equals_slow_3d(path)

@@ -75,6 +75,7 @@ the pose parameters are stored exactly as read, so ``read(write(g))`` reproduces
 
 from __future__ import annotations
 
+import io
 import itertools
 import math
 import os
@@ -547,7 +548,10 @@ def read(
     precision allows and beyond the precision it was printed with, an id out of range, a
     duplicate vertex, a singular Euler chart, an information matrix that is not positive
     semi-definite — sends the file to the line-by-line reader, which gives the same graph and
-    names the first faulty line.
+    names the first faulty line. A file of ``EDGE3`` lines only (TORO / iSAM, ``sphere2500.txt``)
+    is parsed and converted in chunks (:func:`_read_edge3_only`), its information maps written by
+    3×3 blocks on columns and its initial values chained by a blocked scan; equal to the line
+    reader's to rounding.
     """
     information = validate.option(information, "information", ("g2o", "gtsam"))  # type: ignore[assignment]
     edge3 = validate.option(edge3, "edge3", ("sqrt_information", "information"))  # type: ignore[assignment]
@@ -762,8 +766,31 @@ class _Table(NamedTuple):
     values: FloatArray
 
 
+class RowSink:
+    """Takes the rows of one tag chunk by chunk as :func:`read_tagged` parses them.
+
+    ``start(n)`` is called once with the number of rows, then ``take(lo, values)`` for the
+    values of rows ``lo .. lo + len(values)`` (file order, already checked finite); ``take``
+    returns False to refuse the file (the line reader then names the fault).
+    """
+
+    def start(self, n: int) -> None:  # pragma: no cover - interface
+        raise NotImplementedError
+
+    def take(self, lo: int, values: FloatArray) -> bool:  # pragma: no cover - interface
+        raise NotImplementedError
+
+
+#: Rows per ``loadtxt`` call when a tag's rows go to a :class:`RowSink` (a few MiB of records,
+#: reused by the allocator: the parsed table of the whole file is never held).
+_STREAM_ROWS = 1 << 15
+
+
 def read_tagged(
-    path: PathLike, columns: dict[str, tuple[int, int]], skip: Sequence[str] = ()
+    path: PathLike,
+    columns: dict[str, tuple[int, int]],
+    skip: Sequence[str] = (),
+    sinks: dict[str, RowSink] | None = None,
 ) -> tuple[dict[str, _Table], list[int], dict[str, int]] | None:
     """Parse a well-formed graph file with ``numpy.loadtxt``, one pass per tag (issue 23).
 
@@ -777,7 +804,10 @@ def read_tagged(
     go to one ``loadtxt`` call: read from the file itself (``skiprows``, ``max_rows``) when
     they form one block with nothing but comments between them (vertices, then edges: the
     usual layout), else picked out by :func:`itertools.compress`. Memory is the tables, never
-    a copy of the file.
+    a copy of the file. The rows of a tag in ``sinks`` are instead parsed
+    :data:`_STREAM_ROWS` at a time (``loadtxt`` on :func:`itertools.islice` of the tag's lines)
+    and handed to its :class:`RowSink` (issue 23: the table of the whole file is never held, and
+    its memory is not touched twice); that tag's table then has ``values`` of width 0.
     """
     if not isinstance(path, str | os.PathLike):
         return None
@@ -821,6 +851,12 @@ def read_tagged(
             lines = np.flatnonzero(mask) + 1
             dtype = np.dtype([("tag", "S1"), ("ids", "u8", (n_ids,)), ("x", "f8", (n_values,))])
             block = tag_of_line[lines[0] - 1 : lines[-1]] if lines.shape[0] else tag_of_line[:0]
+            if sinks is not None and tag in sinks:
+                ids = _stream_rows(path, mask, dtype, sinks[tag], lines.shape[0])
+                if ids is None:
+                    return None
+                tables[tag] = _Table(lines, ids, np.zeros((lines.shape[0], 0)))
+                continue
             if lines.shape[0] == 0:
                 rec = np.zeros(0, dtype=dtype)
             elif ((block == code[tag]) | (block == 0)).all():  # one block: numpy reads the file
@@ -855,6 +891,33 @@ def read_tagged(
 
 #: Tag code of a line :func:`read_tagged` has taken (FIX, a skipped tag): not a blank line.
 _OTHER = 255
+
+
+def _stream_rows(
+    path: PathLike, mask: npt.NDArray[np.bool_], dtype: np.dtype[Any], sink: RowSink, n: int
+) -> KeyArray | None:
+    """Parse the lines ``mask`` picks, :data:`_STREAM_ROWS` at a time, into ``sink``; the ids."""
+    sink.start(n)
+    ids = np.empty((n, dtype["ids"].shape[0]), dtype=np.uint64)
+    lo = 0
+    with open(path, encoding="utf-8") as fh, warnings.catch_warnings():
+        warnings.simplefilter("error")  # not a number numpy would read with a warning
+        rows = itertools.compress(fh, mask.tobytes())
+        while lo < n:
+            rec = np.loadtxt(
+                itertools.islice(rows, _STREAM_ROWS), dtype=dtype, comments="#", ndmin=1
+            )
+            k = rec.shape[0]
+            if k == 0 or lo + k > n:
+                return None
+            x = rec["x"]
+            if (rec["ids"] > validate.MAX_KEY).any() or not _all_finite(x):
+                return None
+            ids[lo : lo + k] = rec["ids"]
+            if not sink.take(lo, x):
+                return None
+            lo += k
+    return ids
 
 
 def _all_finite(x: FloatArray) -> bool:
@@ -901,10 +964,17 @@ def _read_tables(
     path: PathLike, information: InformationReading, edge3: Edge3Numbers
 ) -> G2OGraph | None:
     """Read with :func:`read_tagged` and batched checks; None if anything is unusual."""
-    got = read_tagged(
-        path,
-        {"VERTEX_SE3:QUAT": (1, 7), "VERTEX3": (1, 6), "EDGE_SE3:QUAT": (2, 28), "EDGE3": (2, 27)},
-    )
+    columns = {
+        "VERTEX_SE3:QUAT": (1, 7),
+        "VERTEX3": (1, 6),
+        "EDGE_SE3:QUAT": (2, 28),
+        "EDGE3": (2, 27),
+    }
+    sink = _Edge3Sink(information, edge3)
+    got = _read_edge3_only(path, columns, sink)
+    if got is None:
+        sink = _Edge3Sink(information, edge3)
+        got = read_tagged(path, columns, sinks={"EDGE3": sink})
     if got is None:
         return None
     tables, fixed, _ = got
@@ -931,25 +1001,21 @@ def _read_tables(
     edges = in_file_order([(eq.lines, eq.ids), (e3.lines, e3.ids)])
     if (edges[:, 0] == edges[:, 1]).any():
         return None
-    euler = in_file_order(
-        [(eq.lines, np.zeros(eq.lines.shape, bool)), (e3.lines, np.ones(e3.lines.shape, bool))]
-    )
-    if information == "g2o" and (np.abs(np.cos(e3.values[:, 4])) < 1e-9).any():
-        return None
-    if e3.lines.shape[0] == 0:  # views of the table, no copy (the common case)
-        raw7 = np.concatenate([eq.values[:, :3], qe], axis=-1)
-        nums = eq.values[:, 7:]
-    else:
-        raw7_q = np.concatenate([eq.values[:, :3], qe], axis=-1)
-        raw7_3 = np.concatenate([e3.values[:, :6], np.zeros((e3.values.shape[0], 1))], axis=-1)
-        raw7 = in_file_order([(eq.lines, raw7_q), (e3.lines, raw7_3)])
-        nums = in_file_order([(eq.lines, eq.values[:, 7:]), (e3.lines, e3.values[:, 6:])])
+    # EDGE3 rows: converted by the sink as they were parsed; EDGE_SE3:QUAT rows: here
+    raw7 = np.concatenate([eq.values[:, :3], qe], axis=-1)
     try:
-        measured, info = _edge_arrays(raw7, nums, euler, information, edge3)
+        measured_q, info_q = _edge_arrays(
+            raw7, eq.values[:, 7:], np.zeros(eq.lines.shape, bool), information, edge3
+        )
     except _BadEdge:
         return None
-    edges = np.array(edges)
-    del tables, vq, v3, eq, e3, nums, raw7, got  # the parsed tables: freed before the copies
+    del raw7
+    measured = in_file_order([(eq.lines, measured_q), (e3.lines, sink.measured)])
+    info = in_file_order([(eq.lines, info_q), (e3.lines, sink.info)])
+    del measured_q, info_q, sink
+    if isinstance(edges.base, np.ndarray) and edges.base.dtype.names:  # a view of a parsed
+        edges = np.array(edges)  # table: copied, so that the table is freed
+    del tables, vq, v3, eq, e3, got  # the parsed tables: freed before the copies
     P = _Parser(path)
     try:
         ids, vpar, from_odometry = vertices(
@@ -958,6 +1024,7 @@ def _read_tables(
             (edges, e_lines, lambda: _layouts.to_matrix(measured, layout="xyz_qxyzw")),
             fixed,
             lambda T: _layouts.from_matrix(T, layout="xyz_qxyzw"),
+            chain=lambda: _chain_odometry(edges, measured),
         )
         return G2OGraph._adopt(
             vertex_ids=ids,
@@ -971,6 +1038,462 @@ def _read_tables(
         )
     except ValueError:
         return None
+
+
+#: Rows added to the estimate of :func:`_read_edge3_only` (the arrays grow if it falls short).
+_EDGE3_SLACK_ROWS = 1024
+
+
+def _read_edge3_only(
+    path: PathLike, columns: dict[str, tuple[int, int]], sink: _Edge3Sink
+) -> tuple[dict[str, _Table], list[int], dict[str, int]] | None:
+    """:func:`read_tagged` for a file of ``EDGE3`` lines only (TORO / iSAM), without its tag pass.
+
+    Tried when the file starts with ``EDGE3``: the lines are parsed :data:`_STREAM_ROWS` at a
+    time into ``sink`` with the tag read as a field and checked, the sink's arrays sized from
+    the bytes the first rows took (grown if the estimate falls short, trimmed at the end).
+    Comments and blank lines are skipped as ``loadtxt`` skips them (no line number is needed
+    unless a line is faulty). ``None`` — and :func:`read_tagged` decides — unless every other
+    line is an ``EDGE3`` line with ids and 27 finite numbers (another tag, ``FIX``, a bad field).
+    """
+    if not isinstance(path, str | os.PathLike):
+        return None
+    try:
+        with open(path, "rb") as fb:
+            if not fb.read(6) == b"EDGE3 ":
+                return None
+            size = os.fstat(fb.fileno()).st_size
+        dtype = np.dtype([("tag", "S8"), ("ids", "u8", (2,)), ("x", "f8", (27,))])
+        ids = np.empty((0, 2), dtype=np.uint64)
+        lo = 0
+        with (
+            open(path, "rb") as raw,
+            io.TextIOWrapper(raw, encoding="utf-8") as fh,
+            warnings.catch_warnings(),
+        ):
+            warnings.simplefilter("error")  # a number read with a warning
+            warnings.filterwarnings("ignore", "loadtxt: input contained no data", UserWarning)
+            warnings.filterwarnings("ignore", "Input line", UserWarning)  # comment lines
+            while True:
+                rec = np.loadtxt(
+                    itertools.islice(fh, _STREAM_ROWS), dtype=dtype, comments="#", ndmin=1
+                )
+                k = rec.shape[0]
+                if k == 0:
+                    if fh.readline():  # a block of comment or blank lines only: unusual
+                        return None
+                    break
+                if lo + k > ids.shape[0]:  # rows so far, per byte so far: the rest, and 5 % more
+                    done = max(raw.tell(), 1)
+                    cap = lo + k + int(1.05 * (lo + k) * max(size - done, 0) / done)
+                    cap += _EDGE3_SLACK_ROWS
+                    sink.resize(cap, lo)
+                    ids = np.concatenate([ids[:lo], np.empty((cap - lo, 2), np.uint64)])
+                if not (rec["tag"] == b"EDGE3").all():
+                    return None
+                x = rec["x"]
+                if (rec["ids"] > validate.MAX_KEY).any() or not _all_finite(x):
+                    return None
+                ids[lo : lo + k] = rec["ids"]
+                if not sink.take(lo, x):
+                    return None
+                lo += k
+    except (ValueError, Warning, OSError):
+        return None
+    sink.resize(lo, lo)
+    tables = {
+        tag: _Table(
+            np.zeros(0, dtype=np.intp), np.zeros((0, k_ids), np.uint64), np.zeros((0, k_values))
+        )
+        for tag, (k_ids, k_values) in columns.items()
+    }
+    # rows numbered 1..n: on this path no line is named (a faulty one goes to the line reader)
+    tables["EDGE3"] = _Table(np.arange(1, lo + 1), ids[:lo], np.zeros((lo, 0)))
+    return tables, [], {}
+
+
+# ---------------------------------------------------------------- EDGE3 fast path (issue 23)
+
+
+class _Edge3Sink(RowSink):
+    """``EDGE3`` rows → measurements ``"xyz_qxyzw"`` and information over ``(ω, v)``, by chunk.
+
+    Values are ``x y z roll pitch yaw`` + the 21 numbers; :meth:`take` refuses a
+    gimbal-locked measurement (``information="g2o"``) or a conversion that overflows, which
+    the line reader then names.
+    """
+
+    def __init__(self, information: InformationReading, edge3: Edge3Numbers) -> None:
+        self.information, self.edge3 = information, edge3
+        self.measured = np.zeros((0, 7))
+        self.info = np.zeros((0, 6, 6))
+
+    def start(self, n: int) -> None:
+        self.measured = np.empty((n, 7))
+        self.info = np.empty((n, 6, 6))
+
+    def resize(self, n: int, keep: int) -> None:
+        """Room for ``n`` rows, the first ``keep`` kept: trimmed as views, grown by a copy."""
+        if n <= self.measured.shape[0]:
+            self.measured, self.info = self.measured[:n], self.info[:n]
+        else:
+            measured, info = np.empty((n, 7)), np.empty((n, 6, 6))
+            measured[:keep], info[:keep] = self.measured[:keep], self.info[:keep]
+            self.measured, self.info = measured, info
+
+    def take(self, lo: int, values: FloatArray) -> bool:
+        hi = lo + values.shape[0]
+        if self.information == "g2o" and (np.abs(np.cos(values[:, 4])) < GIMBAL_TOL).any():
+            return False
+        self.measured[lo:hi, :3] = values[:, :3]
+        return _edge3_table(
+            values[:, 3:6],
+            values[:, 6:],
+            self.information,
+            self.edge3,
+            self.measured[lo:hi, 3:],
+            self.info[lo:hi],
+        )
+
+
+def _edge3_table(
+    rpy: FloatArray,
+    nums: FloatArray,
+    information: InformationReading,
+    edge3: Edge3Numbers,
+    q: FloatArray,
+    info: FloatArray,
+) -> bool:
+    """Write the quaternions ``(K, 4)`` and information over ``(ω, v)`` of ``EDGE3`` rows.
+
+    The batched form of :func:`_edge_information` for ``EDGE3`` rows (gimbal lock excluded by
+    the caller), written into ``q`` and ``info``. With ``E = [[0, R], [W, 0]]``
+    (:func:`_euler_error_map`) the product ``Eᵀ Λ_e E`` is formed by blocks,
+    ``Λ_ωω = Wᵀ Λ_rr W``, ``Λ_ωv = Wᵀ Λ_rt R``, ``Λ_vv = Rᵀ Λ_tt R`` (``Λ_e`` in the file's
+    ``(x, y, z, roll, pitch, yaw)`` order), entry by entry on columns of the batch
+    (:func:`_mul3`; numpy's stacked 3×3 ``matmul`` costs several times more per product),
+    skipping the zeros of ``W`` and of ``Λ_e``. When every row holds the same 21 numbers (TORO /
+    iSAM files usually do) ``Λ_e`` is formed once, and ``Λ_tt = c·I`` gives ``Λ_vv = c·I``
+    (``RᵀR = I``). The diagonal blocks are computed on and above the diagonal and mirrored
+    (exactly symmetric). Equal to :func:`_edge_information` to rounding
+    (``tests/test_g2o_fast.py``). Returns False if a conversion overflows.
+    """
+    m = rpy.shape[0]
+    lam_common = None
+    if information == "g2o" and m and bool((nums == nums[0]).all()):
+        with np.errstate(over="ignore", invalid="ignore"):  # reported below
+            lam_common = _lambda_e(nums[:1], edge3)[0]
+    # |numbers| ≤ 1e100, |W| ≤ 1/GIMBAL_TOL: every product below stays far below 1.8e308
+    bounded = bool(np.abs(nums[:1] if lam_common is not None else nums).max(initial=0) <= 1e100)
+    step = 8192  # columns of this many rows: the temporaries stay in cache
+    for lo in range(0, m, step):
+        sl = slice(lo, lo + step)
+        roll, pitch, yaw = (np.ascontiguousarray(rpy[sl, c]) for c in range(3))
+        q[sl] = _rpy_quaternion(rpy[sl])
+        out = info[sl]
+        if information == "gtsam":
+            out[...] = _triu_to_sym(nums[sl])
+            continue
+        cr, sr, cp, sp, cy, sy = (f(a) for a in (roll, pitch, yaw) for f in (np.cos, np.sin))
+        R = [  # Rz(yaw)·Ry(pitch)·Rx(roll), as in euler_to_matrix
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ]
+        W = [  # ZYX Euler rates per body rate, as in euler_rate_map
+            [1.0, sr * sp / cp, cr * sp / cp],
+            [0.0, cr, -sr],
+            [0.0, sr / cp, cr / cp],
+        ]
+        with np.errstate(over="ignore", invalid="ignore"):  # reported below
+            if lam_common is not None:
+                L: list[list[Any]] = lam_common.tolist()
+            else:
+                cols = [np.ascontiguousarray(nums[sl, c]) for c in range(21)]
+                L = _lambda_e_columns(cols, edge3)
+            rr = [row[3:] for row in L[3:]]
+            rt = [row[:3] for row in L[3:]]
+            tt = [row[:3] for row in L[:3]]
+            Wt = _transpose3(W)
+            ww = _mul3(Wt, _mul3(rr, W), sym=True)
+            wv = _mul3(Wt, _mul3(rt, R))
+            if lam_common is not None and _is_scaled_identity(lam_common[:3, :3]):
+                vv = [[tt[i][i] if i == j else 0.0 for j in range(3)] for i in range(3)]
+            else:
+                vv = _mul3(_transpose3(R), _mul3(tt, R), sym=True)
+            entries = {}
+            for i in range(3):
+                for j in range(3):
+                    entries[i, j] = ww[i][j]
+                    entries[i, 3 + j] = entries[3 + j, i] = wv[i][j]
+                    entries[3 + i, 3 + j] = vv[i][j]
+            const = {ij: v for ij, v in entries.items() if isinstance(v, float)}
+            if len(const) > 9:  # constants (zeros, c·I): one contiguous fill, then the columns
+                template = np.zeros((6, 6))
+                for ij, v in const.items():
+                    template[ij] = v
+                out[...] = template
+                entries = {ij: v for ij, v in entries.items() if ij not in const}
+            for (i, j), v in entries.items():
+                out[:, i, j] = v
+        if not bounded and not _all_finite(out):
+            return False
+    return True
+
+
+def _is_scaled_identity(A: FloatArray) -> bool:
+    return bool((A == A[0, 0] * np.eye(A.shape[0])).all())
+
+
+def _transpose3(A: list[list[Any]]) -> list[list[Any]]:
+    return [[A[j][i] for j in range(3)] for i in range(3)]
+
+
+def _mul3(A: list[list[Any]], B: list[list[Any]], sym: bool = False) -> list[list[Any]]:
+    """Return ``A @ B`` of 3×3 matrices given entry by entry (floats or columns of a batch).
+
+    Terms with a float factor ``0.0`` are skipped and float factors ``1.0`` not multiplied. With
+    ``sym`` the product is known symmetric: the entries below the diagonal are mirrored.
+    """
+    out: list[list[Any]] = [[0.0] * 3 for _ in range(3)]
+    for i in range(3):
+        for j in range(i if sym else 0, 3):
+            acc: Any = 0.0
+            for k in range(3):
+                a, b = A[i][k], B[k][j]
+                if (isinstance(a, float) and a == 0.0) or (isinstance(b, float) and b == 0.0):
+                    continue
+                term = (
+                    b
+                    if isinstance(a, float) and a == 1.0
+                    else a
+                    if (isinstance(b, float) and b == 1.0)
+                    else a * b
+                )
+                acc = term if isinstance(acc, float) and acc == 0.0 else acc + term
+            out[i][j] = acc
+            if sym:
+                out[j][i] = acc
+    return out
+
+
+def _lambda_e_columns(cols: list[FloatArray], edge3: Edge3Numbers) -> list[list[Any]]:
+    """:func:`_lambda_e` entry by entry on the 21 columns of a batch (``SᵀS`` or as is)."""
+    U: list[list[Any]] = [[0.0] * 6 for _ in range(6)]
+    for k, (r, c) in enumerate(zip(*_TRIU, strict=True)):
+        U[r][c] = cols[k]
+    if edge3 == "information":
+        return [[U[min(i, j)][max(i, j)] for j in range(6)] for i in range(6)]
+    out: list[list[Any]] = [[0.0] * 6 for _ in range(6)]
+    for i in range(6):
+        for j in range(i, 6):
+            acc: Any = 0.0
+            for k in range(min(i, j) + 1):  # (SᵀS)[i, j] = Σ_k S[k, i]·S[k, j], S upper
+                acc = U[k][i] * U[k][j] if k == 0 else acc + U[k][i] * U[k][j]
+            out[i][j] = out[j][i] = acc
+    return out
+
+
+def _rpy_quaternion(rpy: FloatArray) -> FloatArray:
+    """Return quaternions ``(K, 4)``, ``x y z w``, ``w ≥ 0``, of ``Rz(yaw)·Ry(pitch)·Rx(roll)``.
+
+    In closed form, ``q = q_z(yaw) ⊗ q_y(pitch) ⊗ q_x(roll)`` (half angles; no matrix →
+    quaternion round trip), the sign chosen with ``w ≥ 0`` as
+    :func:`liebridge.lie.quaternion.from_matrix` chooses it. Equal to
+    ``quat.from_matrix(_rpy_matrix(rpy))`` to rounding (``tests/test_g2o_fast.py``).
+    """
+    h = 0.5 * rpy
+    cr, sr = np.cos(h[:, 0]), np.sin(h[:, 0])
+    cp, sp = np.cos(h[:, 1]), np.sin(h[:, 1])
+    cy, sy = np.cos(h[:, 2]), np.sin(h[:, 2])
+    w = cr * cp * cy + sr * sp * sy
+    sign = np.where(w < 0.0, -1.0, 1.0)
+    q = np.empty((rpy.shape[0], 4))
+    q[:, 0] = sign * (sr * cp * cy - cr * sp * sy)
+    q[:, 1] = sign * (cr * sp * cy + sr * cp * sy)
+    q[:, 2] = sign * (cr * cp * sy - sr * sp * cy)
+    q[:, 3] = sign * w
+    return q
+
+
+def _lambda_e(nums: FloatArray, edge3: Edge3Numbers) -> FloatArray:
+    """``Λ_e`` over ``(x, y, z, roll, pitch, yaw)`` from the 21 numbers (``SᵀS`` or as is)."""
+    if edge3 == "sqrt_information":
+        S = _triu_to_upper(nums)
+        return np.swapaxes(S, -1, -2) @ S
+    return _triu_to_sym(nums)
+
+
+def _compose(
+    qa: FloatArray, ta: FloatArray, qb: FloatArray, tb: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """``(qa, ta)·(qb, tb) = (qa ⊗ qb, ta + R(qa)·tb)``: rigid transforms, quaternions ``x y z w``.
+
+    Arrays ``(..., 4)`` and ``(..., 3)``; :func:`_compose_columns` on their columns.
+    """
+    a = tuple(qa[..., i] for i in range(4)) + tuple(ta[..., i] for i in range(3))
+    b = tuple(qb[..., i] for i in range(4)) + tuple(tb[..., i] for i in range(3))
+    c = _compose_columns(a, b)
+    return np.stack(c[:4], axis=-1), np.stack(c[4:], axis=-1)
+
+
+Columns = tuple[FloatArray, ...]
+
+
+def _compose_columns(a: Columns, b: Columns) -> Columns:
+    """Compose rigid transforms given as 7 columns ``(qx, qy, qz, qw, tx, ty, tz)`` (broadcast).
+
+    ``(qa, ta)·(qb, tb) = (qa ⊗ qb, ta + R(qa)·tb)``, Hamilton product; ``R(q)·v = v + w·c +
+    u × c`` with ``c = 2u × v``, ``u = (x, y, z)`` (unit ``q``).
+    """
+    x1, y1, z1, w1, ax, ay, az = a
+    x2, y2, z2, w2, vx, vy, vz = b
+    cx = 2.0 * (y1 * vz - z1 * vy)
+    cy = 2.0 * (z1 * vx - x1 * vz)
+    cz = 2.0 * (x1 * vy - y1 * vx)
+    return (
+        w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+        w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+        w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
+        w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
+        ax + vx + w1 * cx + (y1 * cz - z1 * cy),
+        ay + vy + w1 * cy + (z1 * cx - x1 * cz),
+        az + vz + w1 * cz + (x1 * cy - y1 * cx),
+    )
+
+
+def _prefix_compose(q: FloatArray, t: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Inclusive prefix products ``P_k = s_0·s_1·…·s_k`` of rigid transforms ``(q, t)``.
+
+    ``q`` ``(n, 4)`` (``x y z w``), ``t`` ``(n, 3)``; :func:`_prefix_columns` on their columns.
+    Products are associated differently from a left-to-right loop, so results agree with it
+    to rounding.
+    """
+    cols = _prefix_columns(tuple(q[:, i] for i in range(4)) + tuple(t[:, i] for i in range(3)))
+    return np.stack(cols[:4], axis=-1), np.stack(cols[4:], axis=-1)
+
+
+def _prefix_columns(s: Columns) -> Columns:
+    """Inclusive prefix products of rigid transforms given as 7 columns ``(n,)`` each.
+
+    :func:`_prefix_blocks` on the columns laid out in blocks of 32, identity-padded.
+    """
+    n, B = s[0].shape[0], _SCAN_BLOCK
+    nb = -(-n // B)
+    blocks = []
+    for i, c in enumerate(s):
+        padded = np.full(nb * B, 1.0 if i == 3 else 0.0)  # identity padding: q = (0, 0, 0, 1)
+        padded[:n] = c
+        blocks.append(np.ascontiguousarray(padded.reshape(nb, B).T))  # (B, nb)
+    _prefix_blocks(blocks)
+    return tuple(c.T.reshape(-1)[:n] for c in blocks)
+
+
+#: Block length of the scan in :func:`_prefix_blocks`.
+_SCAN_BLOCK = 32
+
+
+def _prefix_blocks(blocks: list[FloatArray]) -> None:
+    """Replace transforms ``s`` by their inclusive prefix products ``s_0·s_1·…·s_(b·B + k)``.
+
+    ``blocks``: 7 columns (``qx qy qz qw tx ty tz``), each ``(B, nb)``, element ``b·B + k`` at
+    ``[k, b]``; replaced in place.
+
+    A blocked scan with no Python loop over the elements: the prefixes inside all ``nb``
+    blocks are formed together, one position at a time (``B − 1`` batched products of rows);
+    the blocks' totals (the last row) are scanned the same way, recursively; each block's
+    prefixes are then composed with the product of the blocks before it, row by row (the
+    temporaries stay a row's size). Products are associated differently from a left-to-right
+    loop, so results agree with it to rounding.
+    """
+    B, nb = blocks[0].shape
+    for k in range(1, B):
+        new = _compose_columns(tuple(c[k - 1] for c in blocks), tuple(c[k] for c in blocks))
+        for c, v in zip(blocks, new, strict=True):
+            c[k] = v
+    if nb == 1:
+        return
+    totals = [c[-1] for c in blocks]  # products of each block
+    m = -(-nb // B)
+    tb = []
+    for i, c in enumerate(totals):
+        padded = np.full(m * B, 1.0 if i == 3 else 0.0)
+        padded[:nb] = c
+        tb.append(np.ascontiguousarray(padded.reshape(m, B).T))
+    _prefix_blocks(tb)
+    before = tuple(c.T.reshape(-1)[: nb - 1] for c in tb)  # products of blocks 0..b
+    for k in range(B):
+        new = _compose_columns(before, tuple(c[k, 1:] for c in blocks))
+        for c, v in zip(blocks, new, strict=True):
+            c[k, 1:] = v
+
+
+def _chain_odometry(edges: KeyArray, measured: FloatArray) -> tuple[KeyArray, FloatArray] | None:
+    """Chain initial poses from odometry edges, batched; None where :func:`vertices` must say why.
+
+    The same choice of edges as the loop in :func:`vertices` — for vertex ``k`` the first edge
+    ``(k−1, k)`` in the file, else the last ``(k, k−1)``, inverted — and the same poses
+    ``T_k = T_{k−1}·Z``, from the identity at the smallest id, formed by
+    :func:`_prefix_blocks` on ``(q, t)`` instead of one 4×4 product per vertex. ``None`` if
+    the ids have a gap or a vertex has no odometry edge (the loop then raises its error).
+    Returns ``(ids, "xyz_qxyzw" rows)`` (quaternions ``w ≥ 0``). Memory: a few columns of the
+    vertex count besides the result (issue 23: fresh memory is most of the cost).
+    """
+    lo, hi = int(edges.min()), int(edges.max())
+    n = hi - lo  # steps: vertices lo + 1 .. hi
+    if n + 1 > edges.size:  # some id in [lo, hi] is missing
+        return None
+    i, j = edges[:, 0], edges[:, 1]
+    none = edges.shape[0]
+    fwd = np.flatnonzero(j == i + np.uint64(1))
+    first_fwd = np.full(n + 1, none, dtype=np.intp)
+    np.minimum.at(first_fwd, (j[fwd] - np.uint64(lo)).astype(np.intp), fwd)  # the first (k−1, k)
+    rev = np.flatnonzero(i == j + np.uint64(1))
+    last_rev = np.full(n + 1, -1, dtype=np.intp)
+    np.maximum.at(last_rev, (i[rev] - np.uint64(lo)).astype(np.intp), rev)  # else the last (k, k−1)
+    inverted = first_fwd[1:] == none
+    step = np.where(inverted, last_rev[1:], first_fwd[1:])
+    del first_fwd, last_rev, fwd, rev
+    if (step < 0).any():  # a vertex without an odometry edge (every id then has one: no gap)
+        return None
+    B = _SCAN_BLOCK
+    nb = -(-n // B)
+    pos = np.zeros(nb * B, dtype=np.intp)  # element b·B + k of the chain at [k, b]
+    pos[:n] = step
+    pos = np.ascontiguousarray(pos.reshape(nb, B).T)
+    pad = np.zeros(nb * B, dtype=bool)
+    pad[n:] = True
+    pad = pad.reshape(nb, B).T
+    blocks = []
+    for column in (3, 4, 5, 6, 0, 1, 2):  # qx qy qz qw tx ty tz
+        col = np.take(measured[:, column], pos)
+        col[pad] = 1.0 if column == 6 else 0.0  # identity padding
+        blocks.append(col)
+    inv = np.zeros(nb * B, dtype=bool)
+    inv[:n] = inverted
+    inv = inv.reshape(nb, B).T
+    if inverted.any():  # (q, t)⁻¹ = (q*, −R(q)ᵀ t): conjugate quaternion, rotated back
+        q_inv = (-blocks[0][inv], -blocks[1][inv], -blocks[2][inv], blocks[3][inv])
+        zero = np.zeros(q_inv[0].shape[0])
+        t_inv = _compose_columns(
+            (*q_inv, zero, zero, zero), (*q_inv, *(-blocks[4 + a][inv] for a in range(3)))
+        )[4:]
+        for c, v in zip(blocks, (*q_inv, *t_inv), strict=True):
+            c[inv] = v
+    del pos, pad, inv
+    _prefix_blocks(blocks)
+    out = np.empty((1 + nb * B, 7))
+    out[0] = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+    rows = out[1:].reshape(nb, B, 7)
+    for k in range(B):  # row by row: the temporaries stay a row's size
+        x, y, z, w = (blocks[a][k] for a in range(4))
+        # w ≥ 0, as from_matrix chooses; unit norm again (n products drift by ~√n ulps)
+        scale = np.where(w < 0.0, -1.0, 1.0) / np.sqrt(x * x + y * y + z * z + w * w)
+        for a in range(4):
+            rows[:, k, 3 + a] = blocks[a][k] * scale
+        for a in range(3):
+            rows[:, k, a] = blocks[4 + a][k]
+    return np.uint64(lo) + np.arange(n + 1, dtype=np.uint64), out[: n + 1]
 
 
 def _params_from_raw(raw: FloatArray, euler: npt.NDArray[np.bool_]) -> FloatArray:
@@ -987,6 +1510,7 @@ def vertices(
     read_edges: tuple[KeyArray, Sequence[int] | npt.NDArray[np.intp], Callable[[], FloatArray]],
     fixed: list[int],
     to_params: Any,
+    chain: Callable[[], tuple[KeyArray, FloatArray] | None] | None = None,
 ) -> tuple[KeyArray, FloatArray, bool]:
     """Vertex ids and poses of a graph file (2-D and 3-D alike), checked against its edges.
 
@@ -994,7 +1518,9 @@ def vertices(
     each edge, a function returning the measurements as homogeneous matrices (M, n, n))``.
     Without vertex lines the poses are chained from the odometry edges ``(k−1, k)`` (or
     ``(k, k−1)``, inverted) from the identity at the smallest id and returned as
-    ``to_params(T)``. Returns ``(ids, params, chained)``. Raises naming the file and line for an
+    ``to_params(T)``; ``chain``, if given, is tried first: a batched chaining returning
+    ``(ids, params)`` the same, or ``None`` (the loop then runs, and names any gap). Returns
+    ``(ids, params, chained)``. Raises naming the file and line for an
     edge to a missing vertex, a gap in the odometry chain, or a ``FIX`` of a vertex that does not
     exist.
     """
@@ -1012,6 +1538,8 @@ def vertices(
     elif edges.shape[0] == 0:
         Z = measured_matrices()
         ids, vpar = np.zeros(0, dtype=np.uint64), to_params(np.zeros((0, *Z.shape[1:])))
+    elif chain is not None and (batched := chain()) is not None:
+        ids, vpar = batched
     else:
         Z = measured_matrices()
         ids = np.unique(edges)
