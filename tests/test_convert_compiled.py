@@ -15,6 +15,7 @@ from __future__ import annotations
 import importlib
 import itertools
 import os
+import warnings
 from collections.abc import Callable
 from typing import Any
 
@@ -330,6 +331,24 @@ def test_bad_input_messages_name_index_and_size() -> None:
         lb.convert_covariance(C, X, "gtsam", "barfoot")
     with pytest.raises(ValueError, match=r"unknown name 'gtsamm'"):
         lb.convert_covariance(C, X, "gtsamm", "barfoot")
+
+
+OVERFLOW_CALLS = {
+    "convert_covariance": lambda C, X: lb.convert_covariance(C, X, "gtsam", "barfoot"),
+    "convert_information": lambda C, X: lb.convert_information(C, X, "gtsam", "barfoot"),
+    "convert_jacobian": lambda C, X: lb.convert_jacobian(C, "gtsam", "barfoot", at_input=X),
+    "convert_jacobian_out": lambda C, X: lb.convert_jacobian(C, "gtsam", "barfoot", at_output=X),
+}
+
+
+@pytest.mark.parametrize("name", sorted(OVERFLOW_CALLS))
+def test_overflow_is_one_error_without_a_runtime_warning(name: str) -> None:
+    """Regression: the numpy path warned 'overflow encountered in matmul' before its error."""
+    _, X, C = {c[0]: c for c in _bad_pose_cases()}["overflow"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(ValueError, match=r"convert_\w+: the result overflows float64"):
+            OVERFLOW_CALLS[name](C, X)
 
 
 def test_valid_input_the_certificate_does_not_accept_is_converted() -> None:

@@ -261,7 +261,9 @@ def convert_covariance(
         M = unchecked_map(Xa, a, b)
         # a batch: numpy multiplies stacks of small matrices fast only when they are contiguous
         Mt = M.T if M.ndim == 2 else np.ascontiguousarray(M.swapaxes(-1, -2))
-        return validate.finite_output(M @ cov @ Mt, "convert_covariance")
+        with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
+            out = M @ cov @ Mt
+        return validate.finite_output(out, "convert_covariance")
     if method != "unscented":
         raise ValueError(f"method: expected 'linear' or 'unscented', got {method!r}")
     chunk = _chunk_size(chunk_size)
@@ -342,7 +344,8 @@ def convert_information(info: Any, X: Any, src: ConventionLike, dst: ConventionL
     info = validate.covariance(info, "info", n)
     validate.batch_shape(("info", info.shape[:-2]), ("X", Xa.shape[:-2]))
     Mi = unchecked_map(Xa, b, a)
-    out = np.asarray(np.swapaxes(Mi, -1, -2) @ info @ Mi, dtype=np.float64)
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
+        out = np.asarray(np.swapaxes(Mi, -1, -2) @ info @ Mi, dtype=np.float64)
     return validate.finite_output(out, "convert_information")
 
 
@@ -388,14 +391,16 @@ def convert_jacobian(
         Mi = unchecked_map(X, b, a)
         if Jm.shape[-1] != Mi.shape[-2]:
             raise ValueError(f"J: {Jm.shape[-1]} columns, but the input tangent has {Mi.shape[-2]}")
-        Jm = Jm @ Mi
+        with np.errstate(over="ignore", invalid="ignore"):  # reported by finite_output below
+            Jm = Jm @ Mi
     if at_output is not None:
         Y = _element(a, b, at_output, "at_output")
         validate.batch_shape(("J", Jm.shape[:-2]), ("at_output", Y.shape[:-2]))
         Mo = unchecked_map(Y, a, b)
         if Jm.shape[-2] != Mo.shape[-1]:
             raise ValueError(f"J: {Jm.shape[-2]} rows, but the output tangent has {Mo.shape[-1]}")
-        Jm = Mo @ Jm
+        with np.errstate(over="ignore", invalid="ignore"):  # reported by finite_output below
+            Jm = Mo @ Jm
     return validate.finite_output(np.asarray(Jm, dtype=np.float64), "convert_jacobian")
 
 
