@@ -262,8 +262,8 @@ def convert_covariance(
         # a batch: numpy multiplies stacks of small matrices fast only when they are contiguous
         Mt = M.T if M.ndim == 2 else np.ascontiguousarray(M.swapaxes(-1, -2))
         with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
-            out = M @ cov @ Mt
-        return validate.finite_output(out, "convert_covariance")
+            linear = M @ cov @ Mt
+        return validate.finite_output(linear, "convert_covariance")
     if method != "unscented":
         raise ValueError(f"method: expected 'linear' or 'unscented', got {method!r}")
     chunk = _chunk_size(chunk_size)
