@@ -85,7 +85,7 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from itertools import repeat
 from operator import itemgetter
-from typing import Any, Literal, NamedTuple
+from typing import Any, Literal, NamedTuple, Protocol
 
 import numpy as np
 import numpy.typing as npt
@@ -766,7 +766,7 @@ class _Table(NamedTuple):
     values: FloatArray
 
 
-class RowSink:
+class RowSink(Protocol):
     """Takes the rows of one tag chunk by chunk as :func:`read_tagged` parses them.
 
     ``start(n)`` is called once with the number of rows, then ``take(lo, values)`` for the
@@ -774,11 +774,9 @@ class RowSink:
     returns False to refuse the file (the line reader then names the fault).
     """
 
-    def start(self, n: int) -> None:  # pragma: no cover - interface
-        raise NotImplementedError
+    def start(self, n: int) -> None: ...
 
-    def take(self, lo: int, values: FloatArray) -> bool:  # pragma: no cover - interface
-        raise NotImplementedError
+    def take(self, lo: int, values: FloatArray) -> bool: ...
 
 
 #: Rows per ``loadtxt`` call when a tag's rows go to a :class:`RowSink` (a few MiB of records,
