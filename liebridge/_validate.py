@@ -61,7 +61,7 @@ _NON_NUMERIC = frozenset("SUVMm")
 _E4 = np.array([0.0, 0.0, 0.0, 1.0])
 
 
-def _batch_index(mask: npt.NDArray[np.bool_]) -> tuple[int, ...]:
+def batch_index(mask: npt.NDArray[np.bool_]) -> tuple[int, ...]:
     """Return the first batch index where ``mask`` is true (``()`` for an unbatched input)."""
     idx = np.argwhere(mask)
     return tuple(int(i) for i in idx[0]) if idx.size else ()
@@ -206,7 +206,7 @@ def check_finite(arr: FloatArray, name: str, core_ndim: int | None = None) -> No
     message splits the index into the batch index and the entry inside the element.
     """
     if not np.isfinite(arr).all():
-        idx = _batch_index(~np.isfinite(arr))
+        idx = batch_index(~np.isfinite(arr))
         if core_ndim is None:
             raise ValueError(f"{name}: contains NaN or Inf at index {idx}")
         split = len(idx) - core_ndim
@@ -238,7 +238,7 @@ def tangent(x: Any, name: str, dim: int, rot: slice = slice(0, 3)) -> FloatArray
         norm = m * np.sqrt(np.einsum("...i,...i->...", r / m[..., None], r / m[..., None]))
         bad = ~(norm <= MAX_ANGLE)
         if bad.any():
-            i = _batch_index(np.asarray(bad))
+            i = batch_index(np.asarray(bad))
             raise ValueError(
                 f"{name}: rotation part of norm {float(norm[i]):.3g} at batch index {i} exceeds "
                 f"{MAX_ANGLE:g} rad (float64 cannot represent such an angle to 1e-4 rad)"
@@ -283,7 +283,7 @@ def finite_output(out: FloatArray, name: str) -> FloatArray:
         return out
     if np.isfinite(out).all():
         return out
-    idx = _batch_index(~np.isfinite(out))
+    idx = batch_index(~np.isfinite(out))
     raise ValueError(
         f"{name}: the result overflows float64 (entry {idx} is not finite): the input magnitudes "
         "are too large for this computation"
@@ -403,7 +403,7 @@ def checked_pose(arr: FloatArray, name: str, tol: float = ROTATION_TOL) -> Float
     check_rotation(arr[..., :3, :3], name, tol)
     bottom = arr[..., 3, :] != _E4
     if bottom.any():
-        i = _batch_index(np.asarray(bottom.any(axis=-1)))
+        i = batch_index(np.asarray(bottom.any(axis=-1)))
         row = np.asarray(arr[..., 3, :][i]).tolist()
         raise ValueError(f"{name}: bottom row is {row}, not [0, 0, 0, 1], at batch index {i}")
     return arr
@@ -419,7 +419,7 @@ def quaternion(x: Any, name: str, tol: float = QUATERNION_TOL) -> FloatArray:
     arr = vector(x, name, 4)
     err = np.abs(np.linalg.norm(arr, axis=-1) - 1.0)
     if (err > tol).any():
-        i = _batch_index(np.asarray(err > tol))
+        i = batch_index(np.asarray(err > tol))
         raise ValueError(
             f"{name}: quaternion norm off by {float(err[i]):.3g} at batch index {i} "
             f"(tolerance {tol:g}); normalise it explicitly if that is intended"
@@ -467,13 +467,13 @@ def covariance(x: Any, name: str, dim: int, tol: float = COVARIANCE_TOL) -> Floa
     half, half_t = 0.5 * arr, 0.5 * np.swapaxes(arr, -1, -2)  # halves first: no overflow
     asym = 2.0 * (np.abs(half - half_t).max(axis=(-1, -2)) / scale)
     if (asym > tol).any():
-        i = _batch_index(np.asarray(asym > tol))
+        i = batch_index(np.asarray(asym > tol))
         raise ValueError(
             f"{name}: not symmetric at batch index {i}: relative asymmetry {float(asym[i]):.3g}"
         )
     lam = np.linalg.eigvalsh(half + half_t)[..., 0]
     if (lam < -tol * scale).any():
-        i = _batch_index(np.asarray(lam < -tol * scale))
+        i = batch_index(np.asarray(lam < -tol * scale))
         raise ValueError(
             f"{name}: not positive semi-definite at batch index {i}: "
             f"smallest eigenvalue {float(lam[i]):.3g}"
@@ -506,7 +506,7 @@ def _raise_unless_rotations(
     """
     bad = ~(err <= tol)  # NaN counts as bad
     if bad.any():
-        i = _batch_index(np.asarray(bad))
+        i = batch_index(np.asarray(bad))
         if what is None:
             raise ValueError(
                 f"{name}: not a rotation at batch index {i}: max|RᵀR − I| = {float(err[i]):.3g} "
@@ -517,7 +517,7 @@ def _raise_unless_rotations(
             f"{float(err[i]):.3g} > tolerance {tol:g}"
         )
     if (det < 0).any():
-        i = _batch_index(np.asarray(det < 0))
+        i = batch_index(np.asarray(det < 0))
         if what is None:
             raise ValueError(
                 f"{name}: det(R) = {float(det[i]):.3g} < 0 at batch index {i} (a reflection)"
@@ -530,7 +530,7 @@ def _check_bottom(arr: FloatArray, name: str, rows: FloatArray, group: str, hint
     k = rows.shape[0]
     bottom = arr[..., -k:, :] != rows
     if bottom.any():
-        i = _batch_index(np.asarray(bottom.any(axis=(-1, -2))))
+        i = batch_index(np.asarray(bottom.any(axis=(-1, -2))))
         got = np.asarray(arr[..., -k:, :][i]).tolist()
         want = rows.tolist()
         raise ValueError(
@@ -589,7 +589,7 @@ def similarity(x: Any, name: str, tol: float = ROTATION_TOL) -> FloatArray:
     with np.errstate(over="ignore", invalid="ignore"):
         det = np.linalg.det(A)
     if (det <= 0).any():
-        i = _batch_index(np.asarray(det <= 0))
+        i = batch_index(np.asarray(det <= 0))
         raise ValueError(
             f"{name}: Sim(3) scale s = cbrt(det(sR)) = {float(np.cbrt(det[i])):.3g} ≤ 0 at batch "
             f"index {i} (the scale must be positive)"
@@ -625,7 +625,7 @@ def positive_definite(x: Any, name: str, dim: int, tol: float = COVARIANCE_TOL) 
     lo, hi = lam[..., 0], lam[..., -1]
     bad = ~(lo > SINGULAR_RTOL * dim * hi)
     if bad.any():
-        i = _batch_index(np.asarray(bad))
+        i = batch_index(np.asarray(bad))
         raise ValueError(
             f"{name}: singular covariance at batch index {i}: smallest eigenvalue "
             f"{float(lo[i]):.3g} (largest {float(hi[i]):.3g}); a hard constraint needs "

@@ -43,6 +43,7 @@ from typing import Literal
 
 import numpy as np
 
+from .. import _validate as validate
 from .._validate import FloatArray
 from ..lie import unchecked as U
 from ..lie.series import sinc
@@ -75,7 +76,7 @@ def _from_rpy(rpy: FloatArray, kind: str) -> FloatArray:
 def _check_gimbal(cp: FloatArray, what: str) -> None:
     bad = ~(np.abs(cp) >= GIMBAL_TOL)
     if bad.any():
-        i = tuple(int(k) for k in np.argwhere(bad)[0]) if bad.ndim else ()
+        i = validate.batch_index(bad)
         raise ValueError(
             f"{what}: pitch = ±90° (|cos pitch| = {float(np.abs(cp[i])):.3g} at batch index {i}): "
             "gimbal lock, where the Euler-angle chart is singular (roll and yaw are not separately "

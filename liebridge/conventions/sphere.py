@@ -91,7 +91,7 @@ class Sphere:
         err = np.abs(np.linalg.norm(arr, axis=-1) / self.length - 1.0)
         bad = err > LENGTH_RTOL
         if bad.any():
-            i = tuple(int(k) for k in np.argwhere(bad)[0]) if bad.ndim else ()
+            i = validate.batch_index(bad)
             raise ValueError(
                 f"{name}: not on the sphere of radius {self.length:g} at batch index {i}: "
                 f"‖g‖ = {float(np.linalg.norm(arr[i])):.9g} (relative tolerance {LENGTH_RTOL:g})"

@@ -44,7 +44,7 @@ def unit_vector(n: Any, name: str = "n", tol: float = validate.ROTATION_TOL) -> 
     err = np.abs(np.linalg.norm(arr, axis=-1) - 1.0)
     bad = err > tol
     if bad.any():
-        i = tuple(int(k) for k in np.argwhere(bad)[0]) if bad.ndim else ()
+        i = validate.batch_index(bad)
         raise ValueError(
             f"{name}: not a unit vector at batch index {i}: | ‖n‖ − 1 | = {float(err[i]):.3g} "
             f"(tolerance {tol:g})"
@@ -64,7 +64,7 @@ def exp(n: Any, w: Any) -> FloatArray:
     off = np.abs(_dot(n, w))
     bad = off > 1e-9 * (1.0 + t)
     if bad.any():
-        i = tuple(int(k) for k in np.argwhere(bad)[0]) if bad.ndim else ()
+        i = validate.batch_index(bad)
         raise ValueError(
             f"w: not tangent at n (w ⟂ n) at batch index {i}: |n·w| = {float(off[i]):.3g}"
         )
@@ -83,7 +83,7 @@ def _angle(n: FloatArray, m: FloatArray) -> tuple[FloatArray, FloatArray, FloatA
 def _check_not_antipodal(theta: FloatArray, name: str) -> None:
     bad = theta > np.pi - 1e-6
     if bad.any():
-        i = tuple(int(k) for k in np.argwhere(bad)[0]) if bad.ndim else ()
+        i = validate.batch_index(bad)
         raise ValueError(
             f"{name}: the two directions are antipodal at batch index {i} (angle "
             f"{float(theta[i]):.9g} rad): the logarithm of S² is undefined there"
