@@ -36,6 +36,7 @@ from .. import _validate as validate
 from .._validate import FloatArray
 from .convention import GROUP_DIMS, Convention
 from .sphere import Sphere
+from .tangent_order import from_concatenated, perm_matrix, to_concatenated
 
 
 @dataclass(frozen=True)
@@ -150,19 +151,13 @@ class Bundle(Convention):
 
     def _P(self) -> FloatArray:
         """``P`` with ``d_concatenated = P d``."""
-        n = self.dim()
-        P = np.eye(n)
-        return P if self.perm is None else np.ascontiguousarray(P[:, list(self.perm)])
+        return perm_matrix(self.dim(), self.perm)
 
     def _to_concat(self, d: FloatArray) -> FloatArray:
-        if self.perm is None:
-            return d
-        out = np.empty(d.shape)
-        out[..., list(self.perm)] = d
-        return out
+        return to_concatenated(d, self.perm)
 
     def _from_concat(self, c: FloatArray) -> FloatArray:
-        return c if self.perm is None else np.asarray(c[..., list(self.perm)], dtype=np.float64)
+        return from_concatenated(c, self.perm)
 
     # ----------------------------------------------------------------- elements
     def assemble(self, **parts: Any) -> FloatArray:

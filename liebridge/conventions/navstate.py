@@ -35,6 +35,7 @@ import numpy as np
 from .. import _validate as validate
 from .._validate import FloatArray
 from .convention import Convention
+from .tangent_order import from_concatenated, perm_matrix, to_concatenated
 
 VelocityFrame = Literal["body", "world"]
 
@@ -126,16 +127,11 @@ class NavChart(Convention):
         )
 
     def _to_concat(self, d: FloatArray) -> FloatArray:
-        if self.perm is None:
-            return d
-        out = np.empty(d.shape)
-        out[..., list(self.perm)] = d
-        return out
+        return to_concatenated(d, self.perm)
 
     def _P(self) -> FloatArray:
         """``P`` with ``d_(pose, δv) = P d``."""
-        P = np.eye(9)
-        return P if self.perm is None else np.ascontiguousarray(P[:, list(self.perm)])
+        return perm_matrix(9, self.perm)
 
     # ----------------------------------------------------------------- retraction
     def _increment(self, d: Any, so3: bool, name: str = "d") -> FloatArray:
@@ -162,8 +158,7 @@ class NavChart(Convention):
             dv = _mv(np.swapaxes(X[..., :3, :3], -1, -2), dv)
         batch = np.broadcast_shapes(d.shape[:-1], dv.shape[:-1])
         parts = [np.broadcast_to(d, (*batch, 6)), np.broadcast_to(dv, (*batch, 3))]
-        out = np.concatenate(parts, axis=-1)
-        return out if self.perm is None else np.asarray(out[..., list(self.perm)], np.float64)
+        return from_concatenated(np.concatenate(parts, axis=-1), self.perm)
 
     # ----------------------------------------------------------------- first-order maps
     def _blocks(self, X: FloatArray, A: FloatArray, vel: FloatArray) -> FloatArray:
