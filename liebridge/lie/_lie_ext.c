@@ -183,6 +183,20 @@ static inline void so3_log(const Coef *C, const double *R, int s, double *w, dou
     w[2] = scale * u2;
 }
 
+/* se3.log's output from the rotation vector w, D = coef_D(theta) and the translation of X
+ * (row-major 4x4): (w, t - w x t / 2 + D w x (w x t)) */
+static inline void se3_log_out(double w0, double w1, double w2, double D, const double *X,
+                               double *o) {
+    double t0 = X[3], t1 = X[7], t2 = X[11];
+    double c0 = w1 * t2 - w2 * t1, c1 = w2 * t0 - w0 * t2, c2 = w0 * t1 - w1 * t0;
+    o[0] = w0;
+    o[1] = w1;
+    o[2] = w2;
+    o[3] = t0 - 0.5 * c0 + D * (w1 * c2 - w2 * c1);
+    o[4] = t1 - 0.5 * c1 + D * (w2 * c0 - w0 * c2);
+    o[5] = t2 - 0.5 * c2 + D * (w0 * c1 - w1 * c0);
+}
+
 static inline int tangent_ok(const double *x, int n, double maxc) {
     for (int i = 0; i < n; i++)
         if (!isfinite(x[i])) return 0;
@@ -221,16 +235,8 @@ INLINE Py_ssize_t run_op(int op, const Coef *C, const double *x, double *out, Py
             double w[3];
             double cot_half;
             so3_log(C, x, 4, w, &cot_half);
-            double w0 = w[0], w1 = w[1], w2 = w[2];
-            double t0 = x[3], t1 = x[7], t2 = x[11];
-            double D = coef_D(C, sqrt(w0 * w0 + w1 * w1 + w2 * w2), cot_half);
-            double c0 = w1 * t2 - w2 * t1, c1 = w2 * t0 - w0 * t2, c2 = w0 * t1 - w1 * t0;
-            out[0] = w0;
-            out[1] = w1;
-            out[2] = w2;
-            out[3] = t0 - 0.5 * c0 + D * (w1 * c2 - w2 * c1);
-            out[4] = t1 - 0.5 * c1 + D * (w2 * c0 - w0 * c2);
-            out[5] = t2 - 0.5 * c2 + D * (w0 * c1 - w1 * c0);
+            double D = coef_D(C, sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]), cot_half);
+            se3_log_out(w[0], w[1], w[2], D, x, out);
         } else { /* se3._adjoint: [[R, 0], [hat(t) R, R]] */
             if (!pose_ok(x, tol)) return e;
             double t0 = x[3], t1 = x[7], t2 = x[11];
@@ -627,15 +633,7 @@ static Py_ssize_t run_log(int se, const Coef *C, const double *x, double *out, P
         for (int i = 0; i < m; i++) { /* se3._log_block */
             const double *X = xc + (Py_ssize_t)i * 16;
             double *o = oc + (Py_ssize_t)i * 6;
-            double w0 = L.w0[i], w1 = L.w1[i], w2 = L.w2[i], D = L.cot[i];
-            double t0 = X[3], t1 = X[7], t2 = X[11];
-            double c0 = w1 * t2 - w2 * t1, c1 = w2 * t0 - w0 * t2, c2 = w0 * t1 - w1 * t0;
-            o[0] = w0;
-            o[1] = w1;
-            o[2] = w2;
-            o[3] = t0 - 0.5 * c0 + D * (w1 * c2 - w2 * c1);
-            o[4] = t1 - 0.5 * c1 + D * (w2 * c0 - w0 * c2);
-            o[5] = t2 - 0.5 * c2 + D * (w0 * c1 - w1 * c0);
+            se3_log_out(L.w0[i], L.w1[i], L.w2[i], L.cot[i], X, o);
         }
         if (!finite_n(oc, m * 6))
             for (int i = 0; i < m; i++)
