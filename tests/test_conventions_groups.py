@@ -21,7 +21,8 @@ from hypothesis import strategies as st
 import liebridge as lb
 from liebridge import conventions as C
 from liebridge.check import monte_carlo_covariance, numerical_jacobian
-from liebridge.conventions.convention import GROUP_CHARTS, Convention
+from liebridge import lie
+from liebridge.conventions.convention import Convention
 from liebridge.lie import se2, se23, sim3, so2
 
 NEW_GROUPS = ("so2", "se2", "sim3", "se23")
@@ -40,7 +41,7 @@ def _all_conventions() -> list[Convention]:
     for g in NEW_GROUPS:
         rots = ("exp",) if g in ("so2", "se2") else ("exp", "half_exp", "quat_vec", "cayley")
         for side, order, chart, rot in itertools.product(
-            ("right", "left"), ("rot_first", "trans_first"), GROUP_CHARTS[g], rots
+            ("right", "left"), ("rot_first", "trans_first"), lie.group(g).charts, rots
         ):
             if chart == g and rot != "exp":
                 continue

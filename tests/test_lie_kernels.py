@@ -11,6 +11,7 @@ every quantity that carries a translation is linear in it (see ``test_lie_se3.py
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -25,6 +26,7 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from liebridge.check import assert_jacobian, numerical_jacobian
+from liebridge import lie
 from liebridge.lie import se2, se3, se23, sim3, so2, so3
 
 pytestmark = pytest.mark.filterwarnings("error")
@@ -117,6 +119,10 @@ SO3 = Kernel(
         "jl_inv": (so3.jl_inv, [_vec3]),
         "adjoint": (so3.adjoint, [_rot3]),
         "project": (so3.project, [_mat3]),
+        "inverse": (so3.inverse, [_rot3]),
+        "compose": (so3.compose, [_rot3, _rot3]),
+        "act": (so3.act, [_rot3, _point]),
+        "interpolate": (so3.interpolate, [_rot3, _rot3, _tau]),
     },
 )
 SE3 = Kernel(
@@ -422,3 +428,70 @@ def test_adjoint_conjugation_identity(kernel: Kernel, seed: int) -> None:
     lhs = X @ m.exp(xi) @ kernel.inverse(X)
     s = kernel.scale(eta) * kernel.scale(xi) * np.maximum(1.0, np.abs(X).max(axis=(-1, -2)))
     assert (np.abs(lhs - m.exp(eta)).max(axis=(-1, -2)) <= ID_TOL * s).all()
+
+
+# --------------------------------------------------------------------------- the group records
+
+RECORD_CASES = [(k, lie.group(k.name)) for k in KERNELS]
+
+
+def test_every_shipped_group_is_registered_once() -> None:
+    assert sorted(lie.GROUPS) == sorted(k.name for k in KERNELS)
+    for k in KERNELS:
+        assert k.module.GROUP is lie.group(k.name)
+        assert lie.group(lie.group(k.name)) is lie.group(k.name)
+
+
+@pytest.mark.parametrize("case", RECORD_CASES, ids=lambda c: c[0].name)
+def test_record_methods_are_the_module_functions(case: tuple[Kernel, lie.Group]) -> None:
+    """Every kernel name exists in the module and on the record, with the same numbers."""
+    kernel, g = case
+    rng = np.random.default_rng(11)
+    xi = kernel.tangent(rng, (5,))
+    X, Y = kernel.element(rng, (5,)), kernel.element(rng, (5,))
+    tau = _tau(rng, (5,))
+    n = g.matrix - len(g.cols)
+    x = rng.uniform(-30.0, 30.0, size=(5, n))
+    args = {
+        "exp": (xi,), "log": (X,), "inverse": (X,), "compose": (X, Y), "act": (X, x),
+        "adjoint": (X,), "jr": (xi,), "jl": (xi,), "jr_inv": (xi,), "jl_inv": (xi,),
+        "interpolate": (X, Y, tau),
+    }  # fmt: skip
+    assert set(args) == set(lie.KERNEL_NAMES)
+    for name, a in args.items():
+        np.testing.assert_allclose(
+            getattr(g, name)(*a), getattr(kernel.module, name)(*a), rtol=1e-12, atol=1e-12
+        )
+
+
+@pytest.mark.parametrize("case", RECORD_CASES, ids=lambda c: c[0].name)
+def test_record_layout_matches_the_exponential(case: tuple[Kernel, lie.Group]) -> None:
+    """The record's slots say where Exp puts each block: rotation, vectors (columns), scale."""
+    _, g = case
+    assert g.probe is not None and g.probe.shape == (g.matrix, g.matrix)
+    for sl, col in zip(g.vecs, g.cols, strict=True):
+        xi = np.zeros(g.dim)
+        xi[sl] = [0.1, -0.2, 0.3][: sl.stop - sl.start]
+        E = g.exp(xi)
+        k = g.matrix - len(g.cols)
+        np.testing.assert_allclose(E[:k, col], xi[sl], atol=1e-15)  # a pure vector moves it
+    if g.rot is not None:
+        xi = np.zeros(g.dim)
+        xi[g.rot] = 0.3
+        E = g.exp(xi)
+        k = g.matrix - len(g.cols)
+        R = E[:k, :k]
+        np.testing.assert_allclose(R @ R.T, np.eye(k), atol=1e-14)
+        assert not np.allclose(R, np.eye(k))
+    if g.scale is not None:
+        xi = np.zeros(g.dim)
+        xi[g.scale] = 0.4
+        assert g.kernels.scale is not None
+        np.testing.assert_allclose(g.kernels.scale(g.exp(xi)), np.exp(0.4), rtol=1e-14)
+
+
+def test_record_refuses_a_second_group_under_a_shipped_name() -> None:
+    with pytest.raises(ValueError, match="already registered"):
+        lie.register(dataclasses.replace(lie.group("se2")), replace=True)
+    with pytest.raises(ValueError, match="unknown group 'se4'"):
+        lie.group("se4")

@@ -34,7 +34,7 @@ import numpy as np
 
 from .. import _validate as validate
 from .._validate import FloatArray
-from .convention import GROUP_DIMS, Convention
+from .convention import Convention
 from .sphere import Sphere
 from .tangent_order import from_concatenated, perm_matrix, to_concatenated
 
@@ -65,7 +65,7 @@ def _tdim(b: Block) -> int:
 
 
 def _mdim(b: Block) -> int:
-    return b.n + 1 if isinstance(b, _VECTOR_LIKE) else GROUP_DIMS[b.group][1]
+    return b.n + 1 if isinstance(b, _VECTOR_LIKE) else b.record.matrix
 
 
 @dataclass(frozen=True)

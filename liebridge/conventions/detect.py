@@ -14,16 +14,17 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Callable
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 
 from .. import _validate as validate
 from .._validate import FloatArray
-from ..lie import unchecked as U
+from ..lie import GROUPS, Group
+from ..lie import group as lie_group
 from ..lie.numdiff import numerical_jacobian
-from . import groups as G
-from .convention import CANONICAL, CHARTS, GROUP_CHARTS, GROUP_DIMS, ORDERS, SIDES, Convention
+from .convention import CANONICAL, ORDERS, SIDES, Convention
+from .engine import engine_for
 from .registry import get, matching_presets
 from .rotation_coords import EULER_COORDS, ROTATION_COORDS
 
@@ -35,71 +36,53 @@ class ConventionNotDetected(ValueError):
     """The retraction matches no convention of the model; the message says what was measured."""
 
 
-#: Probe tangent (canonical order) of each other group: a generic element ``Exp(ξ)``.
-_PROBES: dict[str, list[float]] = {
-    "so2": [0.9],
-    "se2": [1.5, -2.0, 0.8],
-    "sim3": [0.4, -0.7, 0.5, 1.5, -2.0, 0.8, 0.3],
-    "se23": [0.4, -0.7, 0.5, 1.5, -2.0, 0.8, -0.6, 1.1, 0.7],
-}
+def _candidates(g: Group) -> list[Convention]:
+    """Every side × order × chart × rotation coordinates of ``g`` that is a distinct convention.
 
-
-def _candidates(group: str) -> list[Convention]:
-    if group in G.GROUPS:
-        rots = ("exp",) if group in ("so2", "se2") else _INCREMENT_COORDS
-        charts = GROUP_CHARTS[group]
-        return [
-            Convention(
-                "detected:" + "/".join(c),
-                c[0],  # type: ignore[arg-type]
-                c[1],  # type: ignore[arg-type]
-                c[2],  # type: ignore[arg-type]
-                c[3],
-                "wxyz",
-                group=group,
-            )
-            for c in itertools.product(SIDES, ORDERS, charts, rots)
-            if c[2] != group or c[3] == "exp"
-        ]
-    if group == "so3":  # only side and rotation coordinates act on a rotation
-        combos = [
-            (s, "rot_first", "so3xr3_body", r)
-            for s in SIDES
-            for r in ROTATION_COORDS
-            if s == "right" or r not in EULER_COORDS  # Euler angles ignore the side
-        ]
+    Read from the record: a rotation group has one order and perturbs its rotation only (its
+    split chart); a planar or rotation-free group has only ``exp`` coordinates; the coupled chart
+    needs ``exp``; Euler angles (where the group's engine has them) ignore the side.
+    """
+    euler = engine_for(g).euler
+    if g.rot_dim == 3:
+        rots: tuple[str, ...] = ROTATION_COORDS if euler else _INCREMENT_COORDS
     else:
-        combos = [
-            c
-            for c in itertools.product(SIDES, ORDERS, CHARTS, ROTATION_COORDS)
-            if (c[2] != "se3" or c[3] == "exp") and (c[0] == "right" or c[3] not in EULER_COORDS)
-        ]
+        rots = ("exp",)
+    rotation_group = not g.vecs and g.scale is None
+    orders = ("rot_first",) if rotation_group or g.rot is None else ORDERS
+    # a rotation group perturbs its rotation only: its first split chart, if it has one
+    charts = (g.charts[min(1, len(g.charts) - 1)],) if rotation_group else g.charts
+    sides = SIDES if g.rot is not None else ("right",)
     return [
-        Convention("detected:" + "/".join(c), c[0], c[1], c[2], c[3], "wxyz")  # type: ignore[arg-type]
-        for c in combos
+        Convention("detected:" + "/".join(c), *c, "wxyz", group=g.name)  # type: ignore[arg-type]
+        for c in itertools.product(sides, orders, charts, rots)
+        if (c[2] != g.coupled_chart or c[3] == "exp")
+        and (c[0] == "right" or c[3] not in EULER_COORDS)
     ]
 
 
-def _as_matrix(y: Any, what: str = "retract(X, d)", group: str = "se3") -> FloatArray:
+def _as_matrix(y: Any, what: str = "retract(X, d)", g: Group | None = None) -> FloatArray:
     """Validate what a retraction returned (an array, or an object with ``.matrix()``).
 
-    For Sim(3), an object's ``.matrix()`` of GTSAM's form ``[R t; 0 1/s]`` is normalised to
-    ``[sR t'; 0 1]`` (divided by its ``[3, 3]`` entry); an array is taken as it is.
+    For a group with a scale (Sim(3)), an object's ``.matrix()`` of GTSAM's form
+    ``[R t; 0 1/s]`` is normalised to ``[sR t'; 0 1]`` (divided by its corner entry); an array is
+    taken as it is.
     """
     obj = hasattr(y, "matrix")
     if obj:
         y = y.matrix()
     arr = validate.as_float_array(y, what)
     validate.check_finite(arr, what)
-    if obj and group == "sim3" and arr.shape == (4, 4) and arr[3, 3] > 0:
-        arr = arr / arr[3, 3]
+    if obj and g is not None and g.scale is not None and arr.shape == (g.matrix, g.matrix):
+        if arr[-1, -1] > 0:
+            arr = arr / arr[-1, -1]
     return arr
 
 
 def detect_convention(
     retract: Callable[[FloatArray, FloatArray], Any],
     *,
-    group: Literal["se3", "so3", "so2", "se2", "sim3", "se23"] = "se3",
+    group: str | Group = "se3",
     prefer: str | None = None,
     tol: float = 1e-7,
     rng: np.random.Generator | None = None,
@@ -111,11 +94,13 @@ def detect_convention(
     retract : callable
         ``retract(X, d)`` taking a ``(4, 4)`` pose (``(3, 3)`` rotation for ``group="so3"``) and a
         ``(6,)`` (``(3,)``) increment, returning a matrix (or an object with ``.matrix()``).
-    group : {"se3", "so3", "so2", "se2", "sim3", "se23"}
-        What ``X`` is: a ``(4, 4)`` pose, ``(3, 3)`` rotation, ``(2, 2)`` rotation, ``(3, 3)``
-        SE(2) pose, ``(4, 4)`` similarity ``[sR t; 0 1]`` or ``(5, 5)`` extended pose; the
-        increment has the group's dimension (1, 3, 6, 3, 7, 9). The candidates are every
-        side × order × chart × rotation coordinates of the group.
+    group : str or liebridge.lie.Group
+        What ``X`` is, a registered group (its name or record): ``"se3"`` a ``(4, 4)`` pose,
+        ``"so3"`` a ``(3, 3)`` rotation, ``"so2"`` a ``(2, 2)`` rotation, ``"se2"`` a ``(3, 3)``
+        SE(2) pose, ``"sim3"`` a ``(4, 4)`` similarity ``[sR t; 0 1]``, ``"se23"`` a ``(5, 5)``
+        extended pose, or a user's group; the increment has the group's dimension. ``X`` is the
+        record's probe element. The candidates are every side × order × chart × rotation
+        coordinates of the group.
     prefer : str, optional
         Among presets with the same retraction (Sophus, manif, Pinocchio, jaxlie and Theseus are
         all right/(v, ω)/SE(3) exp), return this one if it matches; else the first in registry
@@ -141,17 +126,17 @@ def detect_convention(
     if not callable(retract):
         raise TypeError(f"retract: expected a callable retract(X, d), got {type(retract).__name__}")
     rng = rng or np.random.default_rng(20261122)
-    group = validate.option(group, "group", tuple(GROUP_DIMS))  # type: ignore[assignment]
-    n = GROUP_DIMS[group][0]
-    if group in G.GROUPS:
-        X = G.GROUPS[group].exp(np.array(_PROBES[group]))
+    if isinstance(group, Group):
+        g = group
     else:
-        X = U.se3_exp(np.array([0.4, -0.7, 0.5, 1.5, -2.0, 0.8]))
-    if group == "so3":
-        X = X[:3, :3].copy()
+        g = lie_group(validate.option(group, "group", tuple(GROUPS)))
+    n = g.dim
+    if g.probe is None:
+        raise ValueError(f"group: {g.name!r} has no probe element to detect a convention at")
+    X = np.array(g.probe, dtype=np.float64)
     D = rng.uniform(-0.3, 0.3, size=(8, n))
     results = [
-        _as_matrix(retract(X.copy(), d.copy()), f"retract(X, d) at probe {k}", group)
+        _as_matrix(retract(X.copy(), d.copy()), f"retract(X, d) at probe {k}", g)
         for k, d in enumerate(D)
     ]
     for k, y in enumerate(results):
@@ -160,7 +145,7 @@ def detect_convention(
                 f"retract(X, d) at probe {k} returned shape {y.shape}, expected {X.shape}"
             )
     Y = np.stack(results)
-    Y0 = _as_matrix(retract(X.copy(), np.zeros(n)), "retract(X, 0)", group)
+    Y0 = _as_matrix(retract(X.copy(), np.zeros(n)), "retract(X, 0)", g)
     if Y0.shape != X.shape:
         raise ConventionNotDetected(f"retract(X, 0) returned shape {Y0.shape}, expected {X.shape}")
     if np.abs(Y0 - X).max() > tol:
@@ -168,7 +153,7 @@ def detect_convention(
             f"retract(X, 0) != X (max |diff| {np.abs(Y0 - X).max():.3g}): not a retraction"
         )
     best: tuple[float, Convention | None] = (np.inf, None)
-    for cand in _candidates(group):
+    for cand in _candidates(g):
         try:
             err = float(np.abs(cand._retract(X, D) - Y).max())
         except ValueError:
@@ -178,13 +163,13 @@ def detect_convention(
     err, found = best
     if found is None or err > tol * max(1.0, float(np.abs(Y).max())):
         canon = CANONICAL
-        if group in G.GROUPS:  # the group's canonical tangent: right, GTSAM's order, its exp
-            order = "trans_first" if group == "se2" else "rot_first"
-            canon = Convention("canonical", "right", order, group, "exp", "wxyz", group=group)  # type: ignore[arg-type]
+        canon = Convention(  # the group's canonical tangent: right, its order, its exp
+            "canonical", "right", g.canonical_order, g.coupled_chart, "exp", "wxyz", group=g
+        )  # type: ignore[arg-type]
         M = numerical_jacobian(
             lambda Z: Z,
             X,
-            retract=lambda A, d: _as_matrix(retract(A, d), group=group),
+            retract=lambda A, d: _as_matrix(retract(A, d), g=g),
             local=canon._local,
             dim=n,
         )
@@ -194,7 +179,8 @@ def detect_convention(
             f"closest: {found.describe() if found else 'none'} with max mismatch {err:.3g}"
         )
     cand = found
-    matches = matches_so3(cand) if group == "so3" else matching_presets(cand)
+    rotation_group = not g.vecs and g.scale is None and g.rot_dim == 3
+    matches = matches_so3(cand) if rotation_group else matching_presets(cand)
     if prefer is not None:
         p = get(prefer)
         if p in matches:

@@ -34,6 +34,7 @@ import numpy as np
 
 from .. import _validate as validate
 from .._validate import FloatArray
+from ..lie import se3, se23
 from .convention import Convention
 from .tangent_order import from_concatenated, perm_matrix, to_concatenated
 
@@ -85,7 +86,7 @@ class NavChart(Convention):
             quat_order=pose.quat_order,
             source=source,
             notes=notes,
-            group="se23",
+            group=se23.GROUP,
             pose=pose,
             velocity=velocity,
             perm=tuple(order) if order is not None else None,
@@ -94,7 +95,7 @@ class NavChart(Convention):
     def __post_init__(self) -> None:
         super().__post_init__()
         p = self.pose
-        if not isinstance(p, Convention) or p.group != "se3" or p.generic or p.is_euler:
+        if not isinstance(p, Convention) or p.record is not se3.GROUP or p.is_euler:
             raise ValueError(
                 f"NavChart {self.name!r}: pose must be an SE(3) convention with increment "
                 f"coordinates (not Euler angles), got {p!r}"
@@ -216,13 +217,13 @@ def _pose_part(c: Convention) -> Convention | None:
     """Return the SE(3) chart a navigation chart moves ``(R, p)`` by (None: coupled SE₂(3))."""
     if isinstance(c, NavChart):
         return c._p
-    if c.group != "se23" or c.chart == "se23":
+    if c.record is not se23.GROUP or c.chart == se23.GROUP.coupled_chart:
         return None
     return Convention(
         name=f"{c.name}_pose",
         side=c.side,
         order="rot_first",
-        chart="so3xr3_body" if c.chart == "split_body" else "so3xr3_world",
+        chart=se3.GROUP.charts[1 if se23.GROUP.split_frame(c.chart) == "body" else 2],
         rotation=c.rotation,
         quat_order=c.quat_order,
     )

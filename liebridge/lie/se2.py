@@ -28,6 +28,7 @@ import numpy as np
 
 from .. import _validate as validate
 from .._validate import FloatArray
+from .record import Group, Kernels, register_shipped
 from . import _matrix_group as _mg
 from .series import one_minus_cos_over_t2, sinc, t_minus_sin_over_t3
 
@@ -226,3 +227,17 @@ def interpolate(T0: Any, T1: Any, tau: Any) -> FloatArray:
     return _mg.interpolate(
         T0, T1, tau, validate.pose2, _tangent, ops, ("T0", "T1"), "se2.interpolate"
     )
+
+
+# ----------------------------------------------------------------------------- the record
+GROUP = register_shipped(
+    Group(
+        name="se2", dim=3, matrix=3, rot=_ROT, vecs=(slice(0, 2),), cols=(2,), scale=None,
+        element=validate.pose2,
+        kernels=Kernels(
+            exp=_exp, log=_log, inverse=_inverse, adjoint=_adjoint, jr_inv=_jr_inv,
+            jl_inv=_jl_inv, jr=_jr, jl=_jl,
+        ),
+        probe=_exp(np.array([1.5, -2.0, 0.8])), label="SE(2)", tangent_doc="(vx, vy, ω)",
+    )
+)  # fmt: skip

@@ -24,6 +24,7 @@ import numpy as np
 
 from .. import _validate as validate
 from .._validate import FloatArray
+from .record import Group, Kernels, register_shipped
 from . import _matrix_group as _mg
 from . import se3, so3
 
@@ -194,3 +195,18 @@ def interpolate(X0: Any, X1: Any, tau: Any) -> FloatArray:
     return _mg.interpolate(
         X0, X1, tau, validate.extended_pose, _tangent, ops, ("X0", "X1"), "se23.interpolate"
     )
+
+
+# ----------------------------------------------------------------------------- the record
+GROUP = register_shipped(
+    Group(
+        name="se23", dim=9, matrix=5, rot=slice(0, 3), vecs=(slice(3, 6), slice(6, 9)),
+        cols=(3, 4), scale=None, element=validate.extended_pose,
+        kernels=Kernels(
+            exp=_exp, log=_log, inverse=_inverse, adjoint=_adjoint, jr_inv=_jr_inv,
+            jl_inv=_jl_inv, jr=_jr, jl=_jl,
+        ),
+        probe=_exp(np.array([0.4, -0.7, 0.5, 1.5, -2.0, 0.8, -0.6, 1.1, 0.7])),
+        label="SE_2(3)", tangent_doc="(ω, ρ_p, ρ_v)",
+    )
+)  # fmt: skip

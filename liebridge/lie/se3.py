@@ -27,6 +27,7 @@ import numpy as np
 
 from .. import _validate as validate
 from .._validate import FloatArray
+from .record import Group, Kernels, register_shipped
 from . import _compiled, so3
 from . import _matrix_group as _mg
 from .series import (
@@ -300,3 +301,28 @@ def interpolate(T0: Any, T1: Any, tau: Any) -> FloatArray:
     xi = validate.tangent(tau_[..., None] * _log(_inverse(T0) @ T1), "tau·Log(T0⁻¹T1)", 6)
     out = np.asarray(T0 @ _exp(xi), dtype=np.float64)
     return validate.finite_output(out, "se3.interpolate")
+
+
+# ----------------------------------------------------------------------------- the record
+def _jr(xi: FloatArray) -> FloatArray:
+    return _jl(-xi)
+
+
+def _jr_inv(xi: FloatArray) -> FloatArray:
+    return _jl_inv(-xi)
+
+
+GROUP = register_shipped(
+    Group(
+        name="se3", dim=6, matrix=4, rot=slice(0, 3), vecs=(slice(3, 6),), cols=(3,),
+        scale=None, element=validate.pose,
+        kernels=Kernels(
+            exp=_exp, log=_log, inverse=_inverse, adjoint=_adjoint, jr_inv=_jr_inv,
+            jl_inv=_jl_inv, jr=_jr, jl=_jl,
+        ),
+        charts=("se3", "so3xr3_body", "so3xr3_world"),
+        chart_aliases={"split_body": "so3xr3_body", "split_world": "so3xr3_world"},
+        probe=_exp(np.array([0.4, -0.7, 0.5, 1.5, -2.0, 0.8])), label="SE(3)",
+        tangent_doc="(ω, v)",
+    )
+)  # fmt: skip

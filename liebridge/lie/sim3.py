@@ -30,6 +30,7 @@ import numpy as np
 
 from .. import _validate as validate
 from .._validate import FloatArray
+from .record import Group, Kernels, register_shipped
 from . import _matrix_group as _mg
 from . import so3
 from .series import sim3_coeffs
@@ -223,3 +224,18 @@ def interpolate(X0: Any, X1: Any, tau: Any) -> FloatArray:
     return _mg.interpolate(
         X0, X1, tau, validate.similarity, _tangent, ops, ("X0", "X1"), "sim3.interpolate"
     )
+
+
+# ----------------------------------------------------------------------------- the record
+GROUP = register_shipped(
+    Group(
+        name="sim3", dim=7, matrix=4, rot=slice(0, 3), vecs=(slice(3, 6),), cols=(3,), scale=6,
+        element=validate.similarity,
+        kernels=Kernels(
+            exp=_exp, log=_log, inverse=_inverse, adjoint=_adjoint, jr_inv=_jr_inv,
+            jl_inv=_jl_inv, jr=_jr, jl=_jl, scale=_scale,
+        ),
+        probe=_exp(np.array([0.4, -0.7, 0.5, 1.5, -2.0, 0.8, 0.3])), label="Sim(3)",
+        tangent_doc="(ω, u, λ)",
+    )
+)  # fmt: skip

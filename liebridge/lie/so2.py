@@ -16,6 +16,7 @@ import numpy as np
 
 from .. import _validate as validate
 from .._validate import FloatArray
+from .record import Group, Kernels, register_shipped
 
 __all__ = [
     "act",
@@ -143,3 +144,17 @@ def interpolate(R0: Any, R1: Any, tau: Any) -> FloatArray:
     validate.batch_shape(("R0", R0.shape[:-2]), ("R1", R1.shape[:-2]), ("tau", tau_.shape))
     w = tau_[..., None] * _log(_inverse(R0) @ R1)
     return validate.finite_output(np.asarray(R0 @ _exp(w), dtype=np.float64), "so2.interpolate")
+
+
+# ----------------------------------------------------------------------------- the record
+GROUP = register_shipped(
+    Group(
+        name="so2", dim=1, matrix=2, rot=slice(0, 1), vecs=(), cols=(), scale=None,
+        element=validate.rotation2,
+        kernels=Kernels(
+            exp=_exp, log=_log, inverse=_inverse, adjoint=_adjoint, jr_inv=_ones, jl_inv=_ones,
+            jr=_ones, jl=_ones,
+        ),
+        probe=_exp(np.array([0.9])), label="SO(2)", tangent_doc="(θ,)",
+    )
+)  # fmt: skip

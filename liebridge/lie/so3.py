@@ -21,13 +21,19 @@ import numpy as np
 
 from .. import _validate as validate
 from .._validate import FloatArray
+from .record import Group, Kernels, register_shipped
 from . import _compiled
+from . import _matrix_group as _mg
 from .series import jinv_coeff, one_minus_cos_over_t2, sinc, t_minus_sin_over_t3
 
 __all__ = [
+    "act",
     "adjoint",
+    "compose",
     "exp",
     "hat",
+    "interpolate",
+    "inverse",
     "jl",
     "jl_inv",
     "jr",
@@ -234,3 +240,61 @@ def project(M: Any) -> FloatArray:
     D = np.broadcast_to(np.eye(3), (*M.shape[:-2], 3, 3)).copy()
     D[..., 2, 2] = d
     return np.asarray(U @ D @ Vt, dtype=np.float64)
+
+
+def _inverse(R: FloatArray) -> FloatArray:
+    return np.array(np.swapaxes(R, -1, -2), dtype=np.float64)
+
+
+def _adjoint_k(R: FloatArray) -> FloatArray:
+    return np.array(R, dtype=np.float64, copy=True)
+
+
+def inverse(R: Any) -> FloatArray:
+    """``R⁻¹ = Rᵀ``: ``inverse(R_world_body) = R_body_world``."""
+    return _inverse(validate.rotation(R, "R"))
+
+
+def compose(R1: Any, R2: Any) -> FloatArray:
+    """``R1·R2`` (broadcast): ``compose(R_a_b, R_b_c) = R_a_c``."""
+    return _mg.compose(R1, R2, validate.rotation, ("R1", "R2"), "so3.compose")
+
+
+def act(R: Any, p: Any) -> FloatArray:
+    """``R p`` for points ``(..., 3)``: ``act(R_world_body, p_body) = p_world``."""
+    R = validate.rotation(R, "R")
+    p = validate.vector(p, "p", 3)
+    validate.batch_shape(("R", R.shape[:-2]), ("p", p.shape[:-1]))
+    return validate.finite_output(np.einsum("...ij,...j->...i", R, p), "so3.act")
+
+
+def interpolate(R0: Any, R1: Any, tau: Any) -> FloatArray:
+    """Geodesic ``R0·Exp(τ·Log(R0ᵀR1))`` (SLERP on matrices); ``τ`` broadcasts against the batch.
+
+    ``τ = 0`` gives ``R0`` and ``τ = 1`` gives ``R1``; the arc is the principal one (angle ≤ π).
+    Tempting and false: ``Exp((1 − τ)·Log(R0) + τ·Log(R1))``, which is not a geodesic.
+    """
+    ops = (_log, _exp, _inverse)
+
+    def tangent(w: Any, name: str) -> FloatArray:
+        return validate.tangent(w, name, 3)
+
+    return _mg.interpolate(
+        R0, R1, tau, validate.rotation, tangent, ops, ("R0", "R1"), "so3.interpolate"
+    )
+
+
+# ----------------------------------------------------------------------------- the record
+GROUP = register_shipped(
+    Group(
+        name="so3", dim=3, matrix=3, rot=slice(0, 3), vecs=(), cols=(), scale=None,
+        element=validate.rotation,
+        kernels=Kernels(
+            exp=_exp, log=_log, inverse=_inverse, adjoint=_adjoint_k, jr_inv=_jr_inv,
+            jl_inv=_jl_inv, jr=_jr, jl=_jl,
+        ),
+        charts=("se3", "so3xr3_body", "so3xr3_world"),
+        chart_aliases={"so3": "se3", "split_body": "so3xr3_body", "split_world": "so3xr3_world"},
+        probe=_exp(np.array([0.4, -0.7, 0.5])), label="SO(3)", tangent_doc="(ω,)",
+    )
+)  # fmt: skip

@@ -1,0 +1,248 @@
+"""SE(3) and SO(3)'s registered fast implementation of the record-driven convention formulas.
+
+The same maps as :class:`~liebridge.conventions.engine.Engine` (a test holds them equal on every
+SE(3) and SO(3) preset), evaluated with what only these groups have: the closed-form tangent-map
+grids of :mod:`~liebridge.conventions.tangent_maps` (and the optional compiled pass built on
+them), the absolute Euler-angle coordinates, and an SE(3) convention acting on a bare rotation
+``(..., 3, 3)`` as its SO(3) part (a convention of ``se3`` accepts both, as before groups
+existed).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .. import _validate as validate
+from .._validate import FloatArray
+from ..lie import Group, se3, so3
+from ..lie import unchecked as U
+from .engine import Engine, register_fast
+from .rotation_coords import (
+    d_from_rotation,
+    euler_local,
+    euler_rate_map,
+    euler_rate_map_inv,
+    euler_retract,
+    from_rotation,
+    matrix_to_euler,
+    to_rotation,
+)
+from .tangent_maps import canonical_tangent_map
+
+if TYPE_CHECKING:
+    from .convention import Convention
+
+
+def _is_so3(X: FloatArray) -> bool:
+    return X.shape[-2:] == (3, 3)
+
+
+def group_input(X: Any, name: str = "X") -> FloatArray:
+    """Validate ``X`` as a pose ``(..., 4, 4)`` or a rotation ``(..., 3, 3)``."""
+    arr = validate.as_float_array(X, name)
+    shape = arr.shape[-2:]
+    if shape == (4, 4):
+        return validate.checked_pose(arr, name)
+    if shape == (3, 3):
+        return validate.checked_rotation(arr, name)
+    raise ValueError(
+        f"{name}: expected a pose (..., 4, 4) or a rotation (..., 3, 3), got {arr.shape}"
+    )
+
+
+def _split(conv: Convention, d: FloatArray) -> tuple[FloatArray, FloatArray]:
+    if conv.order == "rot_first":
+        return d[..., :3], d[..., 3:]
+    return d[..., 3:], d[..., :3]
+
+
+def _join(conv: Convention, r: FloatArray, u: FloatArray) -> FloatArray:
+    parts = (r, u) if conv.order == "rot_first" else (u, r)
+    return np.concatenate(np.broadcast_arrays(*parts), axis=-1)
+
+
+class SE3Engine(Engine):
+    """The fast implementation for ``se3`` (poses, or rotations as their SO(3) part) and ``so3``.
+
+    Charts: ``se3`` (the SE(3) exponential), ``so3xr3_body`` (``t + R·u``) and ``so3xr3_world``
+    (``t + u``), the record's split charts.
+    """
+
+    euler = True
+    embed = False
+
+    def __init__(self, group: Group) -> None:
+        self.group = group
+        self.rotation_only = not group.vecs
+
+    def check(self, conv: Convention, g: Group) -> None:
+        """SE(3)'s own rules: no embedding (the other groups use it)."""
+        if conv.embed is not None:
+            raise ValueError(f"Convention {conv.name!r}: embed is for the other groups")
+
+    def dim(self, conv: Convention, X: Any = None) -> int:
+        """6 for a pose, 3 for a rotation (an SE(3) convention given a rotation: 3)."""
+        if self.rotation_only:
+            return 3
+        if X is not None and validate.as_float_array(X, "X").shape[-2:] == (3, 3):
+            return 3
+        return 6
+
+    def element(self, conv: Convention, X: Any, name: str) -> FloatArray:
+        """A pose or a rotation (``se3``), a rotation (``so3``)."""
+        if self.rotation_only:
+            return validate.rotation(X, name)
+        return group_input(X, name)
+
+    def pair(self, conv: Convention, X: Any, Y: Any) -> tuple[FloatArray, FloatArray]:
+        """Two elements of the same kind with broadcastable batch shapes."""
+        A = self.element(conv, X, "X")
+        B = self.element(conv, Y, "Y")
+        if A.shape[-2:] != B.shape[-2:]:
+            raise ValueError(f"Y: shape {B.shape} does not match X {A.shape}")
+        validate.batch_shape(("X", A.shape[:-2]), ("Y", B.shape[:-2]))
+        return A, B
+
+    def increment(self, conv: Convention, d: Any, so3: bool, name: str) -> FloatArray:
+        """The rotation part bounded (``validate.tangent``)."""
+        if self.rotation_only or so3:
+            return validate.tangent(d, name, 3)
+        return validate.tangent(
+            d, name, 6, slice(0, 3) if conv.order == "rot_first" else slice(3, 6)
+        )
+
+    def retract(self, conv: Convention, X: FloatArray, d: FloatArray) -> FloatArray:
+        """``X·Exp(d)`` / ``Exp(d)·X`` (or the split update), see the Convention docstring."""
+        right = conv.side == "right"
+        if _is_so3(X):
+            if conv.is_euler:
+                return euler_retract(X, d, conv.rotation)
+            dR = to_rotation(d, conv.rotation)
+            return np.asarray(X @ dR if right else dR @ X, dtype=np.float64)
+        r, u = _split(conv, d)
+        frame = self.group.split_frame(conv.chart)
+        if frame is None:
+            E = U.se3_exp(np.concatenate([r, u], axis=-1))
+            return np.asarray(X @ E if right else E @ X, dtype=np.float64)
+        R, t = X[..., :3, :3], X[..., :3, 3]
+        if conv.is_euler:
+            R2 = euler_retract(R, r, conv.rotation)
+        else:
+            dR = to_rotation(r, conv.rotation)
+            R2 = R @ dR if right else dR @ R
+        du = np.einsum("...ij,...j->...i", R, u) if frame == "body" else u
+        out = np.zeros(np.broadcast_shapes(X.shape, (*d.shape[:-1], 4, 4)))
+        out[..., :3, :3] = R2
+        out[..., :3, 3] = t + du
+        out[..., 3, 3] = 1.0
+        return out
+
+    def local(self, conv: Convention, X: FloatArray, Y: FloatArray) -> FloatArray:
+        """Inverse of :meth:`retract` (principal branch)."""
+        right = conv.side == "right"
+        if _is_so3(X):
+            if conv.is_euler:
+                return euler_local(X, Y, conv.rotation)
+            Xt = np.swapaxes(X, -1, -2)
+            return from_rotation(Xt @ Y if right else Y @ Xt, conv.rotation)
+        frame = self.group.split_frame(conv.chart)
+        if frame is None:
+            Xi = U.se3_inverse(X)
+            xi = U.se3_log(Xi @ Y if right else Y @ Xi)
+            return _join(conv, xi[..., :3], xi[..., 3:])
+        R, t = X[..., :3, :3], X[..., :3, 3]
+        Rt = np.swapaxes(R, -1, -2)
+        RY, tY = Y[..., :3, :3], Y[..., :3, 3]
+        if conv.is_euler:
+            r = euler_local(R, RY, conv.rotation)
+        else:
+            r = from_rotation(Rt @ RY if right else RY @ Rt, conv.rotation)
+        dt = tY - t
+        u = np.einsum("...ij,...j->...i", Rt, dt) if frame == "body" else dt
+        return _join(conv, r, u)
+
+    def local_jacobian(self, conv: Convention, X: FloatArray, Y: FloatArray) -> FloatArray:
+        """``∂ local(X, retract(Y, δ)) / ∂δ`` at 0, closed form."""
+        s = conv.rotation_scale
+        right = conv.side == "right"
+        frame = self.group.split_frame(conv.chart)
+        if conv.is_euler:  # local(X, retract(Y, δ)) = e(Y) + δ − e(X): the identity
+            shape = np.broadcast_shapes(X.shape[:-2], Y.shape[:-2])
+            matrix_to_euler(Y[..., :3, :3], conv.rotation, "Y")  # gimbal lock raises
+            n = 3 if _is_so3(X) else 6
+            J = np.zeros((*shape, n, n))
+            J[..., :, :] = np.eye(n)
+            if n == 6:
+                RX, RY = X[..., :3, :3], Y[..., :3, :3]
+                tb = np.swapaxes(RX, -1, -2) @ RY if frame == "body" else np.eye(3)
+                k = slice(3, 6) if conv.order == "rot_first" else slice(0, 3)
+                J[..., k, k] = tb
+            return J
+        if _is_so3(X):
+            Xt = np.swapaxes(X, -1, -2)
+            dR = Xt @ Y if right else Y @ Xt
+            return np.asarray(s * d_from_rotation(dR, conv.rotation, conv.side), dtype=np.float64)
+        if frame is None:
+            if right:
+                J = U.se3_jl_inv(-U.se3_log(U.se3_inverse(X) @ Y))  # Jr⁻¹(ξ) = Jl⁻¹(−ξ)
+            else:
+                J = U.se3_jl_inv(U.se3_log(Y @ U.se3_inverse(X)))
+        else:
+            RX, RY = X[..., :3, :3], Y[..., :3, :3]
+            RXt = np.swapaxes(RX, -1, -2)
+            dR = RXt @ RY if right else RY @ RXt
+            J = np.zeros((*np.broadcast_shapes(X.shape, Y.shape)[:-2], 6, 6))
+            J[..., :3, :3] = s * d_from_rotation(dR, conv.rotation, conv.side)
+            J[..., 3:, 3:] = RXt @ RY if frame == "body" else np.eye(3)
+        if conv.order == "trans_first":
+            J = np.concatenate([J[..., 3:, :], J[..., :3, :]], axis=-2)
+            J = np.concatenate([J[..., :, 3:], J[..., :, :3]], axis=-1)
+        return np.asarray(J, dtype=np.float64)
+
+    # ----------------------------------------------------------------- first-order maps
+    @staticmethod
+    def _euler_base(conv: Convention) -> tuple[Convention, slice]:
+        """The rotation-vector twin (right, ``exp``) and where its rotation entries sit."""
+        base = replace(conv, name=f"{conv.name}_exp", side="right", rotation="exp")
+        return base, slice(0, 3) if conv.order == "rot_first" else slice(3, 6)
+
+    def _euler_D(self, conv: Convention, X: FloatArray, inverse: bool) -> FloatArray:
+        """``D``: ``W⁻¹`` (``inverse``: ``W``) on the rotation entries, else ``I``."""
+        e = matrix_to_euler(X[..., :3, :3], conv.rotation, "X")
+        B = (
+            euler_rate_map(e, conv.rotation, "X")
+            if inverse
+            else euler_rate_map_inv(e, conv.rotation)
+        )
+        if _is_so3(X):
+            return B
+        _, k = self._euler_base(conv)
+        D = np.zeros((*X.shape[:-2], 6, 6))
+        D[..., :, :] = np.eye(6)
+        D[..., k, k] = B
+        return D
+
+    def to_canonical(self, conv: Convention, X: FloatArray) -> FloatArray:
+        """Closed-form grid (Euler: the rotation-vector twin's, times ``W⁻¹``)."""
+        so3_ = X.shape[-1] == 3
+        if conv.is_euler:  # ω_body = W⁻¹(e) r; the rest as the rotation-vector twin
+            base, _ = self._euler_base(conv)
+            M = canonical_tangent_map(base, "to", so3_)(X)
+            return np.asarray(M @ self._euler_D(conv, X, False), dtype=np.float64)
+        return canonical_tangent_map(conv, "to", so3_)(X)
+
+    def from_canonical(self, conv: Convention, X: FloatArray) -> FloatArray:
+        """Inverse of :meth:`to_canonical` (closed form, no matrix inversion)."""
+        so3_ = X.shape[-1] == 3
+        if conv.is_euler:
+            base, _ = self._euler_base(conv)
+            M = canonical_tangent_map(base, "from", so3_)(X)
+            return np.asarray(self._euler_D(conv, X, True) @ M, dtype=np.float64)
+        return canonical_tangent_map(conv, "from", so3_)(X)
+
+
+register_fast(se3.GROUP, SE3Engine(se3.GROUP))
+register_fast(so3.GROUP, SE3Engine(so3.GROUP))
