@@ -20,8 +20,8 @@ from hypothesis import strategies as st
 
 import liebridge as lb
 from liebridge import conventions as C
-from liebridge.check import monte_carlo_covariance, numerical_jacobian
 from liebridge import lie
+from liebridge.check import monte_carlo_covariance, numerical_jacobian
 from liebridge.conventions.convention import Convention
 from liebridge.lie import se2, se23, sim3, so2
 

@@ -25,8 +25,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from liebridge.check import assert_jacobian, numerical_jacobian
 from liebridge import lie
+from liebridge.check import assert_jacobian, numerical_jacobian
 from liebridge.lie import se2, se3, se23, sim3, so2, so3
 
 pytestmark = pytest.mark.filterwarnings("error")

@@ -92,7 +92,7 @@ def _check_field(name: str, value: str, allowed: tuple[str, ...]) -> None:
 
 
 def _resolve_group(name: str, group: Any) -> Group:
-    """The registered record of ``group`` (a name or a record)."""
+    """Return the registered record of ``group`` (a name or a record)."""
     if isinstance(group, Group):
         if GROUPS.get(group.name) is not group:
             raise ValueError(
@@ -136,7 +136,7 @@ class Convention:
     quat_order: str
     source: str = ""
     notes: str = field(default="", compare=False, repr=False)
-    group: str = DEFAULT_GROUP
+    group: str = DEFAULT_GROUP  # a registered Group record is accepted and stored as its name
     embed: Embed | None = None
     _key: tuple[str, str, str, str] = field(init=False, repr=False, compare=False)
 

@@ -23,7 +23,7 @@ from .._validate import FloatArray
 from ..lie import GROUPS, Group
 from ..lie import group as lie_group
 from ..lie.numdiff import numerical_jacobian
-from .convention import CANONICAL, ORDERS, SIDES, Convention
+from .convention import ORDERS, SIDES, Convention
 from .engine import engine_for
 from .registry import get, matching_presets
 from .rotation_coords import EULER_COORDS, ROTATION_COORDS
@@ -162,10 +162,15 @@ def detect_convention(
             best = (err, cand)
     err, found = best
     if found is None or err > tol * max(1.0, float(np.abs(Y).max())):
-        canon = CANONICAL
         canon = Convention(  # the group's canonical tangent: right, its order, its exp
-            "canonical", "right", g.canonical_order, g.coupled_chart, "exp", "wxyz", group=g
-        )  # type: ignore[arg-type]
+            "canonical",
+            "right",
+            g.canonical_order,  # type: ignore[arg-type]
+            g.coupled_chart,
+            "exp",
+            "wxyz",
+            group=g.name,
+        )
         M = numerical_jacobian(
             lambda Z: Z,
             X,

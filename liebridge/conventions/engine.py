@@ -103,6 +103,6 @@ def register_fast(group: Group, engine: Engine) -> None:
 
 
 def engine_for(group: str | Group) -> Engine:
-    """The engine that runs conventions of ``group``."""
+    """Return the engine that runs conventions of ``group``."""
     name = group.name if isinstance(group, Group) else group
     return _FAST.get(name, RECORD_ENGINE)

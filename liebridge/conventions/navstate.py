@@ -86,7 +86,7 @@ class NavChart(Convention):
             quat_order=pose.quat_order,
             source=source,
             notes=notes,
-            group=se23.GROUP,
+            group=se23.GROUP.name,
             pose=pose,
             velocity=velocity,
             perm=tuple(order) if order is not None else None,

@@ -92,7 +92,7 @@ class SE3Engine(Engine):
         return 6
 
     def element(self, conv: Convention, X: Any, name: str) -> FloatArray:
-        """A pose or a rotation (``se3``), a rotation (``so3``)."""
+        """Validate a pose or a rotation (``se3``), a rotation (``so3``)."""
         if self.rotation_only:
             return validate.rotation(X, name)
         return group_input(X, name)
@@ -107,7 +107,7 @@ class SE3Engine(Engine):
         return A, B
 
     def increment(self, conv: Convention, d: Any, so3: bool, name: str) -> FloatArray:
-        """The rotation part bounded (``validate.tangent``)."""
+        """Validate an increment, its rotation part bounded (``validate.tangent``)."""
         if self.rotation_only or so3:
             return validate.tangent(d, name, 3)
         return validate.tangent(
@@ -205,7 +205,7 @@ class SE3Engine(Engine):
     # ----------------------------------------------------------------- first-order maps
     @staticmethod
     def _euler_base(conv: Convention) -> tuple[Convention, slice]:
-        """The rotation-vector twin (right, ``exp``) and where its rotation entries sit."""
+        """Return the rotation-vector twin (right, ``exp``) and where its rotation entries sit."""
         base = replace(conv, name=f"{conv.name}_exp", side="right", rotation="exp")
         return base, slice(0, 3) if conv.order == "rot_first" else slice(3, 6)
 

@@ -186,7 +186,7 @@ class Group:
         return self.charts[0]
 
     def chart(self, name: str) -> str:
-        """The registered spelling of chart ``name`` (aliases resolved); ``ValueError`` if none."""
+        """Return the registered spelling of chart ``name`` (aliases resolved), else raise."""
         name = self.chart_aliases.get(name, name)
         if name not in self.charts:
             raise ValueError(
@@ -217,7 +217,7 @@ class Group:
         return "rot_first" if self.rot is None or self.rot.start == 0 else "trans_first"
 
     def identity(self) -> FloatArray:
-        """The identity element ``(matrix, matrix)``."""
+        """Return the identity element ``(matrix, matrix)``."""
         return np.eye(self.matrix)
 
     def __repr__(self) -> str:
@@ -253,7 +253,7 @@ class Group:
         return self._out(f(A, B) if f is not None else A @ B, "compose")
 
     def act(self, X: Any, x: Any) -> FloatArray:
-        """``A x + b`` on points ``(..., k)``, ``k = matrix − len(cols)``.
+        """Apply ``A x + b`` to points ``(..., k)``, ``k = matrix − len(cols)``.
 
         ``A`` is the top-left ``k × k`` block and ``b`` the first vector column (SE₂(3): the
         position, not the velocity); a rotation group acts as ``R x``. The group's own ``act``
@@ -279,13 +279,15 @@ class Group:
         """Right Jacobian: ``Exp(ξ + δ) ≈ Exp(ξ)·Exp(jr(ξ) δ)``."""
         x = self.tangent(xi)
         f = self.kernels.jr
-        return self._out(f(x) if f is not None else np.linalg.inv(self.kernels.jr_inv(x)), "jr")
+        out = f(x) if f is not None else np.linalg.inv(self.kernels.jr_inv(x))
+        return self._out(np.asarray(out, dtype=np.float64), "jr")
 
     def jl(self, xi: Any) -> FloatArray:
         """Left Jacobian: ``Exp(ξ + δ) ≈ Exp(jl(ξ) δ)·Exp(ξ)``."""
         x = self.tangent(xi)
         f = self.kernels.jl
-        return self._out(f(x) if f is not None else np.linalg.inv(self.kernels.jl_inv(x)), "jl")
+        out = f(x) if f is not None else np.linalg.inv(self.kernels.jl_inv(x))
+        return self._out(np.asarray(out, dtype=np.float64), "jl")
 
     def jr_inv(self, xi: Any) -> FloatArray:
         """Inverse right Jacobian: the derivative of ``Log(Exp(ξ)·Exp(δ))`` at ``δ = 0``."""

@@ -28,8 +28,8 @@ import numpy as np
 
 from .. import _validate as validate
 from .._validate import FloatArray
-from .record import Group, Kernels, register_shipped
 from . import _matrix_group as _mg
+from .record import Group, Kernels, register_shipped
 from .series import one_minus_cos_over_t2, sinc, t_minus_sin_over_t3
 
 __all__ = [

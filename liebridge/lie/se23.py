@@ -24,9 +24,9 @@ import numpy as np
 
 from .. import _validate as validate
 from .._validate import FloatArray
-from .record import Group, Kernels, register_shipped
 from . import _matrix_group as _mg
 from . import se3, so3
+from .record import Group, Kernels, register_shipped
 
 __all__ = [
     "act",

@@ -27,9 +27,9 @@ import numpy as np
 
 from .. import _validate as validate
 from .._validate import FloatArray
-from .record import Group, Kernels, register_shipped
 from . import _compiled, so3
 from . import _matrix_group as _mg
+from .record import Group, Kernels, register_shipped
 from .series import (
     jinv_coeff,
     one_minus_cos_over_t2,
