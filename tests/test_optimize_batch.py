@@ -1,6 +1,7 @@
-"""Issue 23: the batched linearization of :func:`liebridge.gtsam.optimize` changes no number.
+"""The batched linearization of :func:`liebridge.gtsam.optimize` changes no number.
 
-* the fused SE(3)-chart residual/Jacobians (one logarithm for both) equal the generic
+* the fused coupled-chart residual/Jacobians (one logarithm for both), for every group, equal the
+  general
   ``factor_math`` path and central differences through GTSAM's retraction;
 * pairs of factors sharing their first-eliminated key, handed to GTSAM as one three-key
   ``JacobianFactor``, and shared damping factors leave the Hessian and the damped step unchanged;
@@ -17,7 +18,7 @@ import numpy as np
 import pytest
 
 from liebridge.check import numerical_jacobian
-from liebridge.conventions import convert_covariance, get
+from liebridge.conventions import ALL_PRESETS, Convention, convert_covariance, get
 from liebridge.gtsam import between, optimize, prior
 from liebridge.gtsam import factor_math as F
 from liebridge.gtsam.batch import poses_of
@@ -25,7 +26,8 @@ from liebridge.gtsam.optimize import _Damping, _SplitGraph
 from liebridge.lie import se3
 from liebridge.lie import unchecked as U
 
-SE3_CHART = ["gtsam", "barfoot", "sophus", "manif"]
+#: Every preset whose chart is its group's own exponential: the fused path of factor_math.
+COUPLED = [c.name for c in ALL_PRESETS if F.is_coupled_chart(c)]
 
 
 def _twists(n: int, rng: np.random.Generator) -> np.ndarray:
@@ -38,24 +40,44 @@ def _twists(n: int, rng: np.random.Generator) -> np.ndarray:
     return np.concatenate([w, v], axis=-1)
 
 
-@pytest.mark.parametrize("conv", SE3_CHART)
+def _elements(c: Convention, n: int, rng: np.random.Generator, scale: float) -> np.ndarray:
+    """Elements of ``c``'s group: Exp of tangents with edge-case angles, 30 m vectors."""
+    g = c.record
+    if g.dim == 6:
+        return U.se3_exp(_twists(n, rng) * scale)
+    xi = rng.uniform(-30.0, 30.0, size=(n, g.dim)) * scale
+    if g.rot is not None:
+        xi[:, g.rot] = rng.uniform(-1.0, 1.0, size=(n, g.rot_dim)) * scale
+    if g.scale is not None:
+        xi[:, g.scale] = rng.uniform(-0.5, 0.5, size=n) * scale
+    return g.exp(xi)
+
+
+def test_every_group_has_coupled_chart_presets() -> None:
+    assert {get(n).group for n in COUPLED} >= {"se3", "se2", "sim3", "se23"}
+    assert {"gtsam", "barfoot", "sophus", "manif"} <= set(COUPLED)
+
+
+@pytest.mark.parametrize("conv", COUPLED)
 @pytest.mark.parametrize("shape", [(10,), (2, 5)])
-def test_fused_se3_chart_equals_the_generic_path(conv: str, shape: tuple[int, ...]) -> None:
+def test_fused_coupled_chart_equals_the_general_path(conv: str, shape: tuple[int, ...]) -> None:
     c = get(conv)
+    g = c.record
     rng = np.random.default_rng(len(conv))
     n = int(np.prod(shape))
-    Z = U.se3_exp(_twists(n, rng)).reshape(*shape, 4, 4)
+    m = g.matrix
+    Z = _elements(c, n, rng, 1.0).reshape(*shape, m, m)
     # H near Z (the residual inside every chart, edge-case sizes) and far from it
     for H in (
-        Z @ U.se3_exp(_twists(n, rng) * 1e-2).reshape(*shape, 4, 4),
-        U.se3_exp(_twists(n, rng) * 0.5).reshape(*shape, 4, 4),
+        Z @ _elements(c, n, rng, 1e-2).reshape(*shape, m, m),
+        _elements(c, n, rng, 0.5).reshape(*shape, m, m),
     ):
-        xi = F.se3_chart_log(c, U.se3_inverse(Z), H)
+        xi = F.coupled_chart_log(c, g.kernels.inverse(Z), H)
         p = F.order_permutation(c)
         np.testing.assert_allclose(xi[..., p], F.residual(c, Z, H), atol=1e-9)
         for between_ in (True, False):
             Ji, Jj = F.jacobians(c, Z, H, between=between_)
-            Fi, Fj = F.se3_chart_jacobians(c, xi, H, between_)
+            Fi, Fj = F.coupled_chart_jacobians(c, xi, H, between_)
             scale = 1.0 + np.abs(Ji).max()
             np.testing.assert_allclose(Fi[..., p, :], Ji, atol=1e-9 * scale)
             if between_:
@@ -64,46 +86,73 @@ def test_fused_se3_chart_equals_the_generic_path(conv: str, shape: tuple[int, ..
             else:
                 assert Fj is None
             # the whitening folded in before the adjoint is the same as after
-            R = rng.normal(size=(*shape, 6, 6))
-            Wi, Wj = F.se3_chart_jacobians(c, xi, H, between_, R)
+            R = rng.normal(size=(*shape, g.dim, g.dim))
+            Wi, Wj = F.coupled_chart_jacobians(c, xi, H, between_, R)
             np.testing.assert_allclose(Wi, R @ Fi, atol=1e-9 * scale * 10)
             if between_:
                 np.testing.assert_allclose(Wj, R @ Fj, atol=1e-9 * scale * 10)
 
 
-def test_se3_jl_inv_equals_liebridges() -> None:
+def _textbook_q(w: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Barfoot's Q as eight products of P = hat(w), U = hat(v) (State Estimation, eq. 7.86)."""
+    from liebridge.lie import series, so3
+
+    th = np.linalg.norm(w, axis=-1)
+    c1 = series.t_minus_sin_over_t3(th)[..., None, None]
+    c2 = series.q_coeff2(th)[..., None, None]
+    c3 = series.q_coeff3(th)[..., None, None]
+    P, Um = so3.hat(w), so3.hat(v)
+    PU, UP, PP = P @ Um, Um @ P, P @ P
+    PUP = PU @ P
+    return (
+        0.5 * Um
+        + c1 * (PU + UP + PUP)
+        + c2 * (PP @ Um + UP @ P - 3.0 * PUP)
+        + c3 * (PUP @ P + PP @ Um @ P)
+    )
+
+
+def test_se3_jacobians_closed_form_q_equals_the_textbook_products() -> None:
+    """The kernel's outer-product Q (one formula for the factors and lie.se3) is Barfoot's."""
     xi = _twists(200, np.random.default_rng(0))
-    ref = U.se3_jl_inv(xi)
-    np.testing.assert_allclose(F.se3_jl_inv(xi), ref, atol=1e-12 * (1 + np.abs(ref).max()))
     w, v = xi[:, :3], xi[:, 3:]
-    # Q is the lower-left block of Jl (liebridge.lie.unchecked.se3_jl), in (ω, v) order
-    np.testing.assert_allclose(F.se3_q(w, v), U.se3_jl(xi)[:, 3:, :3], atol=1e-12)
+    Q = _textbook_q(w, v)
+    np.testing.assert_allclose(U.se3_jl(xi)[:, 3:, :3], Q, atol=1e-12 * (1 + np.abs(Q).max()))
+    Ji = U.so3_jl_inv(w)
+    ref = -Ji @ Q @ Ji
+    np.testing.assert_allclose(
+        U.se3_jl_inv(xi)[:, 3:, :3], ref, atol=1e-12 * (1 + np.abs(ref).max())
+    )
 
 
-@pytest.mark.parametrize("conv", SE3_CHART)
+@pytest.mark.parametrize("conv", COUPLED)
 @pytest.mark.parametrize("seed", [0, 1])
 def test_fused_jacobians_match_finite_differences(conv: str, seed: int) -> None:
     c = get(conv)
+    g = c.record
     rng = np.random.default_rng(seed)
-    Ti, Tj = U.se3_exp(rng.normal(size=6) * 2), U.se3_exp(rng.normal(size=6) * 2)
-    Z = c.retract(se3.inverse(Ti) @ Tj, rng.uniform(-0.3, 0.3, 6))
-    Z_inv = se3.inverse(Z)
+    Ti, Tj = _elements(c, 2, rng, 0.1)
+    Z = c.retract(g.inverse(Ti) @ Tj, rng.uniform(-0.3, 0.3, c.dim()))
+    Z_inv = g.inverse(Z)
     p = F.order_permutation(c)
-    gtsam_retract = get("gtsam").retract  # GTSAM's Pose3 retraction: T·Exp(ξ)
+    # GTSAM's perturbation of every variable: T·Exp(ξ), ξ in the group's canonical order
+    hub = Convention(
+        "hub", "right", g.canonical_order, g.coupled_chart, "exp", "wxyz", group=g.name
+    )  # type: ignore[arg-type]
 
     def e_of_j(Tj_: np.ndarray) -> np.ndarray:
-        return F.se3_chart_log(c, Z_inv, se3.inverse(Ti) @ Tj_)[..., p]
+        return F.coupled_chart_log(c, Z_inv, g.inverse(Ti) @ Tj_)[..., p]
 
     def e_of_i(Ti_: np.ndarray) -> np.ndarray:
-        return F.se3_chart_log(c, Z_inv, se3.inverse(Ti_) @ Tj)[..., p]
+        return F.coupled_chart_log(c, Z_inv, g.inverse(Ti_) @ Tj)[..., p]
 
-    H = se3.inverse(Ti) @ Tj
-    Ji, Jj = F.se3_chart_jacobians(c, F.se3_chart_log(c, Z_inv, H), H, True)
+    H = g.inverse(Ti) @ Tj
+    Ji, Jj = F.coupled_chart_jacobians(c, F.coupled_chart_log(c, Z_inv, H), H, True)
     assert Jj is not None
-    num_j = numerical_jacobian(e_of_j, Tj, retract=gtsam_retract, out_local="euclidean")
-    num_i = numerical_jacobian(e_of_i, Ti, retract=gtsam_retract, out_local="euclidean")
-    np.testing.assert_allclose(Jj[p], num_j, atol=1e-7)
-    np.testing.assert_allclose(Ji[p], num_i, atol=1e-7)
+    num_j = numerical_jacobian(e_of_j, Tj, retract=hub.retract, out_local="euclidean")
+    num_i = numerical_jacobian(e_of_i, Ti, retract=hub.retract, out_local="euclidean")
+    np.testing.assert_allclose(Jj[p], num_j, atol=1e-7 * (1 + np.abs(num_j).max()))
+    np.testing.assert_allclose(Ji[p], num_i, atol=1e-7 * (1 + np.abs(num_i).max()))
 
 
 def _circle(conv: str, seed: int, n: int = 12) -> tuple[gtsam.NonlinearFactorGraph, gtsam.Values]:

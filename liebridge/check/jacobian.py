@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from .._validate import FloatArray
-from ..conventions import get
+from ..conventions import Convention, get
 from ..lie import numdiff
 from ..lie.numdiff import Local, Retract
 
@@ -47,9 +47,10 @@ def numerical_jacobian(
     out_local : callable or ``"euclidean"``, optional
         Local map of the output. ``"euclidean"`` (or no ``local`` either) means ``y − y0``.
     dim : int, optional
-        Input tangent dimension; inferred for square group elements as 1, 3, 6, 9 for
-        ``(2, 2)``, ``(3, 3)``, ``(4, 4)``, ``(5, 5)`` (SO(2); SO(3) or SE(2); SE(3); SE₂(3)),
-        else ``n``. Pass ``dim=7`` for Sim(3) (also 4×4).
+        Input tangent dimension. With ``retract`` a convention's ``retract`` (or
+        ``in_convention``) it is that convention's (its group record's: Sim(3) 7, a user's group
+        its own); else inferred for square group elements as 1, 3, 6, 9 for ``(2, 2)``,
+        ``(3, 3)``, ``(4, 4)``, ``(5, 5)`` (SO(2); SO(3) or SE(2); SE(3); SE₂(3)), else ``n``.
     eps : float
         Step. The default 1e-6 gives errors around 1e-9 for O(1) second derivatives.
     in_convention, out_convention : Convention or str, optional
@@ -70,6 +71,9 @@ def numerical_jacobian(
                 dim = cin.dim(x)  # (a library pose object too)
         if out_convention is not None:
             out_local = out_local if out_local is not None else get(out_convention).local
+    owner = getattr(retract, "__self__", None)
+    if dim is None and isinstance(owner, Convention):  # conv.retract: its group's record knows
+        dim = owner.dim(x)
     return numdiff.numerical_jacobian(
         f, x, retract=retract, local=local, out_local=out_local, dim=dim, eps=eps
     )

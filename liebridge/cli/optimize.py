@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from .._validate import FloatArray
+from ..lie import se3
 from ._common import CLIError, check_output_path, convention_arg, need_matplotlib, option_value, say
 
 __all__ = [
@@ -239,7 +240,7 @@ def _run(args: argparse.Namespace) -> int:
         from . import optimize_2d
 
         return optimize_2d.run(args, path, _params(args.max_iterations), plt, t_start)
-    if getattr(conv, "group", "se3") != "se3":
+    if getattr(conv, "group", None) != se3.GROUP.name:
         raise CLIError(
             f"--convention: {conv.name!r} is a convention of {conv.group}, and {path.name} is a "
             "3D graph: give an SE(3) one ('liebridge conventions' lists them)"

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from .._validate import FloatArray
+from ..lie import se2
 from ._common import CLIError, need_matplotlib, say
 
 #: σ of the gauge prior on the first vertex, in each of (vx, vy, ω).
@@ -37,8 +38,8 @@ def _se2_convention(name: str) -> Any:
         conv = get(name)
     except ValueError as exc:
         raise CLIError(f"--convention: {exc}") from None
-    group = getattr(conv, "group", "se3")
-    if group != "se2":
+    group = getattr(conv, "group", None)
+    if group != se2.GROUP.name:
         raise CLIError(
             f"--convention: {conv.name!r} is a convention of {group}, and this is a 2D graph: "
             "give an SE(2) one (e.g. gtsam_pose2, ros_pose2; 'liebridge conventions' lists them)"
@@ -51,7 +52,7 @@ def factor_kind_2d(conv: Any) -> str:
     from ..conventions.convert import is_exactly_linear
     from ..gtsam.build import gtsam_convention_of
 
-    if is_exactly_linear(conv, gtsam_convention_of("se2")):
+    if is_exactly_linear(conv, gtsam_convention_of(se2.GROUP.name)):
         return "native BetweenFactorPose2 (the conversion to GTSAM's tangent is exact)"
     return (
         f"liebridge custom factors ({conv.name}'s own residual, exact Jacobians): the conversion "
@@ -75,7 +76,7 @@ def build_2d(g: Any, conv: Any) -> tuple[Any, Any]:
     from ..gtsam.build import gtsam_convention_of
     from ..gtsam.glue import to_values
 
-    hub = gtsam_convention_of("se2")
+    hub = gtsam_convention_of(se2.GROUP.name)
     if is_exactly_linear(conv, hub):
         graph, values = g.to_gtsam()
     else:

@@ -12,6 +12,7 @@ import re
 from typing import Any
 
 from ..conventions import ALL_PRESETS, GROUP_NAMES, PRESETS, STATE_PRESETS, Bundle, Convention
+from ..conventions.convention import DEFAULT_GROUP
 from ._common import option_value
 
 __all__ = ["add_parser", "evidence_summary", "render", "rows"]
@@ -116,7 +117,7 @@ def _as_dict(c: Convention) -> dict[str, Any]:
             "notes": c.notes,
             "evidence": evidence_summary(c.source),
         }
-    out: dict[str, Any] = {} if c.group == "se3" else {"group": c.group}
+    out: dict[str, Any] = {} if c.group == DEFAULT_GROUP else {"group": c.group}
     return out | {
         "name": c.name,
         "side": c.side,
@@ -230,7 +231,7 @@ def _describe_one(c: Convention) -> str:
 
     if isinstance(c, Bundle):
         return _describe_state(c)
-    if c.group != "se3":
+    if c.group != DEFAULT_GROUP:
         return _describe_group(c)
     X = se3.exp(np.array([0.4, -0.7, 0.5, 1.5, -2.0, 0.8]))
     M = tangent_map(X, "gtsam", c)

@@ -30,6 +30,7 @@ from .._validate import FloatArray
 from .bundle import Bundle
 from .convention import Convention
 from .cubature import cubature_rule_5, sqrt_psd
+from .engine import convertible
 from .navstate import NavChart, nav_exactly_linear
 from .registry import ConventionLike, get
 from .tangent_maps import pair_map_coefficients
@@ -53,7 +54,7 @@ def _chart_family(c: Convention) -> str:
 
 
 def _check_groups(a: Convention, b: Convention) -> None:
-    if a.group != b.group and not {a.group, b.group} <= {"se3", "so3"}:
+    if not convertible(a.group, b.group):
         raise ValueError(
             f"src {a.name!r} is a {a.group} convention and dst {b.name!r} a {b.group} one: "
             "tangents of different groups cannot be converted into each other"
@@ -63,7 +64,10 @@ def _check_groups(a: Convention, b: Convention) -> None:
 def _element(a: Convention, b: Convention, X: Any, name: str = "X") -> FloatArray:
     """Validate ``X`` as an element of the (common) group of ``a`` and ``b``."""
     _check_groups(a, b)
-    return (b if a.group == "se3" else a).element(X, name)
+    if a.group == b.group:
+        return b.element(X, name)
+    # an SE(3) convention with an SO(3) one: X is a rotation (the narrower group's element)
+    return (b if len(b.record.vecs) <= len(a.record.vecs) else a).element(X, name)
 
 
 # --------------------------------------------------------------------------------------------
@@ -106,15 +110,15 @@ def _compiled_plan(src: Any, dst: Any) -> _Plan | None:
 def _plan_for(src: Any, dst: Any) -> _Plan | None:
     a, b = get(src), get(dst)
     simple = (
-        a.group in ("se3", "so3")
-        and b.group in ("se3", "so3")
+        a._engine.rotations_3d
+        and b._engine.rotations_3d
         and not (a.is_euler or b.is_euler or isinstance(a, Bundle) or isinstance(b, Bundle))
         and a.embed is None
         and b.embed is None
     )
     if not simple:
         return None
-    pose = a.group == "se3" and b.group == "se3"  # else X must be a rotation (_element)
+    pose = bool(a.record.vecs and b.record.vecs)  # else X must be a rotation (_element)
     p1, p2 = _grids(a, b, False) if pose else (None, None)
     r1, r2 = _grids(a, b, True)
     return (p1, p2, r1, r2, validate.ROTATION_TOL)

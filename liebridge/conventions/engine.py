@@ -36,6 +36,9 @@ class Engine:
     euler = False
     #: Whether a convention may store its tangent inside a longer vector (``Embed``).
     embed = True
+    #: Whether conventions act on bare 3-D rotations too (SE(3) and SO(3) conventions then convert
+    #: into each other on rotations), with the closed-form tangent-map grids.
+    rotations_3d = False
 
     def check(self, conv: Convention, g: Group) -> None:
         """Raise ``ValueError`` for field combinations this engine cannot run."""
@@ -100,6 +103,11 @@ _FAST: dict[str, Engine] = {}
 def register_fast(group: Group, engine: Engine) -> None:
     """Register ``engine`` as ``group``'s fast implementation of the record-driven formulas."""
     _FAST[group.name] = engine
+
+
+def convertible(a: str, b: str) -> bool:
+    """Whether tangents of conventions of groups ``a`` and ``b`` convert into each other."""
+    return a == b or (engine_for(a).rotations_3d and engine_for(b).rotations_3d)
 
 
 def engine_for(group: str | Group) -> Engine:

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from .._validate import FloatArray
+from ..lie import group as lie_group
 from ..lie import quaternion as quat
 from ..lie import so3
 from .convention import Convention
@@ -55,6 +56,12 @@ class LibraryError(LookupError):
 Retract = Callable[[FloatArray, FloatArray], Any]
 #: A known, generic rotation (no symmetric quaternion components) read back from each library.
 R_PROBE = so3.exp(np.array([0.3, -0.5, 0.7]))
+
+
+def _rotation_only(group: str) -> bool:
+    """Whether a probe's group is a rotation group (only side and rotation coordinates act)."""
+    g = lie_group(group)
+    return not g.cols
 
 
 @dataclass(frozen=True)
@@ -113,7 +120,7 @@ class ProbeResult:
             return False
         if self.preset is None:
             return None
-        if self.probe.group == "so3":
+        if _rotation_only(self.probe.group):
             same = (self.measured.side, self.measured.rotation) == (
                 self.preset.side,
                 self.preset.rotation,
@@ -421,7 +428,7 @@ def run_probe(lib: Library, probe: Probe, module: Any, version: str) -> ProbeRes
     try:
         measured = detect_convention(
             probe.make(module),
-            group="so3" if probe.group == "so3" else "se3",
+            group=probe.group,
             prefer=probe.preset,
         )
     except ConventionNotDetected as exc:
@@ -439,7 +446,7 @@ def format_result(r: ProbeResult) -> str:
         return f"{head}\n  no convention of the model reproduces it:\n  " + r.error.replace(
             "\n", "\n  "
         )
-    so3_only = r.probe.group == "so3"
+    so3_only = _rotation_only(r.probe.group)
     fields = ["side", "order", "chart", "rotation", "quat_order"]
     pname = f"preset {r.preset.name!r}" if r.preset else "preset (none)"
     table = [("field", "measured", pname)]

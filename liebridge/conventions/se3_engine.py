@@ -73,6 +73,7 @@ class SE3Engine(Engine):
 
     euler = True
     embed = False
+    rotations_3d = True
 
     def __init__(self, group: Group) -> None:
         self.group = group

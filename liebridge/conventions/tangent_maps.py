@@ -241,13 +241,14 @@ def _own_grid(conv: Convention, direction: str, so3: bool) -> _Grid:
         return (((((Rx if left else "I"), s if to else 1.0 / s),),),)
     eye: _Block = (("I", 1.0),)
     g: list[list[_Block]]
-    if conv.chart == "se3":
+    frame = conv.record.split_frame(conv.chart)
+    if frame is None:  # the SE(3) exponential
         if left:
             g = [[((Rx, 1.0),), ()], [((("mRtt" if to else "tR"), 1.0),), ((Rx, 1.0),)]]
         else:
             g = [[eye, ()], [(), eye]]
     else:
-        world = conv.chart == "so3xr3_world"
+        world = frame == "world"
         g = [[((Rx, 1.0),) if left else eye, ()], [(), ((Rx, 1.0),) if world else eye]]
     if to:  # scale the rotation columns, then order the columns
         g = [[tuple((p, c * s) for p, c in row[0]), row[1]] for row in g]

@@ -51,7 +51,7 @@ def from_canonical(conv: Convention, X: FloatArray) -> FloatArray:
 
 def tangent_map(X: FloatArray, src: Convention, dst: Convention) -> FloatArray:
     """``tangent_map(X, src, dst)`` without validation: ``δ_dst = M δ_src`` at ``X``."""
-    if src.generic or src.is_euler or dst.is_euler:  # closed-form maps to and from GTSAM's
+    if not src._engine.rotations_3d or src.is_euler or dst.is_euler:  # maps to/from GTSAM's
         return np.asarray(dst._from_canonical(X) @ src._to_canonical(X), dtype=np.float64)
     return pair_tangent_map(src, dst, X.shape[-1] == 3)(X)
 

@@ -19,12 +19,13 @@ import numpy.typing as npt
 from .._validate import FloatArray
 from ..conventions import Convention
 from . import factor_math
+from .groups import KeyArray, gtsam_group
 
-#: Groups whose liebridge factors carry a batch spec (``Pose3``, ``Pose2``: GTSAM extracts all
-#: of them in one call). Factors of the other groups (Similarity3, NavState) are evaluated by
-#: GTSAM through their single-factor callbacks, which call the same
-#: :mod:`~liebridge.gtsam.factor_math`. :class:`~liebridge.gtsam.ISAM2` batches ``Pose3`` only.
-BATCHED_GROUPS = frozenset({"se3", "se2"})
+# Groups whose liebridge factors carry a batch spec are those whose GTSAM record has
+# ``read_all`` (``Pose3``, ``Pose2``: GTSAM extracts all of them in one call). Factors of the
+# other groups (Similarity3, NavState) are evaluated by GTSAM through their single-factor
+# callbacks, which call the same :mod:`~liebridge.gtsam.factor_math`.
+# :class:`~liebridge.gtsam.ISAM2` batches ``Pose3`` only.
 
 
 @dataclass(frozen=True)
@@ -38,41 +39,23 @@ class PoseFactorSpec:
     sqrt_info: FloatArray  # upper-triangular R with RᵀR = Σ⁻¹ (GTSAM's noiseModel.R())
 
 
-KeyArray = npt.NDArray[np.uint64]  # GTSAM keys are uint64 (≥ 2**63 included)
 IntArray = npt.NDArray[np.int64]
 
 
 def poses_of(
     values: Any, group: str = "se3", keys: KeyArray | None = None
 ) -> tuple[KeyArray, FloatArray]:
-    """All ``Pose3`` (``group="se2"``: ``Pose2``) entries of ``values``: sorted keys, matrices.
+    """All entries of ``group``'s GTSAM class in ``values``: sorted keys, matrices.
 
-    Matrices are ``(N, 4, 4)`` (``(N, 3, 3)`` for Pose2), in the order of the keys. ``keys``:
-    the keys read from the same ``Values`` before (a retract keeps them), which skips the
-    copy ``allPose3s`` makes to list them; a count that differs raises ``ValueError``.
+    Matrices are ``(N, n, n)`` (``(N, 4, 4)`` for ``Pose3``, ``(N, 3, 3)`` for ``Pose2``), in the
+    order of the keys. ``keys``: the keys read from the same ``Values`` before (a retract keeps
+    them), which skips the copy ``allPose3s`` makes to list them; a count that differs raises
+    ``ValueError``. The group's GTSAM record says how (``read_all``).
     """
-    if group == "se2":
-        if keys is None:
-            keys = np.asarray(list(gtsam.utilities.allPose2s(values).keys()), dtype=np.uint64)
-        xyt = np.asarray(gtsam.utilities.extractPose2(values), dtype=np.float64).reshape(-1, 3)
-        if xyt.shape[0] != len(keys):
-            raise ValueError(f"values: {xyt.shape[0]} Pose2 entries, expected {len(keys)}")
-        c, s = np.cos(xyt[:, 2]), np.sin(xyt[:, 2])
-        T2 = np.zeros((len(keys), 3, 3))
-        T2[:, 0, 0], T2[:, 0, 1], T2[:, 1, 0], T2[:, 1, 1] = c, -s, s, c
-        T2[:, :2, 2] = xyt[:, :2]
-        T2[:, 2, 2] = 1.0
-        return keys, T2
-    if keys is None:
-        keys = np.asarray(list(gtsam.utilities.allPose3s(values).keys()), dtype=np.uint64)
-    m = np.asarray(gtsam.utilities.extractPose3(values), dtype=np.float64).reshape(-1, 12)
-    if m.shape[0] != len(keys):
-        raise ValueError(f"values: {m.shape[0]} Pose3 entries, expected {len(keys)}")
-    T = np.zeros((len(keys), 4, 4))
-    T[:, :3, :3] = m[:, :9].reshape(-1, 3, 3)
-    T[:, :3, 3] = m[:, 9:]
-    T[:, 3, 3] = 1.0
-    return keys, T
+    rec = gtsam_group(group)
+    if rec.read_all is None:
+        raise ValueError(f"group: the optimizer's batched pass does not read {rec.cls} values")
+    return rec.read_all(values, keys)
 
 
 def _rows(keys: KeyArray, wanted: KeyArray) -> IntArray:
@@ -96,10 +79,10 @@ class PoseFactorGroup:
         self.j = np.array([s.j if s.j is not None else 0 for s in specs], dtype=np.uint64)
         self.Z = np.stack([s.Z for s in specs])
         self.R = np.stack([s.sqrt_info for s in specs])
-        # SE(3)-exponential charts: residual ξ in (ω, v), R·e = R_xi·ξ (factor_math, fused path)
-        self.fused = factor_math.is_se3_chart(self.conv)
+        # coupled charts: residual ξ in the canonical order, R·e = R_xi·ξ (factor_math, fused path)
+        self.fused = factor_math.is_coupled_chart(self.conv)
         if self.fused:
-            self.Z_inv = factor_math.GROUP_OPS["se3"][0](self.Z)
+            self.Z_inv = self.conv.record.kernels.inverse(self.Z)
             self.R_xi = np.empty_like(self.R)
             self.R_xi[..., factor_math.order_permutation(self.conv)] = self.R
 
@@ -313,7 +296,7 @@ class PoseFactorBatch:
         """Residuals and ``½ Σ ‖R e‖²`` of every batched factor at ``values``."""
         T = self.poses(values)
         # each pose inverted once (not once per factor): H = (T⁻¹)[i]·T[j]
-        T_inv = {pg: factor_math.GROUP_OPS[pg][0](T[pg]) for pg in self.between_groups}
+        T_inv = {pg: gtsam_group(pg).group.kernels.inverse(T[pg]) for pg in self.between_groups}
         parts = []
         err = 0.0
         for g, (ri, rj) in zip(self.groups, self.rows, strict=True):
@@ -323,7 +306,7 @@ class PoseFactorBatch:
             else:
                 H = np.take(T_inv[g.group], ri, axis=0) @ np.take(Tp, rj, axis=0)
             if g.fused:  # e = ξ[perm]: kept as ξ, whitened by R_xi
-                e = factor_math.se3_chart_log(g.conv, g.Z_inv, H)
+                e = factor_math.coupled_chart_log(g.conv, g.Z_inv, H)
                 w = np.einsum("kij,kj->ki", g.R_xi, e)
             else:
                 e = factor_math.residual(g.conv, g.Z, H)
@@ -347,7 +330,7 @@ class PoseFactorBatch:
                 g = self.groups[n]
                 H, e, w = ev.parts[n]
                 if g.fused:
-                    Ai, Aj = factor_math.se3_chart_jacobians(g.conv, e, H, g.between, g.R_xi)
+                    Ai, Aj = factor_math.coupled_chart_jacobians(g.conv, e, H, g.between, g.R_xi)
                 else:
                     J_e_i, J_e_j = factor_math.jacobians(g.conv, g.Z, H, g.between)
                     Ai, Aj = g.R @ J_e_i, None if J_e_j is None else g.R @ J_e_j

@@ -20,42 +20,22 @@ import gtsam
 import numpy as np
 
 from .._validate import FloatArray
-from ..conventions import (
-    GTSAM,
-    GTSAM_CAYLEY,
-    GTSAM_NAVSTATE,
-    GTSAM_POSE2,
-    GTSAM_SIMILARITY3,
-    Convention,
-    detect_convention,
-)
+from ..conventions import GTSAM, GTSAM_CAYLEY, Convention, detect_convention
+from .groups import gtsam_group
 
 __all__ = ["gtsam_convention", "gtsam_convention_of", "measure_pose3_convention"]
-
-#: GTSAM's own tangent of the other groups' classes (fixed by GTSAM's code, not by build flags;
-#: checked against the installed GTSAM by ``tests/test_conventions_groups.py``).
-_GROUP_HUBS: dict[str, Convention] = {
-    "se2": GTSAM_POSE2,  # Pose2.retract = X·Exp(vx, vy, ω)
-    "sim3": GTSAM_SIMILARITY3,  # Similarity3.retract = X·Exp(ω, u, λ)
-    "se23": GTSAM_NAVSTATE,  # NavState.retract = (R·Exp(δθ), p + R·δp, v + R·δv)
-}
 
 
 def gtsam_convention_of(group: str) -> Convention:
     """GTSAM's tangent of ``group``'s GTSAM class: the preset its ``retract`` implements.
 
-    ``"se3"``: :func:`gtsam_convention` (measured); ``"se2"``: ``gtsam_pose2``; ``"sim3"``:
-    ``gtsam_similarity3``; ``"se23"``: ``gtsam_navstate``. Marginals and native factors of that
-    class are over this tangent.
+    Read from the group's GTSAM record (:mod:`liebridge.gtsam.groups`): ``"se3"``:
+    :func:`gtsam_convention` (measured); ``"se2"``: ``gtsam_pose2``; ``"sim3"``:
+    ``gtsam_similarity3``; ``"se23"``: ``gtsam_navstate``; a user's registered group: its hub.
+    Marginals and native factors of that class are over this tangent (fixed by GTSAM's code, not
+    by build flags, except ``Pose3``'s; checked against the installed GTSAM by the tests).
     """
-    if group == "se3":
-        return gtsam_convention()
-    if group not in _GROUP_HUBS:
-        raise ValueError(
-            f"group: GTSAM graphs support the groups ('se3', {', '.join(map(repr, _GROUP_HUBS))}), "
-            f"got {group!r}"
-        )
-    return _GROUP_HUBS[group]
+    return gtsam_group(group).hub_convention()
 
 
 def _pose3_retract(X: FloatArray, d: FloatArray) -> FloatArray:

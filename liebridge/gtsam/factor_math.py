@@ -34,29 +34,25 @@ import numpy as np
 
 from .._validate import FloatArray
 from ..conventions import Convention, unchecked
-from ..lie import series
-from ..lie import unchecked as U
+from ..lie import GROUPS, Group
+from ..lie import group as lie_group
 
 Fn = Callable[[FloatArray], FloatArray]
 
-#: group -> (unchecked inverse, unchecked adjoint in GTSAM's tangent order)
-GROUP_OPS: dict[str, tuple[Fn, Fn]] = {
-    "se3": (U.se3_inverse, U.se3_adjoint),
-    "se2": (U.se2_inverse, U.se2_adjoint),
-    "sim3": (U.sim3_inverse, U.sim3_adjoint),
-    "se23": (U.se23_inverse, U.se23_adjoint),
-}
-
 
 def _ops(conv: Convention) -> tuple[Fn, Fn]:
-    return GROUP_OPS[conv.group]
+    """Return the group's unchecked inverse and adjoint (GTSAM's tangent order), from its record."""
+    k = conv.record.kernels
+    return k.inverse, k.adjoint
 
 
-def relative(T_world_i: FloatArray, T_world_j: FloatArray | None, group: str = "se3") -> FloatArray:
+def relative(
+    T_world_i: FloatArray, T_world_j: FloatArray | None, group: str | Group = "se3"
+) -> FloatArray:
     """``H = T_i⁻¹·T_j`` for a between factor, ``T_i`` for a prior (``T_world_j`` None)."""
     if T_world_j is None:
         return T_world_i
-    return GROUP_OPS[group][0](T_world_i) @ T_world_j
+    return lie_group(group).kernels.inverse(T_world_i) @ T_world_j
 
 
 def _rows(conv: Convention, A: FloatArray) -> FloatArray:
@@ -87,10 +83,11 @@ def jacobians(
     return -J_e_H @ adjoint(inverse(H)), J_e_H
 
 
-# ------------------------------------------------------------------ SE(3)-exponential charts
-# Conventions whose chart is the SE(3) exponential (``gtsam``, ``barfoot``, ``sophus``, ``manif``:
-# ``conv.chart == "se3"``) differ only in side and storage order, and the formulas above then
-# share one logarithm. With ``ξ = Log(Z⁻¹H)`` (right) or ``Log(H·Z⁻¹)`` (left), in (ω, v):
+# ------------------------------------------------------------------ coupled charts
+# Conventions whose chart is their group's own exponential (``gtsam``, ``barfoot``, ``sophus``,
+# ``manif`` on SE(3); ``gtsam_pose2``, ``sophus_se2``, ... on the others) differ only in side and
+# storage order, and the formulas above then share one logarithm. With ``ξ = Log(Z⁻¹H)`` (right)
+# or ``Log(H·Z⁻¹)`` (left), in the group's canonical order:
 #
 # * right: ``e = P·ξ``, ``J_j = P·Jr⁻¹(ξ)``, ``J_i = −J_j·Ad(H⁻¹)`` (``D·M = P·Jr⁻¹(ξ)·Pᵀ·P``);
 # * left:  ``e = P·ξ``, ``J_j = P·Jl⁻¹(ξ)·Ad(H)``, ``J_i = −P·Jl⁻¹(ξ)`` (``M(H) = P·Ad(H)``, and
@@ -98,90 +95,53 @@ def jacobians(
 #
 # ``P`` the storage-order permutation, folded into the square-root information by the caller
 # (``R·e = (R·P)·ξ``). The same numbers as :func:`residual` and :func:`jacobians` (tested to
-# 1e-12), in one pass: the generic path recomputes the logarithm inside ``local_jacobian``.
+# 1e-12), read from the group record's kernels, in one pass: the general path recomputes the
+# logarithm inside ``local_jacobian``.
 
 
-def is_se3_chart(conv: Convention) -> bool:
-    """Tell whether ``conv`` is an SE(3) convention with the exponential chart (fused path)."""
-    return conv.group == "se3" and conv.chart == "se3" and conv.embed is None and not conv.generic
+def is_coupled_chart(conv: Convention) -> bool:
+    """Tell whether ``conv`` uses its group's own exponential (one logarithm per factor)."""
+    g = GROUPS.get(conv.group)
+    return (
+        g is not None
+        and type(conv) is Convention
+        and conv.embed is None
+        and conv.chart == g.coupled_chart
+    )
 
 
 def order_permutation(conv: Convention) -> list[int]:
-    """Return the indices ``p`` with ``e = ξ[p]`` (ξ in GTSAM's (ω, v) order)."""
-    return [0, 1, 2, 3, 4, 5] if conv.order == "rot_first" else [3, 4, 5, 0, 1, 2]
+    """Return the indices ``p`` with ``e = ξ[p]`` (ξ in the group's canonical order)."""
+    return [int(i) for i in conv.record.perm(conv.order)]
 
 
-def se3_q(w: FloatArray, v: FloatArray) -> FloatArray:
-    """Barfoot's ``Q(ρ = v, φ = w)`` (lower-left block of SE(3)'s left Jacobian), closed form.
-
-    ``liebridge.lie.se3`` sums products of ``P = hat(w)`` and ``U = hat(v)``:
-    ``Q = ½U + c₁(PU + UP + PUP) + c₂(P²U + UP² − 3PUP) + c₃(PUP² + P²UP)``
-    (``c₁ = (θ − sin θ)/θ³``, ``c₂``, ``c₃`` from :mod:`liebridge.lie.series`). With
-    ``hat(a)·hat(b) = b·aᵀ − (a·b)·I``, ``s = w·v`` and ``a·bᵀ − b·aᵀ = hat(b × a)`` it is a
-    symmetric part plus a skew one, each a few outer products instead of eight batched 3×3
-    matrix products::
-
-        Q = c₁(v wᵀ + w vᵀ) − 2c₃s·w wᵀ + 2s(c₃θ² − c₁)·I + hat((½ − c₂θ²)·v + s(2c₂ − c₁)·w)
-    """
-    th2 = np.einsum("...i,...i->...", w, w)
-    th = np.sqrt(th2)
-    c1 = series.t_minus_sin_over_t3(th)
-    c2 = series.q_coeff2(th)
-    c3 = series.q_coeff3(th)
-    s = np.einsum("...i,...i->...", w, v)
-    wv = w[..., :, None] * v[..., None, :]
-    out = c1[..., None, None] * (wv + np.swapaxes(wv, -1, -2))
-    out -= (2.0 * c3 * s)[..., None, None] * (w[..., :, None] * w[..., None, :])
-    diag = 2.0 * s * (c3 * th2 - c1)
-    for k in range(3):
-        out[..., k, k] += diag
-    u = (0.5 - c2 * th2)[..., None] * v + (s * (2.0 * c2 - c1))[..., None] * w
-    out[..., 0, 1] -= u[..., 2]
-    out[..., 0, 2] += u[..., 1]
-    out[..., 1, 0] += u[..., 2]
-    out[..., 1, 2] -= u[..., 0]
-    out[..., 2, 0] -= u[..., 1]
-    out[..., 2, 1] += u[..., 0]
-    return out
+def coupled_chart_log(conv: Convention, Z_inv: FloatArray, H: FloatArray) -> FloatArray:
+    """``ξ = Log(Z⁻¹H)`` (right side) or ``Log(H·Z⁻¹)`` (left), canonical order; ``e = ξ[perm]``."""
+    return conv.record.kernels.log(Z_inv @ H if conv.side == "right" else H @ Z_inv)
 
 
-def se3_jl_inv(xi: FloatArray) -> FloatArray:
-    """SE(3) ``Jl⁻¹(ξ)``, ξ = (ω, v): ``[[Jl⁻¹(ω), 0], [−Jl⁻¹(ω)·Q·Jl⁻¹(ω), Jl⁻¹(ω)]]``."""
-    w = xi[..., :3]
-    Ji = U.so3_jl_inv(w)
-    out = np.zeros((*xi.shape[:-1], 6, 6))
-    out[..., :3, :3] = Ji
-    out[..., 3:, 3:] = Ji
-    out[..., 3:, :3] = -Ji @ se3_q(w, xi[..., 3:]) @ Ji
-    return out
-
-
-def se3_chart_log(conv: Convention, Z_inv: FloatArray, H: FloatArray) -> FloatArray:
-    """``ξ = Log(Z⁻¹H)`` (right side) or ``Log(H·Z⁻¹)`` (left), (ω, v); ``e = ξ[perm]``."""
-    return U.se3_log(Z_inv @ H if conv.side == "right" else H @ Z_inv)
-
-
-def se3_chart_jacobians(
+def coupled_chart_jacobians(
     conv: Convention,
     xi: FloatArray,
     H: FloatArray,
     between: bool,
     sqrt_info: FloatArray | None = None,
 ) -> tuple[FloatArray, FloatArray | None]:
-    """``(W·J_ξ_i, W·J_ξ_j)``: ξ's Jacobians (GTSAM's (ω, v) rows) in GTSAM's tangent columns.
+    """``(W·J_ξ_i, W·J_ξ_j)``: ξ's Jacobians (canonical rows) in GTSAM's tangent columns.
 
-    ``W = sqrt_info`` (``(..., m, 6)``, e.g. ``R·P`` to whiten the convention's residual) or the
+    ``W = sqrt_info`` (``(..., m, n)``, e.g. ``R·P`` to whiten the convention's residual) or the
     identity; rows are then ξ's, not the convention's (``J_e = J_ξ[perm]``). The second entry is
     None for a prior (``H = T_i``: the first is then ``W·J_ξ_H``). ``W`` is applied before the
     adjoint: one batched product fewer than whitening afterwards.
     """
+    k = conv.record.kernels
     left = conv.side == "left"
-    W = se3_jl_inv(xi if left else -xi)  # Jl⁻¹(ξ), or Jr⁻¹(ξ) = Jl⁻¹(−ξ)
+    W = k.jl_inv(xi) if left else k.jr_inv(xi)
     if sqrt_info is not None:
         W = sqrt_info @ W
     if left:
-        J_H = W @ U.se3_adjoint(H)
+        J_H = W @ k.adjoint(H)
         return (-W, J_H) if between else (J_H, None)
     if not between:
         return W, None
-    return -(W @ U.se3_adjoint(U.se3_inverse(H))), W
+    return -(W @ k.adjoint(k.inverse(H))), W

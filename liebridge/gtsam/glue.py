@@ -28,6 +28,7 @@ import numpy as np
 
 from .. import _validate as validate
 from .._validate import FloatArray
+from .groups import GTSAM_GROUPS, gtsam_group
 
 __all__ = [
     "GROUPS",
@@ -130,7 +131,7 @@ def _first_duplicate(keys: Sequence[int]) -> int | None:
     return None
 
 
-def _from_values_pose3(values: Any, keys: Any) -> FloatArray:
+def from_values_pose3(values: Any, keys: Any) -> FloatArray:
     """Read the ``Pose3`` stored under ``keys`` into an ``(N, 4, 4)`` array, in ``keys`` order.
 
     Parameters
@@ -192,63 +193,8 @@ def _from_values_pose3(values: Any, keys: Any) -> FloatArray:
 
 
 # --------------------------------------------------------------------------- every group
-# group -> (validator, matrix size, GTSAM class name, matrix -> object, object -> matrix)
-def _sim3_to(X: FloatArray) -> Any:
-    s = float(np.cbrt(np.linalg.det(X[:3, :3])))
-    # liebridge's [sR t; 0 1] maps p ↦ sRp + t; GTSAM's Similarity3(R, t_g, s) maps p ↦ s(Rp + t_g)
-    return gtsam.Similarity3(gtsam.Rot3(X[:3, :3] / s), X[:3, 3] / s, s)
-
-
-def _sim3_from(S: Any) -> FloatArray:
-    s = float(S.scale())
-    out = np.eye(4)
-    out[:3, :3] = s * np.asarray(S.rotation().matrix())
-    out[:3, 3] = s * np.asarray(S.translation())
-    return out
-
-
-def _navstate_to(X: FloatArray) -> Any:
-    return gtsam.NavState(gtsam.Rot3(X[:3, :3]), X[:3, 3], X[:3, 4])
-
-
-def _matrix_of(obj: Any) -> FloatArray:
-    return np.asarray(obj.matrix(), dtype=np.float64)
-
-
-GROUPS: dict[str, tuple[Any, int, str, Any, Any]] = {
-    "se3": (validate.pose, 4, "Pose3", _pose3, _matrix_of),
-    "so3": (validate.rotation, 3, "Rot3", lambda X: gtsam.Rot3(X), _matrix_of),
-    "se2": (
-        validate.pose2,
-        3,
-        "Pose2",
-        lambda X: gtsam.Pose2(gtsam.Rot2.atan2(X[1, 0], X[0, 0]), X[:2, 2]),
-        _matrix_of,
-    ),
-    "so2": (
-        validate.rotation2,
-        2,
-        "Rot2",
-        lambda X: gtsam.Rot2.atan2(X[1, 0], X[0, 0]),
-        _matrix_of,
-    ),
-    "sim3": (validate.similarity, 4, "Similarity3", _sim3_to, _sim3_from),
-    "se23": (validate.extended_pose, 5, "NavState", _navstate_to, _matrix_of),
-}
-"""The GTSAM class of each group's elements and the matrix conventions at the boundary.
-
-``se3``: ``Pose3``; ``so3``: ``Rot3``; ``se2``: ``Pose2`` (``[R t; 0 0 1]``); ``so2``: ``Rot2``
-(2×2); ``sim3``: ``Similarity3`` — liebridge's matrix is ``[sR t; 0 1]`` (``p ↦ sRp + t``) while
-GTSAM's ``Similarity3(R, t_g, s).matrix()`` is ``[R t_g; 0 1/s]`` (``p ↦ s(Rp + t_g)``), so
-``t = s·t_g``: the glue converts, never copies ``t``; ``se23``: ``NavState`` with
-``matrix() = [R p v; 0 1 0; 0 0 1]``.
-"""
-
-
-def _group(group: str) -> tuple[Any, int, str, Any, Any]:
-    if group not in GROUPS:
-        raise ValueError(f"group: expected one of {tuple(GROUPS)}, got {group!r}")
-    return GROUPS[group]
+#: GTSAM's record of each group (class, matrix ↔ object; see :mod:`liebridge.gtsam.groups`).
+GROUPS = GTSAM_GROUPS
 
 
 def to_gtsam(X: Any, group: str) -> Any:
@@ -261,8 +207,9 @@ def to_gtsam(X: Any, group: str) -> Any:
         orthonormal, a scale positive, the constant rows exact).
     group : {"se3", "so3", "se2", "so2", "sim3", "se23"}
     """
-    check, n, _, make, _ = _group(group)
-    arr = check(X, "X")
+    rec = gtsam_group(group)
+    n, make = rec.group.matrix, rec.to_object
+    arr = rec.group.element(X, "X")
     if arr.ndim == 2:
         return make(arr)
     if arr.ndim != 3:
@@ -272,10 +219,12 @@ def to_gtsam(X: Any, group: str) -> Any:
 
 def from_gtsam(obj: Any, group: str) -> FloatArray:
     """Return the matrix of one GTSAM object of ``group`` (``Pose2``, ``NavState``, ...)."""
-    _, _, cls, _, read = _group(group)
-    if type(obj).__name__ != cls:
-        raise TypeError(f"obj: expected gtsam.{cls} for group {group!r}, got {type(obj).__name__}")
-    return np.asarray(read(obj), dtype=np.float64)
+    rec = gtsam_group(group)
+    if type(obj).__name__ != rec.cls:
+        raise TypeError(
+            f"obj: expected gtsam.{rec.cls} for group {group!r}, got {type(obj).__name__}"
+        )
+    return np.asarray(rec.from_object(obj), dtype=np.float64)
 
 
 def to_values(T: Any, keys: Any, values: Any = None, *, group: str = "se3") -> Any:
@@ -297,8 +246,9 @@ def to_values(T: Any, keys: Any, values: Any = None, *, group: str = "se3") -> A
     -------
     gtsam.Values
     """
-    check, n, _, make, _ = _group(group)
-    arr = check(T, "T")
+    rec = gtsam_group(group)
+    n, make = rec.group.matrix, rec.to_object
+    arr = rec.group.element(T, "T")
     if arr.ndim != 3:
         raise ValueError(f"T: expected shape (N, {n}, {n}), got {arr.shape}")
     ks = _keys(keys, arr.shape[0])
@@ -322,13 +272,14 @@ def to_values(T: Any, keys: Any, values: Any = None, *, group: str = "se3") -> A
 def from_values(values: Any, keys: Any, *, group: str = "se3") -> FloatArray:
     """Read the elements of ``group`` stored under ``keys`` into an ``(N, n, n)`` array.
 
-    ``group="se3"`` (default) reads ``Pose3`` in one batched call (see ``_from_values_pose3``);
+    ``group="se3"`` (default) reads ``Pose3`` in one batched call (its record's ``read_values``);
     the other groups read ``values.atPose2(k)``, ``atSimilarity3``, ``atNavState``... per key.
     A missing key or a value of another type is a ``ValueError``/``TypeError`` naming it.
     """
-    if group == "se3":
-        return _from_values_pose3(values, keys)
-    _, n, cls, _, read = _group(group)
+    rec = gtsam_group(group)
+    if rec.read_values is not None:
+        return rec.read_values(values, keys)
+    n, cls, read = rec.group.matrix, rec.cls, rec.from_object
     if not isinstance(values, gtsam.Values):
         raise TypeError(f"values: expected gtsam.Values, got {type(values).__name__}")
     ks = _keys(keys, None)

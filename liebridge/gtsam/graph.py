@@ -24,12 +24,12 @@ from typing import Any
 import gtsam
 import numpy as np
 
-from .. import _validate as validate
 from .._validate import FloatArray
 from ..conventions import Convention, ConventionLike, get
 from ..conventions.convert import is_exactly_linear
 from .build import gtsam_convention_of
-from .glue import from_values, to_gtsam, to_pose3
+from .glue import from_values, to_gtsam
+from .groups import gtsam_group
 from .marginals import marginals
 
 __all__ = ["ConventionGraph"]
@@ -65,7 +65,7 @@ class ConventionGraph:
 
     def _native(self, native: bool | None) -> bool:
         if native is None:
-            if self.group == "sim3":  # GTSAM's Similarity3 factors have zero-residual Jacobians
+            if gtsam_group(self.group).prefer_custom:  # e.g. Similarity3's zero-residual Jacobians
                 return False
             return is_exactly_linear(self.convention, gtsam_convention_of(self.group))
         return native
@@ -79,13 +79,10 @@ class ConventionGraph:
         ``pose`` is a matrix of the convention's group (``(4, 4)`` for SE(3), ``(3, 3)`` for
         SE(2), ...).
         """
-        if self.group == "se3":
-            p = to_pose3(validate.pose(pose, "pose"))
-        else:
-            arr = np.asarray(pose, dtype=np.float64)
-            if arr.ndim != 2:
-                raise ValueError(f"pose: expected one element, got shape {arr.shape}")
-            p = to_gtsam(arr, self.group)
+        arr = np.asarray(pose, dtype=np.float64)
+        if arr.ndim != 2:
+            raise ValueError(f"pose: expected one element, got shape {arr.shape}")
+        p = to_gtsam(arr, self.group)
         if self.values.exists(key):
             self.values.update(key, p)
         else:

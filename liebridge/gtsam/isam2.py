@@ -52,6 +52,7 @@ import numpy as np
 
 from .._validate import FloatArray
 from ..conventions import Convention, unchecked
+from ..lie import se3
 from .batch import IntArray, KeyArray, PoseFactorGroup, PoseFactorSpec, poses_of
 from .build import gtsam_convention
 from .custom import QUERY_KEY, identify, query_values
@@ -223,7 +224,7 @@ class ISAM2:
             if f is None:
                 continue
             spec = identify(f, self._query)
-            if isinstance(spec, PoseFactorSpec) and spec.conv.group == "se3":
+            if isinstance(spec, PoseFactorSpec) and spec.conv.record is se3.GROUP:  # Pose3 mirror
                 new_specs.append(spec)
             else:
                 rest.add(f)

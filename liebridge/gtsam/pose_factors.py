@@ -59,10 +59,10 @@ from .._validate import FloatArray
 from ..conventions import Convention, ConventionLike, get
 from ..conventions.convert import convert_covariance, is_exactly_linear
 from . import factor_math
-from .batch import BATCHED_GROUPS, PoseFactorSpec
+from .batch import PoseFactorSpec
 from .build import gtsam_convention_of
 from .custom import make_custom_factor
-from .glue import GROUPS as GLUE_GROUPS
+from .groups import GTSAM_GROUPS, GtsamGroup
 
 __all__ = ["between", "prior"]
 
@@ -77,41 +77,33 @@ def _warn_first_order(conv: Convention) -> None:
     )
 
 
-#: group -> (tangent dimension, native between factor, native prior factor)
-_NATIVE: dict[str, tuple[int, Any, Any]] = {
-    "se3": (6, gtsam.BetweenFactorPose3, gtsam.PriorFactorPose3),
-    "se2": (3, gtsam.BetweenFactorPose2, gtsam.PriorFactorPose2),
-    "sim3": (7, gtsam.BetweenFactorSimilarity3, gtsam.PriorFactorSimilarity3),
-    "se23": (9, gtsam.BetweenFactorNavState, gtsam.PriorFactorNavState),
-}
-
-
-def _group_of(conv: Convention) -> str:
-    if conv.group not in _NATIVE:
+def _group_of(conv: Convention) -> GtsamGroup:
+    """GTSAM's record of the convention's group (``ValueError`` where GTSAM holds none)."""
+    if conv.group not in GTSAM_GROUPS:
         raise ValueError(
             f"convention: {conv.name!r} is a convention of {conv.group}; between/prior factors "
-            f"exist for the groups {', '.join(_NATIVE)}"
+            f"exist for the groups GTSAM holds: {', '.join(GTSAM_GROUPS)} (register another with "
+            f"liebridge.gtsam.register_group)"
         )
-    return conv.group
+    return GTSAM_GROUPS[conv.group]
 
 
 def _element(conv: Convention, X: Any, name: str) -> FloatArray:
     """Validate one element of the convention's group (liebridge's matrix of it)."""
-    check, n, cls, _, _ = GLUE_GROUPS[conv.group]
-    Z = np.asarray(check(X, name), dtype=np.float64)
+    g = conv.record
+    n = g.matrix
+    Z = np.asarray(g.element(X, name), dtype=np.float64)
     if Z.shape != (n, n):
-        if conv.group == "se3":
-            raise ValueError(f"{name}: expected one pose (4, 4), got {Z.shape}")
         raise ValueError(
-            f"{name}: expected one {conv.group} element ({cls}) ({n}, {n}) for convention "
-            f"{conv.name!r}, got {Z.shape}"
+            f"{name}: expected one {conv.group} element ({GTSAM_GROUPS[conv.group].cls}) "
+            f"({n}, {n}) for convention {conv.name!r}, got {Z.shape}"
         )
     return Z
 
 
 def _covariance(conv: Convention, cov: Any) -> tuple[FloatArray, FloatArray]:
     """``(cov in the convention's tangent, cov of the residual)``: equal unless embedded."""
-    dim = _NATIVE[conv.group][0]
+    dim = conv.record.dim
     if conv.embed is None:
         c = validate.positive_definite(cov, "cov", dim)
         return c, c
@@ -119,16 +111,6 @@ def _covariance(conv: Convention, cov: Any) -> tuple[FloatArray, FloatArray]:
     idx = list(conv.embed.index)
     block = validate.positive_definite(c[np.ix_(idx, idx)], f"cov (its block {idx})", dim)
     return c, block
-
-
-def _warn_sim3_jacobians() -> None:
-    warnings.warn(
-        "liebridge: GTSAM's BetweenFactorSimilarity3/PriorFactorSimilarity3 linearize with the "
-        "zero-residual Jacobians (−Ad(H⁻¹), I) (Similarity3::Logmap's derivative is not "
-        "implemented in GTSAM 4.3), so an optimizer stops where those vanish, not at the "
-        "minimum of the objective. Use native=False for exact Jacobians.",
-        stacklevel=3,
-    )
 
 
 def _native_noise(conv: Convention, Z: FloatArray, cov: FloatArray) -> Any:
@@ -141,17 +123,6 @@ def _native_noise(conv: Convention, Z: FloatArray, cov: FloatArray) -> Any:
 
 def _noise(cov: FloatArray) -> Any:
     return gtsam.noiseModel.Gaussian.Covariance(np.ascontiguousarray(cov))
-
-
-def _element_at(values: Any, key: int, group: str) -> FloatArray:
-    if group == "se3":
-        return np.asarray(values.atPose3(key).matrix(), dtype=np.float64)
-    _, _, cls, _, read = GLUE_GROUPS[group]
-    return np.asarray(read(getattr(values, f"at{cls}")(key)), dtype=np.float64)
-
-
-def _gtsam_object(group: str, Z: FloatArray) -> Any:
-    return gtsam.Pose3(Z) if group == "se3" else GLUE_GROUPS[group][3](Z)
 
 
 def between(
@@ -193,24 +164,22 @@ def between(
         Sim(3) scale ≤ 0), ``cov`` not positive definite or of the wrong size, ``i == j``.
     """
     conv = get(convention)
-    group = _group_of(conv)
+    g = _group_of(conv)
     Z = _element(conv, measured, "measured")
     cov_conv, cov = _covariance(conv, cov)
     i, j = validate.key(i, "i"), validate.key(j, "j")
     if i == j:
         raise ValueError(f"j: the same key as i ({i}); a between factor relates two variables")
-    dim, Between, _ = _NATIVE[group]
-    if native:
-        if group == "sim3":
-            _warn_sim3_jacobians()
-        return Between(i, j, _gtsam_object(group, Z), _native_noise(conv, Z, cov_conv))
+    dim = conv.record.dim
+    if native and g.between is not None:
+        if g.native_warning:
+            warnings.warn(g.native_warning, stacklevel=2)
+        return g.between(i, j, g.to_object(Z), _native_noise(conv, Z, cov_conv))
 
     Zc = Z.copy()
 
     def evaluate(values: Any, want: bool) -> tuple[FloatArray, list[FloatArray] | None]:
-        H = factor_math.relative(
-            _element_at(values, i, group), _element_at(values, j, group), group
-        )
+        H = factor_math.relative(g.element_at(values, i), g.element_at(values, j), g.group)
         e = factor_math.residual(conv, Zc, H)
         if not want:
             return e, None
@@ -243,19 +212,19 @@ def prior(
     gtsam.PriorFactorPose3 (Pose2, Similarity3, NavState) or gtsam.CustomFactor
     """
     conv = get(convention)
-    group = _group_of(conv)
+    g = _group_of(conv)
     Z = _element(conv, pose, "pose")
     cov_conv, cov = _covariance(conv, cov)
     i = validate.key(i, "i")
-    dim, _, Prior = _NATIVE[group]
-    if native:
-        if group == "sim3":
-            _warn_sim3_jacobians()
-        return Prior(i, _gtsam_object(group, Z), _native_noise(conv, Z, cov_conv))
+    dim = conv.record.dim
+    if native and g.prior is not None:
+        if g.native_warning:
+            warnings.warn(g.native_warning, stacklevel=2)
+        return g.prior(i, g.to_object(Z), _native_noise(conv, Z, cov_conv))
     Zc = Z.copy()
 
     def evaluate(values: Any, want: bool) -> tuple[FloatArray, list[FloatArray] | None]:
-        H = factor_math.relative(_element_at(values, i, group), None, group)
+        H = factor_math.relative(g.element_at(values, i), None, g.group)
         e = factor_math.residual(conv, Zc, H)
         if not want:
             return e, None
@@ -270,6 +239,6 @@ def prior(
 
 def _spec(conv: Convention, i: int, j: int | None, Z: FloatArray, noise: Any) -> Any:
     """Return the batch spec (:mod:`liebridge.gtsam.batch`), None for an unbatched group."""
-    if conv.group not in BATCHED_GROUPS:
+    if not GTSAM_GROUPS[conv.group].batched:
         return None  # GTSAM evaluates it through the callback
     return PoseFactorSpec(conv, i, j, Z, np.asarray(noise.R(), dtype=np.float64))

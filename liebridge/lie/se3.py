@@ -160,24 +160,38 @@ def _adjoint(T: FloatArray) -> FloatArray:
     return _blocks(R, np.zeros_like(R), so3._hat(T[..., :3, 3]) @ R, R)
 
 
-def _q(w: FloatArray, u: FloatArray) -> FloatArray:
-    """Barfoot's ``Q(ρ = u, φ = w)``, the lower-left block of the SE(3) left Jacobian in (ω, v)."""
-    th = np.linalg.norm(w, axis=-1)
-    c1 = t_minus_sin_over_t3(th)[..., None, None]
-    c2 = q_coeff2(th)[..., None, None]
-    c3 = q_coeff3(th)[..., None, None]
-    P = so3._hat(w)
-    U = so3._hat(u)
-    PU = P @ U
-    UP = U @ P
-    PUP = PU @ P
-    PP = P @ P
-    return (
-        0.5 * U
-        + c1 * (PU + UP + PUP)
-        + c2 * (PP @ U + UP @ P - 3.0 * PUP)
-        + c3 * (PUP @ P + PP @ U @ P)
-    )
+def _q(w: FloatArray, v: FloatArray) -> FloatArray:
+    """Barfoot's ``Q(ρ = v, φ = w)`` (lower-left block of SE(3)'s left Jacobian), closed form.
+
+    The textbook form sums products of ``P = hat(w)`` and ``U = hat(v)``:
+    ``Q = ½U + c₁(PU + UP + PUP) + c₂(P²U + UP² − 3PUP) + c₃(PUP² + P²UP)``
+    (``c₁ = (θ − sin θ)/θ³``, ``c₂``, ``c₃`` from :mod:`liebridge.lie.series`). With
+    ``hat(a)·hat(b) = b·aᵀ − (a·b)·I``, ``s = w·v`` and ``a·bᵀ − b·aᵀ = hat(b × a)`` it is a
+    symmetric part plus a skew one, each a few outer products instead of eight batched 3×3
+    matrix products::
+
+        Q = c₁(v wᵀ + w vᵀ) − 2c₃s·w wᵀ + 2s(c₃θ² − c₁)·I + hat((½ − c₂θ²)·v + s(2c₂ − c₁)·w)
+    """
+    th2 = np.einsum("...i,...i->...", w, w)
+    th = np.sqrt(th2)
+    c1 = t_minus_sin_over_t3(th)
+    c2 = q_coeff2(th)
+    c3 = q_coeff3(th)
+    s = np.einsum("...i,...i->...", w, v)
+    wv = w[..., :, None] * v[..., None, :]
+    out = c1[..., None, None] * (wv + np.swapaxes(wv, -1, -2))
+    out -= (2.0 * c3 * s)[..., None, None] * (w[..., :, None] * w[..., None, :])
+    diag = 2.0 * s * (c3 * th2 - c1)
+    for k in range(3):
+        out[..., k, k] += diag
+    u = (0.5 - c2 * th2)[..., None] * v + (s * (2.0 * c2 - c1))[..., None] * w
+    out[..., 0, 1] -= u[..., 2]
+    out[..., 0, 2] += u[..., 1]
+    out[..., 1, 0] += u[..., 2]
+    out[..., 1, 2] -= u[..., 0]
+    out[..., 2, 0] -= u[..., 1]
+    out[..., 2, 1] += u[..., 0]
+    return out
 
 
 def _jl(xi: FloatArray) -> FloatArray:

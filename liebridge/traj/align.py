@@ -35,6 +35,7 @@ from .. import _validate as validate
 from .._validate import FloatArray
 from ..conventions import ConventionLike, get
 from ..conventions import unchecked as cu
+from ..lie import GROUPS
 
 __all__ = ["ALIGNMENTS", "Alignment", "AlignmentKind", "align", "umeyama"]
 
@@ -42,6 +43,11 @@ AlignmentKind = Literal["se3", "sim3", "4dof", "none"]
 #: The alignment kinds, as the CLI's ``--align`` takes them.
 ALIGNMENTS: tuple[str, ...] = ("se3", "sim3", "4dof", "none")
 _MIN_POSES = 3
+
+
+def _with_scale(kind: str) -> bool:
+    """Whether an alignment of ``kind`` estimates a scale (the group of that name has one)."""
+    return kind in GROUPS and GROUPS[kind].scale is not None
 
 
 @dataclass(frozen=True)
@@ -181,7 +187,7 @@ def umeyama(p_est: Any, p_ref: Any, kind: AlignmentKind | str = "se3") -> Alignm
     if np.linalg.det(u) * np.linalg.det(vt) < 0.0:
         S[2, 2] = -1.0
     R = u @ S @ vt
-    scale = float(np.trace(np.diag(d) @ S) / sigma_x) if kind == "sim3" else 1.0
+    scale = float(np.trace(np.diag(d) @ S) / sigma_x) if _with_scale(kind) else 1.0
     return Alignment(kind, R, my - scale * (R @ mx), scale)
 
 
