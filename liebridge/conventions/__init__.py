@@ -64,7 +64,7 @@ from .presets import (
     THESEUS_SE2,
     StorageLayout,
 )
-from .registry import ConventionLike, get, matching_presets, names
+from .registry import ConventionLike, get, matching_presets, names, register
 from .sphere import Sphere
 from .state_presets import (
     BASALT,
@@ -157,6 +157,7 @@ __all__ = [
     "matches_so3",
     "matching_presets",
     "names",
+    "register",
     "nav_state",
     "tangent_map",
     "unchecked",

@@ -9,6 +9,8 @@ from .presets import ALL_PRESETS
 from .state_presets import STATE_PRESETS
 
 _REGISTRY: dict[str, Convention] = {c.name: c for c in (*ALL_PRESETS, *STATE_PRESETS)}
+#: Conventions registered by the user (:func:`register`), in registration order.
+_USER: list[Convention] = []
 
 ConventionLike = Convention | str
 
@@ -44,13 +46,37 @@ def get(name: ConventionLike) -> Convention:
     raise ValueError(f"convention: unknown name {name!r}{hint} (known: {', '.join(_REGISTRY)})")
 
 
-def matching_presets(conv: Convention) -> list[Convention]:
-    """Presets of ``conv``'s group with its ``(side, order, chart, rotation)`` and embedding.
+def register(convention: Convention, *, replace: bool = False) -> Convention:
+    """Register ``convention`` under its name: ``get``, ``names`` and detection then know it.
 
-    They are retraction-equivalent to ``conv``.
+    Its group must be registered (:func:`liebridge.lie.register`). A name already taken raises
+    ``ValueError`` unless ``replace=True`` (a shipped preset cannot be replaced).
+
+    Returns
+    -------
+    Convention
+        ``convention`` itself.
+    """
+    if not isinstance(convention, Convention):
+        raise TypeError(f"register: expected a Convention, got {type(convention).__name__}")
+    old = _REGISTRY.get(convention.name)
+    if old is not None and old is not convention:
+        if not replace or old not in _USER:
+            raise ValueError(f"register: a convention named {convention.name!r} already exists")
+        _USER.remove(old)
+    _REGISTRY[convention.name] = convention
+    if convention not in _USER:
+        _USER.append(convention)
+    return convention
+
+
+def matching_presets(conv: Convention) -> list[Convention]:
+    """Presets (then registered conventions) of ``conv``'s group with its fields and embedding.
+
+    Same ``(side, order, chart, rotation)``: they are retraction-equivalent to ``conv``.
     """
     return [
         c
-        for c in ALL_PRESETS
+        for c in (*ALL_PRESETS, *_USER)
         if c.group == conv.group and c.fields == conv.fields and c.embed == conv.embed
     ]

@@ -13,13 +13,17 @@ is :class:`ISAM2`, GTSAM's iSAM2 with liebridge's factors linearized batched.
 from .build import gtsam_convention, gtsam_convention_of
 from .glue import from_pose3, from_values, to_pose3, to_values
 from .graph import ConventionGraph
+from .groups import GTSAM_GROUPS, GtsamGroup, gtsam_group
+from .groups import register as register_group
 from .isam2 import ISAM2
 from .marginals import marginals
 from .optimize import OptimizeResult, optimize
 from .pose_factors import between, prior
 
 __all__ = [
+    "GTSAM_GROUPS",
     "ISAM2",
+    "GtsamGroup",
     "ConventionGraph",
     "OptimizeResult",
     "between",
@@ -27,9 +31,11 @@ __all__ = [
     "from_values",
     "gtsam_convention",
     "gtsam_convention_of",
+    "gtsam_group",
     "marginals",
     "optimize",
     "prior",
+    "register_group",
     "to_pose3",
     "to_values",
 ]
