@@ -186,7 +186,8 @@ CASES = [
     Case(
         "shape-factor-batch",
         lambda: between(0, 1, batch(T0), C6, "gtsam"),
-        r"measured: expected one se3 element \(Pose3\) \(4, 4\) for convention .gtsam., got \(3, 4, 4\)",
+        r"measured: expected one se3 element \(Pose3\) \(4, 4\) for convention .gtsam., "
+        r"got \(3, 4, 4\)",
     ),
     # --- batch shapes that do not broadcast: both arguments named ---------------------------
     Case(

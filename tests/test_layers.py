@@ -184,3 +184,53 @@ def test_the_underscore_check_finds_reach_ins(tmp_path, monkeypatch):
     monkeypatch.setattr(sys.modules[__name__], "ROOT", fake_root)
     with pytest.raises(AssertionError, match=r"se3\._exp"):
         test_no_package_uses_another_packages_underscore_names()
+
+
+# --------------------------------------------------------------------------- one group record
+#: Where a group's facts are declared (and so may name groups): the groups' own modules.
+RECORD_HOMES = ("lie/",)
+
+
+def _group_name_comparisons(tree: ast.AST, names: set[str]) -> list[tuple[int, str]]:
+    """Find ``==``/``!=``/``in``/``not in`` whose operands hold a group name as a literal."""
+
+    def literals(node: ast.AST) -> list[str]:
+        if isinstance(node, ast.Constant) and isinstance(node.value, str):
+            return [node.value]
+        if isinstance(node, ast.Tuple | ast.List | ast.Set):
+            return [v for e in node.elts for v in literals(e)]
+        return []
+
+    found = []
+    for node in ast.walk(tree):
+        if not isinstance(node, ast.Compare):
+            continue
+        if not all(isinstance(op, ast.Eq | ast.NotEq | ast.In | ast.NotIn) for op in node.ops):
+            continue
+        hits = [v for side in (node.left, *node.comparators) for v in literals(side) if v in names]
+        if hits:
+            found.append((node.lineno, hits[0]))
+    return found
+
+
+def test_no_string_comparison_against_a_group_name_outside_the_records() -> None:
+    """A group's facts live in its record: nothing else branches on ``group == "se3"``."""
+    from liebridge import lie
+
+    names = set(lie.GROUPS)
+    offenders = []
+    for path in sorted(ROOT.rglob("*.py")):
+        rel = path.relative_to(ROOT).as_posix()
+        if rel.startswith(RECORD_HOMES):
+            continue
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        offenders += [
+            f"{rel}:{line}: {name!r}" for line, name in _group_name_comparisons(tree, names)
+        ]
+    assert not offenders, "compare against the group record instead:\n" + "\n".join(offenders)
+
+
+def test_the_comparison_finder_finds_what_it_looks_for() -> None:
+    src = 'a = g == "se3"\nb = "sim3" != g\nc = g in ("so3", "x")\nd = g == "sphere"\ne = x < "se3"'
+    hits = _group_name_comparisons(ast.parse(src), {"se3", "so3", "sim3"})
+    assert [h[0] for h in hits] == [1, 2, 3]

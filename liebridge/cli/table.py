@@ -13,6 +13,7 @@ from typing import Any
 
 from ..conventions import ALL_PRESETS, GROUP_NAMES, PRESETS, STATE_PRESETS, Bundle, Convention
 from ..conventions.convention import DEFAULT_GROUP
+from ..lie import group as lie_group
 from ._common import option_value
 
 __all__ = ["add_parser", "evidence_summary", "render", "rows"]
@@ -72,15 +73,6 @@ def _row(c: Convention) -> dict[str, str]:
 
 
 #: Section titles of ``--group all``, in this order (SE(3) first: its presets also take SO(3)).
-GROUP_TITLES = {
-    "se3": "SE(3) (and SO(3): a 3×3 rotation given to these)",
-    "so3": "SO(3)",
-    "so2": "SO(2)",
-    "se2": "SE(2)",
-    "sim3": "Sim(3)",
-    "se23": "SE₂(3) (extended pose / navigation state)",
-}
-
 GROUP_LEGEND = (
     "Tangent orders per group: SE(2) `rot_first` = (ω, x, y), `trans_first` = (x, y, ω) "
     "(GTSAM's); Sim(3) `rot_first` = (ω, u, λ) (GTSAM's), `trans_first` = (u, ω, λ), log-scale "
@@ -146,14 +138,19 @@ def _markdown_rows(group: str | None) -> list[str]:
     return lines
 
 
+def _group_title(group: str) -> str:
+    """Return a group's table heading from its record (``"SE₂(3) (extended pose / ...)"``)."""
+    rec = lie_group(group)
+    return f"{rec.label} ({rec.note})" if rec.note else rec.label
+
+
 def _markdown(group: str | None = None) -> str:
     if group != "all":
-        legend = LEGEND if group in (None, "se3") else GROUP_LEGEND
+        legend = LEGEND if group in (None, DEFAULT_GROUP) else GROUP_LEGEND
         return "\n".join([*_markdown_rows(group), "", legend])
     out: list[str] = []
-    for g in GROUP_TITLES:
-        if any(c.group == g for c in ALL_PRESETS):
-            out += [f"#### {GROUP_TITLES[g]}", "", *_markdown_rows(g), ""]
+    for g in dict.fromkeys(c.group for c in ALL_PRESETS):  # in registry order
+        out += [f"#### {_group_title(g)}", "", *_markdown_rows(g), ""]
     return "\n".join([*out, LEGEND, "", GROUP_LEGEND, "", _states_line()])
 
 
@@ -175,9 +172,8 @@ def _text(group: str | None = None) -> str:
     if group != "all":
         return "\n".join(_text_rows(group))
     out: list[str] = []
-    for g in GROUP_TITLES:
-        if any(c.group == g for c in ALL_PRESETS):
-            out += [GROUP_TITLES[g], *_text_rows(g), ""]
+    for g in dict.fromkeys(c.group for c in ALL_PRESETS):  # in registry order
+        out += [_group_title(g), *_text_rows(g), ""]
     return "\n".join([*out, _states_line()]).rstrip()
 
 

@@ -157,8 +157,8 @@ __all__ = [
     "matches_so3",
     "matching_presets",
     "names",
-    "register",
     "nav_state",
+    "register",
     "tangent_map",
     "unchecked",
 ]

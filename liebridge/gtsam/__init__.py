@@ -23,8 +23,8 @@ from .pose_factors import between, prior
 __all__ = [
     "GTSAM_GROUPS",
     "ISAM2",
-    "GtsamGroup",
     "ConventionGraph",
+    "GtsamGroup",
     "OptimizeResult",
     "between",
     "from_pose3",

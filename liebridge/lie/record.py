@@ -123,6 +123,8 @@ class Group:
         Display name (``"SE(3)"``); default the upper-case name.
     tangent_doc : str
         The canonical tangent's coordinates in words (``"(ω, v)"``).
+    note : str
+        One line for tables (``"extended pose / navigation state"``).
     chart_aliases : dict
         Other spellings of chart names (SE(3)'s ``split_body`` is ``so3xr3_body``).
     """
@@ -140,6 +142,7 @@ class Group:
     probe: FloatArray | None = None
     label: str = ""
     tangent_doc: str = ""
+    note: str = ""
     chart_aliases: dict[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:

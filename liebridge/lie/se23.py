@@ -207,6 +207,7 @@ GROUP = register_shipped(
             jl_inv=_jl_inv, jr=_jr, jl=_jl,
         ),
         probe=_exp(np.array([0.4, -0.7, 0.5, 1.5, -2.0, 0.8, -0.6, 1.1, 0.7])),
-        label="SE_2(3)", tangent_doc="(ω, ρ_p, ρ_v)",
+        label="SE₂(3)", tangent_doc="(ω, ρ_p, ρ_v)",
+        note="extended pose / navigation state",
     )
 )  # fmt: skip

@@ -337,6 +337,7 @@ GROUP = register_shipped(
         charts=("se3", "so3xr3_body", "so3xr3_world"),
         chart_aliases={"split_body": "so3xr3_body", "split_world": "so3xr3_world"},
         probe=_exp(np.array([0.4, -0.7, 0.5, 1.5, -2.0, 0.8])), label="SE(3)",
+        note="and SO(3): a 3×3 rotation given to these",
         tangent_doc="(ω, v)",
     )
 )  # fmt: skip
