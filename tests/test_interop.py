@@ -108,8 +108,8 @@ POSE_FUNCS: dict[str, Callable[[Any], Any]] = {
     "convert_jacobian": lambda X: lb.convert_jacobian(
         np.eye(6), "gtsam", "sophus", at_input=X, at_output=X
     ),
-    "Convention.retract": lambda X: lb.conventions.get("sophus").retract(X, np.full(6, 0.1)),
-    "Convention.local": lambda X: lb.conventions.get("barfoot").local(X, T1),
+    "Chart.retract": lambda X: lb.conventions.get("sophus").retract(X, np.full(6, 0.1)),
+    "Chart.local": lambda X: lb.conventions.get("barfoot").local(X, T1),
     "io.poses.from_matrix": lambda X: lb.poses.from_matrix(X, layout="xyz_qxyzw"),
     "check.numerical_jacobian": lambda X: lb.check.numerical_jacobian(
         se3.log, X, in_convention="sophus", out_local="euclidean"
@@ -124,9 +124,9 @@ POSE_FUNCS: dict[str, Callable[[Any], Any]] = {
     "gtsam.prior": lambda X: lb.factors.prior(1, X, COV, "sophus").error(
         lb.gtsam_glue.to_values(T1[None], [1])
     ),
-    "Convention.local_jacobian": lambda X: lb.conventions.get("g2o").local_jacobian(X, T1),
-    "Convention.to_canonical": lambda X: lb.conventions.get("barfoot").to_canonical(X),
-    "Convention.from_canonical": lambda X: lb.conventions.get("symforce").from_canonical(X),
+    "Chart.local_jacobian": lambda X: lb.conventions.get("g2o").local_jacobian(X, T1),
+    "Chart.to_canonical": lambda X: lb.conventions.get("barfoot").to_canonical(X),
+    "Chart.from_canonical": lambda X: lb.conventions.get("symforce").from_canonical(X),
     "group_input": lb.conventions.group_input,
     "check.monte_carlo_covariance": lambda X: lb.check.monte_carlo_covariance(
         X=X, cov=COV, src="gtsam", dst="ros", n=200, rng=np.random.default_rng(0)
@@ -203,10 +203,12 @@ ROT_FUNCS: dict[str, Callable[[Any], Any]] = {
     "convert_covariance(SO3)": lambda R: lb.convert_covariance(
         np.diag([1e-3, 2e-3, 3e-3]), R, "gtsam", "barfoot"
     ),
-    "Convention.retract(SO3)": lambda R: lb.conventions.get("barfoot").retract(
+    "Chart.retract(SO3)": lambda R: lb.conventions.get("barfoot").retract(
         R, np.array([0.1, 0.2, 0.3])
     ),
     "so3.adjoint": so3.adjoint,
+    "so3.inverse": so3.inverse,
+    "so3.act": lambda R: so3.act(R, np.array([1.0, 2.0, 3.0])),
 }
 
 #: Parameters that hold a pose or rotation, by name; a public function with one of them must be
@@ -223,6 +225,9 @@ NOT_A_POSE = {
     "Bundle.element": "X is a block-diagonal bundle element (no library has a bundle object)",
     "Bundle.split": "X is a block-diagonal bundle element (no library has a bundle object)",
     "NavChart.dim": "X is ignored: a navigation chart's tangent always has 9 entries",
+    "NavChart.element": "X is a 5×5 SE₂(3) extended pose (no library object is one)",
+    "Chart.dim": "the base of every chart kind: each defines it (Convention.dim is tested)",
+    "Chart.element": "the base of every chart kind: each defines it (Convention.element is tested)",
     "Bundle.sub_element": "X is a block-diagonal bundle element (no library has a bundle object)",
     "Sphere.dim": "X is ignored: the tangent of S² always has 2 entries",
     "Sphere.element": "X is a [[I, g], [0, 1]] S² block of a bundle (no library has one)",

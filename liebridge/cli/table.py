@@ -11,7 +11,16 @@ import json
 import re
 from typing import Any
 
-from ..conventions import ALL_PRESETS, GROUP_NAMES, PRESETS, STATE_PRESETS, Bundle, Convention
+from ..conventions import (
+    ALL_PRESETS,
+    GROUP_NAMES,
+    PRESETS,
+    STATE_PRESETS,
+    Bundle,
+    Chart,
+    Convention,
+    NavChart,
+)
 from ..conventions.convention import DEFAULT_GROUP
 from ..lie import group as lie_group
 from ._common import option_value
@@ -60,14 +69,23 @@ def evidence_summary(source: str, width: int = EVIDENCE_WIDTH) -> str:
     return out if len(out) <= width else out[: width - 1].rstrip() + "…"
 
 
-def _row(c: Convention) -> dict[str, str]:
+def _row(c: Chart) -> dict[str, str]:
+    """Return a preset's row (a navigation chart: its pose convention's fields, ``+v_<frame>``)."""
+    if isinstance(c, NavChart):
+        p = c.pose
+        chart = f"{p.chart}+v_{c.velocity}"
+        p_fields = (p.side, p.order, chart, p.rotation, p.quat_order)
+    else:
+        assert isinstance(c, Convention)
+        p_fields = (c.side, c.order, c.chart, c.rotation, c.quat_order)
+    side, order, chart, rotation, quat = p_fields
     return {
         "name": c.name,
-        "side": c.side,
-        "order": c.order,
-        "chart": c.chart,
-        "rotation": c.rotation,
-        "quat": c.quat_order,
+        "side": side,
+        "order": order,
+        "chart": chart,
+        "rotation": rotation,
+        "quat": quat,
         "evidence": evidence_summary(c.source),
     }
 
@@ -96,7 +114,7 @@ def rows(group: str | None = None) -> list[dict[str, str]]:
     return [_row(c) for c in _presets(group)]
 
 
-def _as_dict(c: Convention) -> dict[str, Any]:
+def _as_dict(c: Chart) -> dict[str, Any]:
     if isinstance(c, Bundle):  # a whole state: its blocks and tangent order, not one chart
         return {
             "group": c.group,
@@ -110,13 +128,16 @@ def _as_dict(c: Convention) -> dict[str, Any]:
             "evidence": evidence_summary(c.source),
         }
     out: dict[str, Any] = {} if c.group == DEFAULT_GROUP else {"group": c.group}
+    if isinstance(c, NavChart):
+        out |= {"pose": c.pose.describe(), "velocity": c.velocity}
+    row = _row(c)
     return out | {
         "name": c.name,
-        "side": c.side,
-        "order": c.order,
-        "chart": c.chart,
-        "rotation": c.rotation,
-        "quat_order": c.quat_order,
+        "side": row["side"],
+        "order": row["order"],
+        "chart": row["chart"],
+        "rotation": row["rotation"],
+        "quat_order": row["quat"],
         "source": c.source,
         "notes": c.notes,
         "evidence": evidence_summary(c.source),
@@ -194,7 +215,7 @@ def render(fmt: str = "table", group: str | None = None) -> str:
     raise ValueError(f"format: expected 'table', 'markdown' or 'json', got {fmt!r}")
 
 
-def _markdown_one(c: Convention) -> str:
+def _markdown_one(c: Chart) -> str:
     """One preset as markdown: its table row (the README's columns) and its full text."""
     if isinstance(c, Bundle):  # whole states have no row in the one-chart table
         return "\n".join([f"### `{c.name}`", "", "```text", _describe_one(c), "```"])
@@ -218,7 +239,7 @@ def _markdown_one(c: Convention) -> str:
     return "\n".join(lines)
 
 
-def _describe_one(c: Convention) -> str:
+def _describe_one(c: Chart) -> str:
     import numpy as np
 
     from ..conventions.convert import is_exactly_linear, tangent_map
@@ -229,6 +250,7 @@ def _describe_one(c: Convention) -> str:
         return _describe_state(c)
     if c.group != DEFAULT_GROUP:
         return _describe_group(c)
+    assert isinstance(c, Convention)
     X = se3.exp(np.array([0.4, -0.7, 0.5, 1.5, -2.0, 0.8]))
     M = tangent_map(X, "gtsam", c)
     lines = [
@@ -247,15 +269,6 @@ def _describe_one(c: Convention) -> str:
     if not np.allclose(M, np.eye(6)):
         lines.append(np.array2string(M, precision=4, suppress_small=True))
     return "\n".join(lines)
-
-
-_GTSAM_OF = {
-    "so2": "gtsam_rot2",
-    "se2": "gtsam_pose2",
-    "sim3": "gtsam_similarity3",
-    "se23": "gtsam_navstate",
-    "so3": "gtsam",
-}
 
 
 def _describe_state(c: Bundle) -> str:
@@ -286,20 +299,14 @@ def _describe_state(c: Bundle) -> str:
     return "\n".join(lines)
 
 
-def _describe_group(c: Convention) -> str:
+def _describe_group(c: Chart) -> str:
     import numpy as np
 
     from ..conventions.convert import is_exactly_linear, tangent_map
-    from ..lie import se2, se23, sim3, so2, so3
+    from ..gtsam.build import gtsam_convention_of
 
-    probe = {
-        "so2": lambda: so2.exp([0.9]),
-        "se2": lambda: se2.exp([1.5, -2.0, 0.8]),
-        "sim3": lambda: sim3.exp([0.4, -0.7, 0.5, 1.5, -2.0, 0.8, 0.3]),
-        "se23": lambda: se23.exp([0.4, -0.7, 0.5, 1.5, -2.0, 0.8, -0.6, 1.1, 0.7]),
-        "so3": lambda: so3.exp([0.4, -0.7, 0.5]),
-    }[c.group]()
-    ref = _GTSAM_OF[c.group]
+    probe = c.record.probe  # the group's generic element
+    ref = gtsam_convention_of(c.group).name
     M = tangent_map(probe, ref, c)
     lines = [
         c.describe(),

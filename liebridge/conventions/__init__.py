@@ -9,6 +9,7 @@ True
 
 from . import unchecked
 from .bundle import Bundle, Vector
+from .chart import Chart
 from .convention import CANONICAL, GROUP_NAMES, Convention, Embed, group_input
 from .convert import (
     convert_covariance,
@@ -64,7 +65,7 @@ from .presets import (
     THESEUS_SE2,
     StorageLayout,
 )
-from .registry import ConventionLike, get, matching_presets, names, register
+from .registry import ConventionLike, get, matching_presets, names, register, single_group
 from .sphere import Sphere
 from .state_presets import (
     BASALT,
@@ -138,6 +139,7 @@ __all__ = [
     "THESEUS_SE2",
     "VINS",
     "Bundle",
+    "Chart",
     "Convention",
     "ConventionLike",
     "ConventionNotDetected",
@@ -159,6 +161,7 @@ __all__ = [
     "names",
     "nav_state",
     "register",
+    "single_group",
     "tangent_map",
     "unchecked",
 ]

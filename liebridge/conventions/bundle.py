@@ -1,13 +1,14 @@
 """Product states (bundles): an ordered list of blocks, each with its own convention.
 
-A :class:`Bundle` is a :class:`~liebridge.conventions.Convention` of a product group: each block is
-a convention of one group (e.g. ``gtsam_navstate`` for (R, p, v), ``gtsam`` for a pose, a rotation
-convention), a plain vector (:class:`Vector`, e.g. an IMU bias, perturbed additively) or a
-direction of fixed length (:class:`~liebridge.conventions.sphere.Sphere`, S²: FAST-LIO's
-gravity, stored like a vector, tangent of 2). The tangent is the concatenation of the blocks'
-tangents, optionally reordered by ``order`` (a permutation: entry ``k`` of the bundle's tangent
-is entry ``order[k]`` of the concatenation). :meth:`Bundle.sub`, :meth:`Bundle.marginal` and
-:meth:`Bundle.sub_element` carry some of the blocks into a smaller bundle.
+A :class:`Bundle` is a chart of a product group (:class:`~liebridge.conventions.chart.Chart`):
+each block is a convention of one group (e.g. ``gtsam`` for a pose, a rotation convention), a
+navigation chart (``gtsam_navstate`` for (R, p, v)), a plain vector (:class:`Vector`, e.g. an
+IMU bias, perturbed additively) or a direction of fixed length
+(:class:`~liebridge.conventions.sphere.Sphere`, S²: FAST-LIO's gravity, stored like a vector,
+tangent of 2). The tangent is the concatenation of the blocks' tangents, optionally reordered by
+``order`` (a permutation: entry ``k`` of the bundle's tangent is entry ``order[k]`` of the
+concatenation). :meth:`Bundle.sub`, :meth:`Bundle.marginal` and :meth:`Bundle.sub_element` carry
+some of the blocks into a smaller bundle.
 
 An element is one block-diagonal matrix ``(..., N, N)``: each group block as its own matrix, a
 vector ``b`` (or a sphere's ``g``) as ``[[I, b], [0, 1]]``; :meth:`Bundle.assemble` and
@@ -34,7 +35,9 @@ import numpy as np
 
 from .. import _validate as validate
 from .._validate import FloatArray
+from .chart import Chart
 from .convention import Convention
+from .navstate import NavChart
 from .sphere import Sphere
 from .tangent_order import from_concatenated, perm_matrix, to_concatenated
 
@@ -55,7 +58,7 @@ class Vector:
         return f"r{self.n}"
 
 
-Block = Convention | Vector | Sphere
+Block = Convention | NavChart | Vector | Sphere
 #: Blocks stored as ``[[I, x], [0, 1]]`` (their part is the vector ``x``).
 _VECTOR_LIKE = (Vector, Sphere)
 
@@ -69,11 +72,23 @@ def _mdim(b: Block) -> int:
 
 
 @dataclass(frozen=True)
-class Bundle(Convention):
-    """A product-state convention; build it with :meth:`Bundle.of`. See the module docstring."""
+class Bundle(Chart):
+    """A product-state chart; build it with :meth:`Bundle.of`. See the module docstring.
 
-    blocks: tuple[tuple[str, Block], ...] = ()
+    A chart of its own (:class:`~liebridge.conventions.chart.Chart`), not a convention of one
+    group: it has blocks and a tangent order, no side, order or rotation coordinates of its own
+    (each block has its own). ``group`` names the product, ``"bundle[se23,r3,r3]"``.
+    """
+
+    name: str
+    blocks: tuple[tuple[str, Block], ...]
     perm: tuple[int, ...] | None = None
+    source: str = ""
+    notes: str = field(default="", compare=False, repr=False)
+    group: str = field(init=False, default="", compare=False)
+    _key: tuple[str, str, str, str] = field(
+        init=False, repr=False, compare=False, default=("",) * 4
+    )
     _tslices: tuple[slice, ...] = field(init=False, repr=False, compare=False, default=())
     _mslices: tuple[slice, ...] = field(init=False, repr=False, compare=False, default=())
 
@@ -87,19 +102,12 @@ class Bundle(Convention):
         notes: str = "",
     ) -> Bundle:
         """Build a bundle from named blocks (and an optional tangent permutation ``order``)."""
-        sig = ",".join(b.group for _, b in blocks)
         return cls(
             name=name,
-            side="right",
-            order="rot_first",
-            chart="se3",
-            rotation="exp",
-            quat_order="wxyz",
-            source=source,
-            notes=notes,
-            group=f"bundle[{sig}]",
             blocks=tuple(blocks),
             perm=tuple(order) if order is not None else None,
+            source=source,
+            notes=notes,
         )
 
     def __post_init__(self) -> None:
@@ -109,11 +117,12 @@ class Bundle(Convention):
         if len(set(names)) != len(names):
             raise ValueError(f"Bundle {self.name!r}: block names must be distinct, got {names}")
         for n, b in self.blocks:
-            if isinstance(b, Bundle) or not isinstance(b, Convention | Vector | Sphere):
+            if not isinstance(b, Convention | NavChart | Vector | Sphere):
                 raise TypeError(
-                    f"Bundle {self.name!r}: block {n!r} must be a Convention, Vector or Sphere"
+                    f"Bundle {self.name!r}: block {n!r} must be a Convention, NavChart, Vector "
+                    "or Sphere"
                 )
-            if isinstance(b, Convention) and b.embed is not None:
+            if isinstance(b, Chart) and b.embed is not None:
                 raise ValueError(f"Bundle {self.name!r}: block {n!r} has an embedding")
         t = m = 0
         ts, ms = [], []
@@ -123,22 +132,19 @@ class Bundle(Convention):
             t, m = t + _tdim(b), m + _mdim(b)
         if self.perm is not None and sorted(self.perm) != list(range(t)):
             raise ValueError(f"Bundle {self.name!r}: order must be a permutation of range({t})")
+        sig = ",".join(b.group for _, b in self.blocks)
+        object.__setattr__(self, "group", f"bundle[{sig}]")
         object.__setattr__(self, "_tslices", tuple(ts))
         object.__setattr__(self, "_mslices", tuple(ms))
         object.__setattr__(self, "_key", (self.name, self.group, "bundle", str(self.perm)))
 
     # ----------------------------------------------------------------- layout
     @property
-    def generic(self) -> bool:
-        """Bundles run on the generic path (maps from their blocks)."""
-        return True
-
-    @property
     def matrix_size(self) -> int:
         """Size ``N`` of the block-diagonal element."""
         return self._mslices[-1].stop
 
-    def dim(self, X: FloatArray | None = None) -> int:
+    def dim(self, X: Any = None) -> int:
         """Length of the bundle's tangent."""
         return self._tslices[-1].stop
 
@@ -234,7 +240,7 @@ class Bundle(Convention):
         arr = validate.vector(d, name, self.dim())
         c = self._to_concat(arr)
         for (n, b), ts in zip(self.blocks, self._tslices, strict=True):
-            if isinstance(b, Convention):
+            if isinstance(b, Chart):
                 b._increment(c[..., ts], False, f"{name} (block {n!r})")
         return arr
 

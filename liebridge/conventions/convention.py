@@ -43,11 +43,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
-from .. import _validate as validate
 from .._validate import FloatArray
 from ..lie import GROUPS, Group
-from ..lie import group as group_record
 from . import se3_engine as _se3_engine  # noqa: F401  (registers SE(3)/SO(3)'s fast engine)
+from .chart import Chart
 from .engine import Engine, engine_for
 from .rotation_coords import EULER_COORDS, FIRST_ORDER_SCALE, ROTATION_COORDS
 from .se3_engine import group_input
@@ -78,8 +77,9 @@ class Embed:
 
 Side = Literal["right", "left"]
 Order = Literal["rot_first", "trans_first"]
-#: Chart names of the shipped groups (a registered group may declare others).
-Chart = str
+#: A chart's name (the shipped groups': their own, ``split_body``/``split_world``, SE(3)'s
+#: ``se3``/``so3xr3_body``/``so3xr3_world``; a registered group may declare others).
+ChartName = str
 SIDES = ("right", "left")
 ORDERS = ("rot_first", "trans_first")
 CHARTS = ("se3", "so3xr3_body", "so3xr3_world")
@@ -109,7 +109,7 @@ def _resolve_group(name: str, group: Any) -> Group:
 
 
 @dataclass(frozen=True)
-class Convention:
+class Convention(Chart):
     """A Lie-group convention as data. See the module docstring for the fields' meaning.
 
     Parameters
@@ -131,7 +131,7 @@ class Convention:
     name: str
     side: Side
     order: Order
-    chart: Chart
+    chart: ChartName
     rotation: str
     quat_order: str
     source: str = ""
@@ -177,11 +177,6 @@ class Convention:
         object.__setattr__(self, "_key", (self.side, self.order, self.chart, self.rotation))
 
     # ----------------------------------------------------------------- descriptors
-    @property
-    def record(self) -> Group:
-        """The group record (:class:`liebridge.lie.Group`) of this convention."""
-        return group_record(self.group)
-
     @property
     def _engine(self) -> Engine:
         return engine_for(self.group)
@@ -237,46 +232,8 @@ class Convention:
     def _local(self, X: FloatArray, Y: FloatArray) -> FloatArray:
         return self._engine.local(self, X, Y)
 
-    def retract(self, X: Any, d: Any) -> FloatArray:
-        """Perturb ``X`` by ``d`` in this convention (broadcast over leading dimensions).
-
-        Parameters
-        ----------
-        X : array_like, shape (..., m, m)
-            Group element (an SE(3) convention also takes a rotation (..., 3, 3)).
-        d : array_like, shape (..., n)
-            Tangent in this convention's order and rotation coordinates.
-
-        Returns
-        -------
-        ndarray, same kind as ``X``
-        """
-        X = self.element(X)
-        d = self._increment(d, X.shape[-2:] == (3, 3))
-        validate.batch_shape(("X", X.shape[:-2]), ("d", d.shape[:-1]))
-        return validate.finite_output(self._retract(X, d), f"{self.name}.retract")
-
-    def local(self, X: Any, Y: Any) -> FloatArray:
-        """Inverse of :meth:`retract`: the ``d`` with ``retract(X, d) == Y`` (principal branch)."""
-        X, Y = self._pair(X, Y)
-        return validate.finite_output(self._local(X, Y), f"{self.name}.local")
-
     def _local_jacobian(self, X: FloatArray, Y: FloatArray) -> FloatArray:
         return self._engine.local_jacobian(self, X, Y)
-
-    def local_jacobian(self, X: Any, Y: Any) -> FloatArray:
-        """Differentiate ``local(X, ·)`` at ``Y`` in this convention's own chart.
-
-        Returns ``J = ∂ local(X, retract(Y, δ)) / ∂δ |_{δ=0}``, ``(..., n, n)``, closed
-        form. For a coupled chart on the right this is ``Jr⁻¹(local(X, Y))`` (reordered), on the
-        left ``Jl⁻¹``; for the split charts it is block diagonal (rotation block from
-        :func:`~liebridge.conventions.rotation_coords.d_from_rotation`, vector blocks
-        ``A_X⁻¹ A_Y`` in the body frame, ``I`` in the world frame). To differentiate with respect
-        to GTSAM's perturbation of ``Y`` instead, multiply by ``tangent_map(Y, "gtsam", self)``.
-        False: ``J = I`` (true only at ``Y = X``: the textbook approximation that moves optima).
-        """
-        X, Y = self._pair(X, Y)
-        return validate.finite_output(self._local_jacobian(X, Y), f"{self.name}.local_jacobian")
 
     # ----------------------------------------------------------------- first-order maps
     def _to_canonical(self, X: FloatArray) -> FloatArray:
@@ -284,20 +241,6 @@ class Convention:
 
     def _from_canonical(self, X: FloatArray) -> FloatArray:
         return self._engine.from_canonical(self, X)
-
-    def to_canonical(self, X: Any) -> FloatArray:
-        """First-order map ``M``, ``ξ_gtsam = M d`` at ``X``; shape (..., n_canonical, n).
-
-        It is the derivative at ``d = 0`` of ``GTSAM.local(X, self.retract(X, d))``.
-        """
-        return validate.finite_output(
-            self._to_canonical(self.element(X)), f"{self.name}.to_canonical"
-        )
-
-    def from_canonical(self, X: Any) -> FloatArray:
-        """Inverse of :meth:`to_canonical` (closed form, no matrix inversion)."""
-        out = self._from_canonical(self.element(X))
-        return validate.finite_output(out, f"{self.name}.from_canonical")
 
 
 #: The canonical tangent (GTSAM's): right, rotation first, SE(3) exponential.

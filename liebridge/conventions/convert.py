@@ -28,6 +28,7 @@ import numpy as np
 from .. import _validate as validate
 from .._validate import FloatArray
 from .bundle import Bundle
+from .chart import Chart
 from .convention import Convention
 from .cubature import cubature_rule_5, sqrt_psd
 from .engine import convertible
@@ -46,14 +47,13 @@ __all__ = [
 ]
 
 _LINEAR_ROTATIONS = {"exp", "half_exp"}
-_COUPLED = {"so2", "se2", "se3", "sim3", "se23"}
 
 
 def _chart_family(c: Convention) -> str:
-    return "coupled" if c.chart in _COUPLED else "split"
+    return "coupled" if c.chart == c.record.coupled_chart else "split"
 
 
-def _check_groups(a: Convention, b: Convention) -> None:
+def _check_groups(a: Chart, b: Chart) -> None:
     if not convertible(a.group, b.group):
         raise ValueError(
             f"src {a.name!r} is a {a.group} convention and dst {b.name!r} a {b.group} one: "
@@ -61,7 +61,7 @@ def _check_groups(a: Convention, b: Convention) -> None:
         )
 
 
-def _element(a: Convention, b: Convention, X: Any, name: str = "X") -> FloatArray:
+def _element(a: Chart, b: Chart, X: Any, name: str = "X") -> FloatArray:
     """Validate ``X`` as an element of the (common) group of ``a`` and ``b``."""
     _check_groups(a, b)
     if a.group == b.group:
@@ -109,10 +109,12 @@ def _compiled_plan(src: Any, dst: Any) -> _Plan | None:
 @functools.lru_cache(maxsize=1024)
 def _plan_for(src: Any, dst: Any) -> _Plan | None:
     a, b = get(src), get(dst)
+    if not (isinstance(a, Convention) and isinstance(b, Convention)):
+        return None  # whole-state charts: the numpy path
     simple = (
         a._engine.rotations_3d
         and b._engine.rotations_3d
-        and not (a.is_euler or b.is_euler or isinstance(a, Bundle) or isinstance(b, Bundle))
+        and not (a.is_euler or b.is_euler)
         and a.embed is None
         and b.embed is None
     )
@@ -147,6 +149,8 @@ def is_exactly_linear(src: ConventionLike, dst: ConventionLike) -> bool:
         return a.exactly_linear_to(b, is_exactly_linear)
     if isinstance(a, NavChart) or isinstance(b, NavChart):  # decided by the pose charts
         return nav_exactly_linear(a, b, is_exactly_linear)
+    if not (isinstance(a, Convention) and isinstance(b, Convention)):
+        return False  # a bundle and a single group's convention do not convert (checked above)
     if _chart_family(a) != _chart_family(b):
         return False
     if a.is_euler or b.is_euler:  # absolute angles: linear only between two Euler orders
@@ -314,7 +318,7 @@ def _chunk_size(chunk_size: Any) -> int:
 
 
 def _unscented(
-    cov: FloatArray, Xa: FloatArray, a: Convention, b: Convention, n: int, so3: bool
+    cov: FloatArray, Xa: FloatArray, a: Chart, b: Chart, n: int, so3: bool
 ) -> FloatArray:
     """Convert a flat batch of covariances ``(N, n, n)`` at ``(N, k, k)`` by sigma points."""
     pts, w = cubature_rule_5(n)

@@ -27,7 +27,7 @@ block diagonal: the pose convention's own map to ``(ω, v)`` (to first order ``X
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
@@ -35,6 +35,7 @@ import numpy as np
 from .. import _validate as validate
 from .._validate import FloatArray
 from ..lie import se3, se23
+from .chart import Chart
 from .convention import Convention
 from .tangent_order import from_concatenated, perm_matrix, to_concatenated
 
@@ -51,15 +52,23 @@ def _mv(A: FloatArray, x: FloatArray) -> FloatArray:
 
 
 @dataclass(frozen=True)
-class NavChart(Convention):
+class NavChart(Chart):
     """A navigation-state chart: an SE(3) ``pose`` convention and a ``velocity`` frame.
 
-    Build it with :meth:`NavChart.of`; see the module docstring for the retraction.
+    A chart of its own (:class:`~liebridge.conventions.chart.Chart`) on SE₂(3) elements: its
+    side, order and rotation coordinates are its ``pose`` convention's (``nav.pose.side``), its
+    velocity increment is in the ``velocity`` frame. Build it with :meth:`NavChart.of`; see the
+    module docstring for the retraction.
     """
 
-    pose: Convention | None = None
+    name: str
+    pose: Convention
     velocity: str = "world"
     perm: tuple[int, ...] | None = None
+    source: str = ""
+    notes: str = field(default="", compare=False, repr=False)
+    group: str = field(init=False, default="", compare=False)
+    _key: tuple[str, str, str, str] = field(init=False, repr=False, compare=False)
 
     @classmethod
     def of(
@@ -79,21 +88,15 @@ class NavChart(Convention):
         """
         return cls(
             name=name,
-            side=pose.side,
-            order=pose.order,
-            chart="split_body" if velocity == "body" else "split_world",
-            rotation=pose.rotation,
-            quat_order=pose.quat_order,
-            source=source,
-            notes=notes,
-            group=se23.GROUP.name,
             pose=pose,
             velocity=velocity,
             perm=tuple(order) if order is not None else None,
+            source=source,
+            notes=notes,
         )
 
     def __post_init__(self) -> None:
-        super().__post_init__()
+        object.__setattr__(self, "group", se23.GROUP.name)
         p = self.pose
         if not isinstance(p, Convention) or p.record is not se3.GROUP or p.is_euler:
             raise ValueError(
@@ -112,8 +115,11 @@ class NavChart(Convention):
 
     @property
     def _p(self) -> Convention:
-        assert self.pose is not None  # checked in __post_init__
         return self.pose
+
+    def element(self, X: Any, name: str = "X") -> FloatArray:
+        """Validate an extended pose ``(..., 5, 5)`` (the SE₂(3) record's validator)."""
+        return se23.GROUP.element(X, name)
 
     def dim(self, X: Any = None) -> int:
         """9: the pose tangent (6, in the pose convention's order) then ``δv`` (3)."""
@@ -213,11 +219,15 @@ def nav_state(R_world_body: Any, p_world: Any, v_world: Any) -> FloatArray:
     return X
 
 
-def _pose_part(c: Convention) -> Convention | None:
+def _pose_part(c: Chart) -> Convention | None:
     """Return the SE(3) chart a navigation chart moves ``(R, p)`` by (None: coupled SE₂(3))."""
     if isinstance(c, NavChart):
         return c._p
-    if c.record is not se23.GROUP or c.chart == se23.GROUP.coupled_chart:
+    if (
+        not isinstance(c, Convention)
+        or c.record is not se23.GROUP
+        or c.chart == se23.GROUP.coupled_chart
+    ):
         return None
     return Convention(
         name=f"{c.name}_pose",
@@ -229,7 +239,7 @@ def _pose_part(c: Convention) -> Convention | None:
     )
 
 
-def nav_exactly_linear(a: Convention, b: Convention, linear: Callable[[Any, Any], bool]) -> bool:
+def nav_exactly_linear(a: Chart, b: Chart, linear: Callable[[Any, Any], bool]) -> bool:
     """Whether two SE₂(3) charts, one at least a :class:`NavChart`, convert exactly linearly.
 
     The velocity increment (body ``R·δv`` or world ``δv``) is always linear; the pose parts

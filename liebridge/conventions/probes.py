@@ -33,7 +33,7 @@ from ..lie import quaternion as quat
 from ..lie import so3
 from .convention import Convention
 from .detect import ConventionNotDetected, detect_convention, matches_so3
-from .registry import get, matching_presets
+from .registry import get, matching_presets, single_group
 
 __all__ = [
     "LIBRARIES",
@@ -422,7 +422,7 @@ def import_library(lib: Library) -> tuple[Any, str]:
 
 def run_probe(lib: Library, probe: Probe, module: Any, version: str) -> ProbeResult:
     """Measure one probe: its convention by :func:`detect_convention`, and the quaternion order."""
-    preset = get(probe.preset) if probe.preset else None
+    preset = single_group(get(probe.preset)) if probe.preset else None
     measured: Convention | None = None
     error = ""
     try:

@@ -4,15 +4,16 @@ from __future__ import annotations
 
 import difflib
 
+from .chart import Chart
 from .convention import Convention
 from .presets import ALL_PRESETS
 from .state_presets import STATE_PRESETS
 
-_REGISTRY: dict[str, Convention] = {c.name: c for c in (*ALL_PRESETS, *STATE_PRESETS)}
+_REGISTRY: dict[str, Chart] = {c.name: c for c in (*ALL_PRESETS, *STATE_PRESETS)}
 #: Conventions registered by the user (:func:`register`), in registration order.
 _USER: list[Convention] = []
 
-ConventionLike = Convention | str
+ConventionLike = Chart | str
 
 
 def names(group: str | None = None) -> list[str]:
@@ -20,7 +21,7 @@ def names(group: str | None = None) -> list[str]:
     return [n for n, c in _REGISTRY.items() if group is None or c.group == group]
 
 
-def get(name: ConventionLike) -> Convention:
+def get(name: ConventionLike) -> Chart:
     """Return the preset called ``name`` (a :class:`Convention` is returned unchanged).
 
     Raises
@@ -30,7 +31,7 @@ def get(name: ConventionLike) -> Convention:
     TypeError
         For anything that is neither a string nor a Convention.
     """
-    if isinstance(name, Convention):
+    if isinstance(name, Chart):
         return name
     if type(name) is str and name in _REGISTRY:  # the common case: an exact registry name
         return _REGISTRY[name]
@@ -44,6 +45,21 @@ def get(name: ConventionLike) -> Convention:
     close = close or difflib.get_close_matches(key, _REGISTRY, n=3, cutoff=0.5)
     hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
     raise ValueError(f"convention: unknown name {name!r}{hint} (known: {', '.join(_REGISTRY)})")
+
+
+def single_group(chart: Chart, what: str = "convention") -> Convention:
+    """Return ``chart`` if it is a convention of one group, else raise ``ValueError``.
+
+    For what needs one group's element and tangent (a factor, a message, a frame): a
+    :class:`~liebridge.conventions.Bundle` or :class:`~liebridge.conventions.NavChart` is a
+    whole-state chart.
+    """
+    if not isinstance(chart, Convention):
+        raise ValueError(
+            f"{what}: {chart.name!r} is a whole-state chart ({type(chart).__name__}); this needs "
+            "a convention of one group ('liebridge conventions' lists them)"
+        )
+    return chart
 
 
 def register(convention: Convention, *, replace: bool = False) -> Convention:

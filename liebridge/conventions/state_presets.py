@@ -26,6 +26,7 @@ See ``docs/navigation-states.md`` for the table with sources.
 from __future__ import annotations
 
 from .bundle import Bundle, Vector
+from .chart import Chart
 from .convention import Convention
 from .navstate import NavChart
 from .presets import GTSAM, GTSAM_NAVSTATE
@@ -36,7 +37,9 @@ _BIAS_BLOCKS: list[tuple[str, Vector]] = [("b_a", Vector(3)), ("b_g", Vector(3))
 _GYRO_FIRST = [*range(9), 12, 13, 14, 9, 10, 11]
 
 
-def _state(name: str, nav: Convention, order: list[int] | None, source: str, notes: str) -> Bundle:
+def _state(
+    name: str, nav: Convention | NavChart, order: list[int] | None, source: str, notes: str
+) -> Bundle:
     return Bundle.of(name, [("nav", nav), *_BIAS_BLOCKS], order=order, source=source, notes=notes)
 
 
@@ -329,4 +332,4 @@ STATE_PRESETS_15: tuple[Bundle, ...] = (
 #: Every whole-state preset in the registry: the 15-dimensional ones, MOLA's 9-dimensional
 #: chart (an SE₂(3) convention: it converts to ``gtsam_navstate``, ``manif_se23``, every
 #: ``NavChart``) and FAST-LIO's 23-dimensional state.
-STATE_PRESETS: tuple[Convention, ...] = (*STATE_PRESETS_15, MOLA, FASTLIO)
+STATE_PRESETS: tuple[Chart, ...] = (*STATE_PRESETS_15, MOLA, FASTLIO)

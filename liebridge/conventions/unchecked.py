@@ -20,40 +20,47 @@ from __future__ import annotations
 import numpy as np
 
 from .._validate import FloatArray
+from .chart import Chart
 from .convention import Convention
 from .tangent_maps import pair_tangent_map
 
 
-def retract(conv: Convention, X: FloatArray, d: FloatArray) -> FloatArray:
+def retract(conv: Chart, X: FloatArray, d: FloatArray) -> FloatArray:
     """``conv.retract(X, d)`` without validation."""
     return conv._retract(X, d)
 
 
-def local(conv: Convention, X: FloatArray, Y: FloatArray) -> FloatArray:
+def local(conv: Chart, X: FloatArray, Y: FloatArray) -> FloatArray:
     """``conv.local(X, Y)`` without validation."""
     return conv._local(X, Y)
 
 
-def local_jacobian(conv: Convention, X: FloatArray, Y: FloatArray) -> FloatArray:
+def local_jacobian(conv: Chart, X: FloatArray, Y: FloatArray) -> FloatArray:
     """``conv.local_jacobian(X, Y)`` without validation: ``∂ local(X, retract(Y, δ))/∂δ`` at 0."""
     return conv._local_jacobian(X, Y)
 
 
-def to_canonical(conv: Convention, X: FloatArray) -> FloatArray:
+def to_canonical(conv: Chart, X: FloatArray) -> FloatArray:
     """``conv.to_canonical(X)`` without validation: ``ξ_gtsam = M d``."""
     return conv._to_canonical(X)
 
 
-def from_canonical(conv: Convention, X: FloatArray) -> FloatArray:
+def from_canonical(conv: Chart, X: FloatArray) -> FloatArray:
     """``conv.from_canonical(X)`` without validation: ``d = M ξ_gtsam``."""
     return conv._from_canonical(X)
 
 
-def tangent_map(X: FloatArray, src: Convention, dst: Convention) -> FloatArray:
+def tangent_map(X: FloatArray, src: Chart, dst: Chart) -> FloatArray:
     """``tangent_map(X, src, dst)`` without validation: ``δ_dst = M δ_src`` at ``X``."""
-    if not src._engine.rotations_3d or src.is_euler or dst.is_euler:  # maps to/from GTSAM's
-        return np.asarray(dst._from_canonical(X) @ src._to_canonical(X), dtype=np.float64)
-    return pair_tangent_map(src, dst, X.shape[-1] == 3)(X)
+    if (  # SE(3)/SO(3) conventions: the closed-form pair grid
+        isinstance(src, Convention)
+        and isinstance(dst, Convention)
+        and src._engine.rotations_3d
+        and not (src.is_euler or dst.is_euler)
+    ):
+        return pair_tangent_map(src, dst, X.shape[-1] == 3)(X)
+    # the maps to and from the canonical tangent
+    return np.asarray(dst._from_canonical(X) @ src._to_canonical(X), dtype=np.float64)
 
 
 __all__ = ["from_canonical", "local", "local_jacobian", "retract", "tangent_map", "to_canonical"]

@@ -27,7 +27,14 @@ import numpy as np
 
 from .. import _validate as validate
 from .._validate import FloatArray
-from ..conventions import CANONICAL, Convention, ConventionLike, convert_covariance, get
+from ..conventions import (
+    CANONICAL,
+    Convention,
+    ConventionLike,
+    convert_covariance,
+    get,
+    single_group,
+)
 from ..lie import unchecked as U
 
 __all__ = ["FrameMismatchError", "Transform", "frame_name"]
@@ -147,7 +154,7 @@ class Transform:
 
     def with_convention(self, convention: ConventionLike) -> Transform:
         """Return this transform with its covariance re-expressed in ``convention`` (1st order)."""
-        conv = get(convention)
+        conv = single_group(get(convention))
         cov = None
         if self.cov is not None:
             cov = convert_covariance(self.cov, self.T, self.convention, conv)

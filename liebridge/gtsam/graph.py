@@ -22,10 +22,9 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 import gtsam
-import numpy as np
 
 from .._validate import FloatArray
-from ..conventions import Convention, ConventionLike, get
+from ..conventions import Convention, ConventionLike, get, single_group
 from ..conventions.convert import is_exactly_linear
 from .build import gtsam_convention_of
 from .glue import from_values, to_gtsam
@@ -57,7 +56,7 @@ class ConventionGraph:
     """
 
     def __init__(self, convention: ConventionLike, graph: Any = None, values: Any = None) -> None:
-        self.convention: Convention = get(convention)
+        self.convention: Convention = single_group(get(convention))
         self.group: str = gtsam_convention_of(self.convention.group).group
         self.graph = graph if graph is not None else gtsam.NonlinearFactorGraph()
         self.values = values if values is not None else gtsam.Values()
@@ -79,7 +78,7 @@ class ConventionGraph:
         ``pose`` is a matrix of the convention's group (``(4, 4)`` for SE(3), ``(3, 3)`` for
         SE(2), ...).
         """
-        arr = np.asarray(pose, dtype=np.float64)
+        arr = gtsam_group(self.group).group.element(pose, "pose")  # library objects too
         if arr.ndim != 2:
             raise ValueError(f"pose: expected one element, got shape {arr.shape}")
         p = to_gtsam(arr, self.group)

@@ -56,7 +56,7 @@ import numpy as np
 
 from .. import _validate as validate
 from .._validate import FloatArray
-from ..conventions import Convention, ConventionLike, get
+from ..conventions import Convention, ConventionLike, get, single_group
 from ..conventions.convert import convert_covariance, is_exactly_linear
 from . import factor_math
 from .batch import PoseFactorSpec
@@ -163,7 +163,7 @@ def between(
         ``measured`` not an element of the convention's group (e.g. a 3×3 rotation for SE(2), a
         Sim(3) scale ≤ 0), ``cov`` not positive definite or of the wrong size, ``i == j``.
     """
-    conv = get(convention)
+    conv = single_group(get(convention))
     g = _group_of(conv)
     Z = _element(conv, measured, "measured")
     cov_conv, cov = _covariance(conv, cov)
@@ -211,7 +211,7 @@ def prior(
     -------
     gtsam.PriorFactorPose3 (Pose2, Similarity3, NavState) or gtsam.CustomFactor
     """
-    conv = get(convention)
+    conv = single_group(get(convention))
     g = _group_of(conv)
     Z = _element(conv, pose, "pose")
     cov_conv, cov = _covariance(conv, cov)

@@ -336,12 +336,18 @@ def register(group: Group, *, replace: bool = False) -> Group:
 
 
 _SHIPPED: set[str] = set()
+#: The shipped groups' order in :data:`GROUPS` (whatever order their modules are imported in).
+_SHIPPED_ORDER = ("so2", "se2", "so3", "se3", "sim3", "se23")
 
 
 def register_shipped(group: Group) -> Group:
     """Register one of liebridge's own groups (cannot be replaced later)."""
     register(group)
     _SHIPPED.add(group.name)
+    rank = {n: k for k, n in enumerate(_SHIPPED_ORDER)}
+    ordered = sorted(GROUPS.items(), key=lambda kv: rank.get(kv[0], len(rank)))
+    GROUPS.clear()
+    GROUPS.update(ordered)
     return group
 
 

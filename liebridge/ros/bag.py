@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from ..conventions import ConventionLike, get
+from ..conventions import ConventionLike, get, single_group
 from .messages import MESSAGE_TYPES, RosMessages, normalize_msgtype
 
 __all__ = [
@@ -286,7 +286,7 @@ def read_messages(
         topic and message index.
     """
     path = Path(bag)
-    conv = get(convention)
+    conv = single_group(get(convention))
     with _open_reader(path) as r:
         conns = [c for c in r.connections if c.topic == topic]
         if not conns:

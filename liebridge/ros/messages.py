@@ -45,7 +45,7 @@ import numpy.typing as npt
 
 from .. import _validate as validate
 from .._validate import QUATERNION_TOL, FloatArray
-from ..conventions import Convention, ConventionLike, convert_covariance, get
+from ..conventions import Convention, ConventionLike, convert_covariance, get, single_group
 from ..io.poses import from_matrix
 from ..lie import quaternion as quat
 
@@ -179,7 +179,7 @@ class RosMessages:
     log_time_ns: IntArray | None = None
     topic: str = ""
     storage: str | None = None
-    convention: Convention = field(default_factory=lambda: get("ros"))
+    convention: Convention = field(default_factory=lambda: single_group(get("ros")))
     quaternion_tol: float = QUATERNION_TOL
 
     stamps: FloatArray = field(init=False, repr=False)
@@ -362,7 +362,7 @@ class RosMessages:
 
         The raw fields (what is written back) do not change.
         """
-        return replace(self, convention=get(convention))
+        return replace(self, convention=single_group(get(convention)))
 
     def select(self, rows: Any) -> RosMessages:
         """Rows ``rows`` (an index array or slice) as a new batch; messages renumbered."""
@@ -444,7 +444,7 @@ def from_poses(
     RosMessages
         Quaternions with ``w ≥ 0``; ``seq`` zero; receive time = stamp.
     """
-    conv = get(convention)
+    conv = single_group(get(convention))
     mt = normalize_msgtype(msgtype)
     if mt == _IMU:
         raise ValueError("msgtype: from_poses does not build sensor_msgs/Imu messages")
