@@ -191,11 +191,6 @@ class Convention(Chart):
         """Whether the rotation coordinates are absolute Euler angles (``euler_zyx``/``_rpy``)."""
         return self.rotation in EULER_COORDS
 
-    @property
-    def generic(self) -> bool:
-        """Whether this convention runs on the record-driven engine (no fast implementation)."""
-        return not self._engine.euler
-
     def dim(self, X: Any = None) -> int:
         """Length of this convention's tangent (at ``X``, for an SE(3) one given a rotation: 3)."""
         return self._engine.dim(self, X)
