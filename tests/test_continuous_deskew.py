@@ -60,8 +60,17 @@ def test_ct_icp_model_is_split_to_the_end_frame() -> None:
 @pytest.mark.parametrize("method", ["se3", "split"])
 def test_generic_reference_times(reference: str | float, method: str) -> None:
     pts, stamps, T_begin, T_end = _scan(50)
-    out = deskew(pts, stamps, T_begin, T_end, "generic", reference=reference, method=method,
-                 t_begin=0.0, t_end=0.1)
+    out = deskew(
+        pts,
+        stamps,
+        T_begin,
+        T_end,
+        "generic",
+        reference=reference,
+        method=method,
+        t_begin=0.0,
+        t_end=0.1,
+    )
     a_ref = {"begin": 0.0, "mid": 0.5, "end": 1.0}.get(reference, 0.25)  # type: ignore[call-overload]
     assert out.alpha_ref == pytest.approx(a_ref)
     # the definition, point by point: T(α_ref)⁻¹·T(α)·p with T from the same interpolation
@@ -70,8 +79,9 @@ def test_generic_reference_times(reference: str | float, method: str) -> None:
     Ta = interpolate(T_begin, T_end, stamps / 0.1, method, jacobians=False).T
     Tr = interpolate(T_begin, T_end, a_ref, method, jacobians=False).T
     D = np.linalg.inv(Tr) @ Ta
-    np.testing.assert_allclose(out.points, np.einsum("nij,nj->ni", D[:, :3, :3], pts)
-                               + D[:, :3, 3], atol=1e-10)
+    np.testing.assert_allclose(
+        out.points, np.einsum("nij,nj->ni", D[:, :3, :3], pts) + D[:, :3, 3], atol=1e-10
+    )
 
 
 def test_integer_nanoseconds_are_read_as_such() -> None:
@@ -87,9 +97,15 @@ def test_integer_nanoseconds_are_read_as_such() -> None:
 
 
 @pytest.mark.parametrize("conv", SE3_PRESETS)
-@pytest.mark.parametrize("model,kw", [("kiss_icp", {}), ("ct_icp", {}),
-                                      ("generic", {"reference": "mid", "method": "split"}),
-                                      ("generic", {"reference": "begin", "method": "se3"})])
+@pytest.mark.parametrize(
+    "model,kw",
+    [
+        ("kiss_icp", {}),
+        ("ct_icp", {}),
+        ("generic", {"reference": "mid", "method": "split"}),
+        ("generic", {"reference": "begin", "method": "se3"}),
+    ],
+)
 def test_point_jacobians_match_central_differences(conv: str, model: str, kw: dict) -> None:
     c = get(conv)
     pts, stamps, T_begin, T_end = _scan(6)

@@ -52,7 +52,9 @@ def test_endpoints_are_exact(method: str, angle: float) -> None:
 @pytest.mark.parametrize("method", ["se3", "split"])
 @pytest.mark.parametrize("angle", [0.0, 0.9, math.pi - 1e-3])
 @pytest.mark.parametrize("tau", [0.0, 0.37, 1.0, 1.3])
-def test_jacobians_match_central_differences(conv: str, method: str, angle: float, tau: float) -> None:
+def test_jacobians_match_central_differences(
+    conv: str, method: str, angle: float, tau: float
+) -> None:
     c = get(conv)
     T0, T1 = _pair(angle)
     out = interpolate(T0, T1, tau, method=method, convention=c)

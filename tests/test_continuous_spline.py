@@ -94,7 +94,8 @@ def test_order_two_is_the_piecewise_geodesic() -> None:
     np.testing.assert_allclose(sp.evaluate(ts), expected, atol=1e-12)
     split = Spline(K, 0.0, 1.0, order=2, kind="split")
     np.testing.assert_allclose(
-        split.evaluate(ts), interpolate(K[s], K[s + 1], ts - s, "split", jacobians=False).T,
+        split.evaluate(ts),
+        interpolate(K[s], K[s + 1], ts - s, "split", jacobians=False).T,
         atol=1e-12,
     )
 
@@ -104,8 +105,14 @@ def test_cubic_basis_is_the_textbook_one() -> None:
 
     u = np.linspace(0, 1, 7)
     expected = np.stack(
-        [np.ones_like(u), (5 + 3 * u - 3 * u**2 + u**3) / 6, (1 + 3 * u + 3 * u**2 - 2 * u**3) / 6,
-         u**3 / 6], axis=-1)
+        [
+            np.ones_like(u),
+            (5 + 3 * u - 3 * u**2 + u**3) / 6,
+            (1 + 3 * u + 3 * u**2 - 2 * u**3) / 6,
+            u**3 / 6,
+        ],
+        axis=-1,
+    )
     np.testing.assert_allclose(cumulative_basis(4, u), expected, atol=1e-15)
 
 
@@ -115,8 +122,10 @@ def test_velocity_and_acceleration_match_differences_in_time(kind: str, form: st
     ts = np.array([0.55, 0.71, 0.93])
     h = 1e-5
     T = sp.evaluate(ts)
-    body = (se3.log(np.linalg.inv(T) @ sp.evaluate(ts + h))
-            - se3.log(np.linalg.inv(T) @ sp.evaluate(ts - h))) / (2 * h)
+    body = (
+        se3.log(np.linalg.inv(T) @ sp.evaluate(ts + h))
+        - se3.log(np.linalg.inv(T) @ sp.evaluate(ts - h))
+    ) / (2 * h)
     v = sp.velocity(ts)
     np.testing.assert_allclose(v.omega_body, body[:, :3], atol=1e-6)
     np.testing.assert_allclose(v.v_body, body[:, 3:], atol=1e-6)
@@ -125,16 +134,19 @@ def test_velocity_and_acceleration_match_differences_in_time(kind: str, form: st
     R = T[:, :3, :3]
     Rdot = (sp.evaluate(ts + h)[:, :3, :3] - sp.evaluate(ts - h)[:, :3, :3]) / (2 * h)
     W = Rdot @ np.swapaxes(R, -1, -2)  # ω̂_world = Ṙ Rᵀ (kontiki's definition)
-    np.testing.assert_allclose(v.omega_world, np.stack([W[:, 2, 1], W[:, 0, 2], W[:, 1, 0]], -1),
-                               atol=1e-6)
+    np.testing.assert_allclose(
+        v.omega_world, np.stack([W[:, 2, 1], W[:, 0, 2], W[:, 1, 0]], -1), atol=1e-6
+    )
     a = sp.acceleration(ts)
     vp, vm = sp.velocity(ts + h), sp.velocity(ts - h)
     np.testing.assert_allclose(a.alpha_body, (vp.omega_body - vm.omega_body) / (2 * h), atol=1e-5)
-    np.testing.assert_allclose(a.alpha_world, (vp.omega_world - vm.omega_world) / (2 * h),
-                               atol=1e-5)
+    np.testing.assert_allclose(
+        a.alpha_world, (vp.omega_world - vm.omega_world) / (2 * h), atol=1e-5
+    )
     np.testing.assert_allclose(a.a_world, (vp.v_world - vm.v_world) / (2 * h), atol=1e-5)
-    np.testing.assert_allclose(a.a_body, (np.swapaxes(R, -1, -2) @ a.a_world[..., None])[..., 0],
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        a.a_body, (np.swapaxes(R, -1, -2) @ a.a_world[..., None])[..., 0], atol=1e-12
+    )
     # the tempting d/dt v_body is not a_body
     assert np.abs((vp.v_body - vm.v_body) / (2 * h) - a.a_body).max() > 1e-3
 
@@ -145,8 +157,9 @@ def test_nanosecond_spline_matches_the_seconds_one() -> None:
     ns = Spline(K, 1_500_000_000, 250_000_000, 4, "split", time_unit="ns")
     t_ns = np.array([1_500_000_000, 1_712_345_678, 2_499_999_999])
     np.testing.assert_allclose(ns.evaluate(t_ns), s.evaluate(t_ns * 1e-9), atol=1e-9)
-    np.testing.assert_allclose(ns.velocity(t_ns).omega_body, s.velocity(t_ns * 1e-9).omega_body,
-                               atol=1e-7)  # per second in both
+    np.testing.assert_allclose(
+        ns.velocity(t_ns).omega_body, s.velocity(t_ns * 1e-9).omega_body, atol=1e-7
+    )  # per second in both
 
 
 # ------------------------------------------------------------------------------- Jacobians
@@ -168,17 +181,20 @@ def test_knot_jacobians_match_central_differences(conv: str, kind: str, form: st
                 return Spline(Kp, 0.0, 1.0, 4, kind, form=form, extrapolate=True).evaluate(ti)
 
             N = numerical_jacobian(f, K[idx], in_convention=c, out_convention=c, eps=1e-7)
-            np.testing.assert_allclose(jac.J_T_knots[i, m], N, atol=3e-6,
-                                       err_msg=f"t={ti} knot {idx}")
+            np.testing.assert_allclose(
+                jac.J_T_knots[i, m], N, atol=3e-6, err_msg=f"t={ti} knot {idx}"
+            )
 
 
 def test_knot_jacobians_near_pi_increments() -> None:
     axis = np.array([0.0, 0.6, 0.8])
-    K = np.stack([se3.exp(np.concatenate([k * (math.pi - 1e-3) * axis, [k, 0.0, 0.0]]))
-                  for k in range(5)])
+    K = np.stack(
+        [se3.exp(np.concatenate([k * (math.pi - 1e-3) * axis, [k, 0.0, 0.0]])) for k in range(5)]
+    )
     sp = Spline(K, 0.0, 1.0)
     jac = sp.jacobians(0.4)
     for m in range(4):
+
         def f(X: np.ndarray, m: int = m) -> np.ndarray:
             Kp = K.copy()
             Kp[m] = X
@@ -192,7 +208,12 @@ def test_knot_jacobians_near_pi_increments() -> None:
 def test_presets_state_their_conventions() -> None:
     b, k, g = (SPLINE_PRESETS[n] for n in ("basalt", "kontiki", "gtsam_cumulative"))
     assert (b.kind, b.form, b.time_unit, b.omega_frame, b.v_frame) == (
-        "split", "product", "ns", "body", "world")
+        "split",
+        "product",
+        "ns",
+        "body",
+        "world",
+    )
     assert (k.kind, k.form, k.time_unit, k.omega_frame) == ("coupled", "product", "s", "world")
     assert (g.kind, g.form, g.extrapolates) == ("coupled", "sum", True)
     assert "source-read" in b.source and "source-read" in k.source
@@ -202,7 +223,7 @@ def test_outside_the_knots_basalt_and_kontiki_raise() -> None:
     K = _knots(6)
     basalt = Spline.from_preset("basalt", K, 1_000, 100)
     assert basalt.t_max == 1_000 + 3 * 100
-    with pytest.raises(ValueError, match="outside the spline's knots.*basalt does not extrapol"):
+    with pytest.raises(ValueError, match=r"outside the spline.s knots.*basalt does not extrapol"):
         basalt.evaluate(np.array([1_100, 999]))
     kontiki = Spline.from_preset("kontiki", K, 0.0, 0.5)
     kontiki.evaluate(1.5)  # the closed end is valid
@@ -223,9 +244,9 @@ def test_convert_velocity_between_presets() -> None:
     w, vv = convert_velocity(v.omega_world, v.v_world, R, "kontiki", "basalt")
     np.testing.assert_allclose(w, v.omega_body, atol=1e-12)
     np.testing.assert_allclose(vv, v.v_world, atol=1e-12)
-    w2, v2 = convert_velocity(w, vv, R, "basalt", ("body", "body"))
+    _w2, v2 = convert_velocity(w, vv, R, "basalt", ("body", "body"))
     np.testing.assert_allclose(v2, v.v_body, atol=1e-12)
-    with pytest.raises(ValueError, match="u̇"):
+    with pytest.raises(ValueError, match=r"u̇"):
         convert_velocity(w, vv, R, "gtsam_cumulative", "basalt")
 
 
@@ -277,7 +298,7 @@ def test_constructor_errors_are_named() -> None:
         Spline(_knots(), 0.0, -1.0)
     with pytest.raises(ValueError, match="kind"):
         Spline(_knots(), 0.0, 1.0, kind="helix")
-    with pytest.raises(ValueError, match="coupled only|kind='coupled' only"):
+    with pytest.raises(ValueError, match=r"kind=.coupled. only"):
         Spline(_knots(), 0.0, 1.0, kind="split", form="sum")
     with pytest.raises(ValueError, match="name"):
         Spline.from_preset("ceres", _knots(), 0.0, 1.0)

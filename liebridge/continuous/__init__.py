@@ -1,4 +1,4 @@
-"""Continuous time: interpolation with Jacobians, deskew and cumulative B-splines, conventions named.
+"""Continuous time: interpolation with Jacobians, deskew and cumulative B-splines, named.
 
 * :func:`interpolate` — ``T(τ)`` between two poses, coupled SE(3) (``"se3"``) or SLERP + LERP
   (``"split"``), with Jacobians with respect to both endpoints and τ in any SE(3) convention;

@@ -55,7 +55,7 @@ def same_unit(unit_a: str, name_a: str, unit_b: str, name_b: str) -> None:
 
 
 def convention(conv: ConventionLike, name: str = "convention") -> Convention:
-    """An SE(3) convention (preset name or object), or a clear error."""
+    """Return the SE(3) convention (preset name or object), or raise a clear error."""
     c = get(conv)
     if c.group != "se3":
         raise ValueError(f"{name}: expected an SE(3) convention, got {c.name!r} (group {c.group})")
@@ -87,7 +87,7 @@ def se3_ad(xi: FloatArray) -> FloatArray:
     """``ad(ξ) = [[ω×, 0], [v×, ω×]]`` in ``(ω, v)`` (``ad(ξ) η = [ξ, η]``)."""
     W = hat3(xi[..., :3])
     V = hat3(xi[..., 3:])
-    out = np.zeros(xi.shape[:-1] + (6, 6))
+    out = np.zeros((*xi.shape[:-1], 6, 6))
     out[..., :3, :3] = W
     out[..., 3:, 3:] = W
     out[..., 3:, :3] = V
@@ -121,7 +121,7 @@ def cumulative_basis(order: int, u: FloatArray, derivative: int = 0) -> FloatArr
     """Cumulative basis ``b̃_j(u)`` (``j = 0..order−1``, ``b̃_0 ≡ 1``) or its u-derivative."""
     M = blending_matrix(order)
     Mc = np.cumsum(M[:, ::-1], axis=1)[:, ::-1]  # b̃_j = Σ_{l ≥ j} b_l
-    powers = np.zeros(u.shape + (order,))
+    powers = np.zeros((*u.shape, order))
     for i in range(derivative, order):
         powers[..., i] = factorial(i) / factorial(i - derivative) * u ** (i - derivative)
     return np.asarray(powers @ Mc, dtype=np.float64)

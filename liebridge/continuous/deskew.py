@@ -88,9 +88,7 @@ _MODEL_DEFAULTS: dict[str, tuple[str, str]] = {
 }
 
 
-def _alpha(
-    stamps: Any, t_begin: Any, t_end: Any, reference: Any
-) -> tuple[FloatArray, float, str]:
+def _alpha(stamps: Any, t_begin: Any, t_end: Any, reference: Any) -> tuple[FloatArray, float, str]:
     st, unit = time_array(stamps, "stamps")
     if st.ndim != 1 or st.size == 0:
         raise ValueError(f"stamps: expected shape (N,) with N ≥ 1, got {st.shape}")
@@ -193,7 +191,8 @@ def deskew(
         for val, name in ((t_begin, "t_begin"), (t_end, "t_end")):
             if val is not None:
                 raise ValueError(f"{name}: model {model!r} normalises time by the scan's stamps")
-        meth, ref = _MODEL_DEFAULTS[model]
+        meth, ref_name = _MODEL_DEFAULTS[model]
+        ref: str | float | int = ref_name
     else:
         meth = "se3" if method is None else validate.option(method, "method", METHODS)
         ref = "end" if reference is None else reference

@@ -71,7 +71,7 @@ def _so3_jr(w: FloatArray) -> FloatArray:
 def interp_canonical(
     T0: FloatArray, T1: FloatArray, tau: FloatArray, method: str, jacobians: bool
 ) -> tuple[FloatArray, FloatArray | None, FloatArray | None, FloatArray | None]:
-    """Validated, broadcast inputs → ``T`` and canonical (GTSAM right, (ω, v)) Jacobians."""
+    """Return ``T`` and canonical (GTSAM right, (ω, v)) Jacobians of validated, broadcast inputs."""
     tt = tau[..., None]
     if method == "se3":
         xi = np.asarray(lu.se3_log(lu.se3_inverse(T0) @ T1), dtype=np.float64)
@@ -93,28 +93,26 @@ def interp_canonical(
         Jr_t = se3_jr(txi)
         J1 = tau[..., None, None] * Jr_t @ se3_jr_inv(xi)
         J0 = lu.se3_adjoint(lu.se3_exp(-txi)) - tau[..., None, None] * Jr_t @ lu.se3_jl_inv(xi)
-        Jt = np.broadcast_to(xi, T.shape[:-2] + (6,)).copy()
+        Jt = np.broadcast_to(xi, (*T.shape[:-2], 6)).copy()
         return T, np.asarray(J0, dtype=np.float64), np.asarray(J1, dtype=np.float64), Jt
     shape = T.shape[:-2]
     tw = tt * w
     Jr_t = _so3_jr(tw)
     Rt = np.swapaxes(T[..., :3, :3], -1, -2)
-    J0 = np.zeros(shape + (6, 6))
-    J1 = np.zeros(shape + (6, 6))
+    J0 = np.zeros((*shape, 6, 6))
+    J1 = np.zeros((*shape, 6, 6))
     t3 = tau[..., None, None]
     J0[..., :3, :3] = np.swapaxes(lu.so3_exp(tw), -1, -2) - t3 * Jr_t @ lu.so3_jl_inv(w)
     J1[..., :3, :3] = t3 * Jr_t @ lu.so3_jr_inv(w)
     J0[..., 3:, 3:] = (1.0 - t3) * Rt @ T0[..., :3, :3]
     J1[..., 3:, 3:] = t3 * Rt @ T1[..., :3, :3]
-    Jt = np.zeros(shape + (6,))
+    Jt = np.zeros((*shape, 6))
     Jt[..., :3] = w
     Jt[..., 3:] = (Rt @ (T1[..., :3, 3] - T0[..., :3, 3])[..., None])[..., 0]
     return T, J0, J1, Jt
 
 
-def prepare(
-    T0: Any, T1: Any, tau: Any, method: str
-) -> tuple[FloatArray, FloatArray, FloatArray]:
+def prepare(T0: Any, T1: Any, tau: Any, method: str) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Validate and broadcast ``(T0, T1, tau)``; named errors."""
     validate.option(method, "method", METHODS)
     A = validate.pose(T0, "T0")
@@ -128,8 +126,8 @@ def prepare(
             f"T0, T1, tau: batch shapes {A.shape[:-2]}, {B.shape[:-2]} and {t.shape} "
             f"do not broadcast"
         ) from None
-    A = np.broadcast_to(A, shape + (4, 4))
-    B = np.broadcast_to(B, shape + (4, 4))
+    A = np.broadcast_to(A, (*shape, 4, 4))
+    B = np.broadcast_to(B, (*shape, 4, 4))
     t = np.broadcast_to(t, shape)
     return A, B, t
 

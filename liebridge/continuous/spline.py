@@ -161,9 +161,7 @@ GTSAM_CUMULATIVE = SplinePreset(
     "padFront=False: t0 = 3/density, True: t0 = 0)",
 )
 #: The spline presets, by name.
-SPLINE_PRESETS: dict[str, SplinePreset] = {
-    p.name: p for p in (BASALT, KONTIKI, GTSAM_CUMULATIVE)
-}
+SPLINE_PRESETS: dict[str, SplinePreset] = {p.name: p for p in (BASALT, KONTIKI, GTSAM_CUMULATIVE)}
 
 
 class Velocity(NamedTuple):
@@ -320,6 +318,7 @@ class Spline:
     # ------------------------------------------------------------------ time
     @property
     def n_knots(self) -> int:
+        """Number of knots ``N``."""
         return int(self.knots.shape[0])
 
     @property
@@ -332,7 +331,9 @@ class Spline:
         """End of the valid span, ``t0 + (N − k + 1)·dt`` (basalt's last valid ns is one less)."""
         return self.t0 + (self.n_knots - self.order + 1) * self.dt
 
-    def _sigma(self, t: Any) -> tuple[FloatArray, FloatArray, np.ndarray[Any, Any], tuple[int, ...]]:
+    def _sigma(
+        self, t: Any
+    ) -> tuple[FloatArray, FloatArray, np.ndarray[Any, Any], tuple[int, ...]]:
         """Query times → (σ, u, s) with the range check."""
         tq, unit = time_array(t, "t")
         same_unit(self.time_unit, f"the spline ({self.preset or 'this spline'})", unit, "t")
@@ -408,7 +409,7 @@ class Spline:
             T = self.knots[0] @ lu.se3_exp(u)
         else:
             T, _, _, _, shape = self._product(t, 0)
-        return np.asarray(T, dtype=np.float64).reshape(shape + (4, 4))
+        return np.asarray(T, dtype=np.float64).reshape((*shape, 4, 4))
 
     def tangent_rate(self, t: Any, derivative: int = 1) -> FloatArray:
         """Sum form only: ``u``, ``u̇`` or ``ü`` (GTSAM's ``sampleTrajectoryDerivative``).
@@ -420,7 +421,7 @@ class Spline:
         if derivative not in (0, 1, 2):
             raise ValueError(f"derivative: expected 0, 1 or 2, got {derivative!r}")
         us, _, shape = self._sum(t, derivative)
-        return us[derivative].reshape(shape + (6,))
+        return us[derivative].reshape((*shape, 6))
 
     def _twist(self, t: Any, accel: bool) -> tuple[FloatArray, FloatArray, FloatArray, Any]:
         """Body twist (ω_b, v_b), its derivative, R, shape."""
@@ -483,7 +484,7 @@ class Spline:
         w_b, v_b = tw[:, :3], tw[:, 3:]
         w_w = (R @ w_b[..., None])[..., 0]
         v_w = (R @ v_b[..., None])[..., 0]
-        return Velocity(*(x.reshape(shape + (3,)) for x in (w_b, w_w, v_b, v_w)))
+        return Velocity(*(x.reshape((*shape, 3)) for x in (w_b, w_w, v_b, v_w)))
 
     def acceleration(self, t: Any) -> Acceleration:
         """Angular and linear acceleration at ``t``, in every named frame (per second²)."""
@@ -493,7 +494,7 @@ class Spline:
         a_b = np.cross(w_b, v_b) + dtw[:, 3:]  # Rᵀp̈ = ω_b × v_b + v̇_b
         al_w = (R @ al_b[..., None])[..., 0]
         a_w = (R @ a_b[..., None])[..., 0]
-        return Acceleration(*(x.reshape(shape + (3,)) for x in (al_b, al_w, a_b, a_w)))
+        return Acceleration(*(x.reshape((*shape, 3)) for x in (al_b, al_w, a_b, a_w)))
 
     def jacobians(self, t: Any, convention: ConventionLike = "gtsam") -> SplineJacobians:
         """``T(t)`` and ``∂T(t)/∂knots`` in ``convention`` (see :class:`SplineJacobians`).
@@ -505,14 +506,14 @@ class Spline:
         T, J, first = self._jacobians_canonical(t)
         shape = T.shape[:-2]
         T = T.reshape(-1, 4, 4)
-        J = J.reshape((-1,) + J.shape[-3:])
+        J = J.reshape(-1, J.shape[-3], J.shape[-2], J.shape[-1])
         first = first.reshape(-1)
         if conv.name != "gtsam":
             idx = first[:, None] + np.arange(J.shape[1])[None, :]
             Kin = self.knots[idx]
             J = cu.from_canonical(conv, T)[:, None] @ J @ cu.to_canonical(conv, Kin)
         return SplineJacobians(
-            T.reshape(shape + (4, 4)),
+            T.reshape((*shape, 4, 4)),
             np.asarray(J, dtype=np.float64).reshape(shape + J.shape[1:]),
             first.reshape(shape),
         )
@@ -534,8 +535,8 @@ class Spline:
                 J[:, i + 1] += Jr @ (ci * jr_inv[i])
                 J[:, i] -= Jr @ (ci * jl_inv[i])
             return (
-                np.asarray(T).reshape(shape + (4, 4)),
-                J.reshape(shape + (n, 6, 6)),
+                np.asarray(T).reshape((*shape, 4, 4)),
+                J.reshape((*shape, n, 6, 6)),
                 np.zeros(shape, dtype=np.intp),
             )
         T, A, B, s, shape = self._product(t, 0)
@@ -569,7 +570,7 @@ class Spline:
             for j in range(k):
                 beta = (bt[:, j] - bt[:, j + 1])[:, None, None]
                 J[:, j, 3:, 3:] = beta * Rt @ self.knots[s + j][:, :3, :3]
-        return T.reshape(shape + (4, 4)), J.reshape(shape + (k, 6, 6)), s.reshape(shape)
+        return T.reshape((*shape, 4, 4)), J.reshape((*shape, k, 6, 6)), s.reshape(shape)
 
     # ------------------------------------------------------------------ presets, fit
     @classmethod
@@ -583,7 +584,7 @@ class Spline:
         density: float | None = None,
         pad_front: bool = False,
     ) -> Spline:
-        """A spline with a library's definitions (see :data:`SPLINE_PRESETS`).
+        """Build a spline with a library's definitions (see :data:`SPLINE_PRESETS`).
 
         ``basalt``: ``t0``, ``dt`` integer nanoseconds (``start_t_ns``, ``dt_ns``); ``kontiki``:
         float seconds; ``gtsam_cumulative``: ``density`` (control points per unit time, GTSAM's
@@ -601,7 +602,13 @@ class Spline:
                 raise ValueError(f"density: expected a positive number, got {density!r}")
             start = 0.0 if pad_front else 3.0 / dens
             return cls(
-                knots_T, start, 1.0 / dens, 4, "coupled", form="sum", extrapolate=True,
+                knots_T,
+                start,
+                1.0 / dens,
+                4,
+                "coupled",
+                form="sum",
+                extrapolate=True,
                 preset=p.name,
             )
         if density is not None:
@@ -683,7 +690,7 @@ class Spline:
         spl = cls(knots, start, dtv, order, kind, extrapolate=True)
         Tinv = lu.se3_inverse(Tm)
 
-        def cost_and_jac(sp: Spline) -> tuple[float, FloatArray, FloatArray, FloatArray]:
+        def cost_and_jac(sp: Spline) -> tuple[float, FloatArray, FloatArray, Any]:
             S, J, first = sp._jacobians_canonical(st)
             r = np.asarray(lu.se3_log(Tinv @ S), dtype=np.float64)
             Jr = se3_jr_inv(r)[:, None] @ J  # (M, k, 6, 6)
@@ -702,9 +709,14 @@ class Spline:
                     blk = np.einsum("mki,mkj->mij", Jr[:, a], Jr[:, b])
                     np.add.at(H, (ia[:, :, None], ib[:, None, :]), blk)
             while True:
-                step = -np.linalg.solve(H + lam * (np.diag(np.diag(H)) + np.eye(n * 6)), g)
+                damped = H + lam * (np.diag(np.diag(H)) + np.eye(n * 6))
+                step = -np.asarray(np.linalg.solve(damped, g), dtype=np.float64)
                 trial = cls(
-                    spl.knots @ lu.se3_exp(step.reshape(n, 6)), start, dtv, order, kind,
+                    spl.knots @ lu.se3_exp(step.reshape(n, 6)),
+                    start,
+                    dtv,
+                    order,
+                    kind,
                     extrapolate=True,
                 )
                 c2, r2, J2, f2 = cost_and_jac(trial)
@@ -731,7 +743,9 @@ def _frames(x: Any, name: str) -> tuple[str, str]:
     if isinstance(x, str):
         p = SPLINE_PRESETS.get(x)
         if p is None:
-            raise ValueError(f"{name}: expected a spline preset or (omega_frame, v_frame), got {x!r}")
+            raise ValueError(
+                f"{name}: expected a spline preset or (omega_frame, v_frame), got {x!r}"
+            )
         if p.omega_frame == "none":
             raise ValueError(
                 f"{name}: {p.name}'s derivative is u̇ (no frame); take Spline.velocity(t) "
@@ -793,4 +807,3 @@ def convert_knot_covariance(cov: Any, knot_T: Any, src: Any, dst: Any) -> FloatA
         return convention(x)
 
     return convert_covariance(cov, knot_T, knot_conv(src), knot_conv(dst))
-
