@@ -44,6 +44,7 @@ from .. import _validate as validate
 from .._validate import FloatArray
 from ..conventions import ConventionLike
 from ..lie import unchecked as lu
+from ..lie.series import one_minus_cos_over_t2, sinc, t_minus_sin_over_t3
 from ._common import convention as _se3_convention
 from ._common import hat3, same_unit, time_array, to_conv_columns
 from .interpolate import METHODS, interp_canonical
@@ -213,10 +214,19 @@ def deskew(
     alpha, a_ref, unit = _alpha(stamps, t_begin, t_end, ref)
 
     if meth == "se3" and not jacobians:
-        xi = lu.se3_log(lu.se3_inverse(A) @ B)
-        E = lu.se3_exp((alpha - a_ref)[:, None] * xi)
-        out = np.einsum("nij,nj->ni", E[:, :3, :3], P) + E[:, :3, 3]
-        return Deskewed(np.asarray(out), None, None, alpha, a_ref, unit)
+        # Exp(c·ξ)·p for one twist ξ = (ω, v) and per-point scalars c, without 4×4 matrices:
+        # R p = p + A c (ω×p) + B c² ω×(ω×p),  V c v = c v + B c² ω×v + C c³ ω×(ω×v)
+        xi = np.asarray(lu.se3_log(lu.se3_inverse(A) @ B), dtype=np.float64)
+        w, v = xi[:3], xi[3:]
+        c = alpha - a_ref
+        theta = np.abs(c) * float(np.linalg.norm(w))
+        cA = sinc(theta) * c
+        cB = one_minus_cos_over_t2(theta) * c * c
+        wp = np.cross(w, P)
+        wv = np.cross(w, v)
+        out = P + cA[:, None] * wp + cB[:, None] * (np.cross(w, wp) + wv)
+        out += c[:, None] * v + (t_minus_sin_over_t3(theta) * c**3)[:, None] * np.cross(w, wv)
+        return Deskewed(out, None, None, alpha, a_ref, unit)
 
     Ta, Ja0, Ja1, _ = interp_canonical(A, B, alpha, meth, jacobians)
     Tb, Jb0, Jb1, _ = interp_canonical(A, B, np.asarray(a_ref), meth, jacobians)
