@@ -111,7 +111,8 @@ def _alpha(stamps: Any, t_begin: Any, t_end: Any, reference: Any) -> tuple[Float
     if span <= 0:
         what = "t_max == t_min" if t_begin is None and t_end is None else "t_end ≤ t_begin"
         raise ValueError(
-            f"stamps: cannot normalise time in this scan ({what}: begin {t0!r}, end {t1!r} "
+            f"stamps: cannot normalise time in this scan ({what}: begin {t0.item()!r}, "
+            f"end {t1.item()!r} "
             f"{unit}, {st.size} stamps); a deskew needs a scan that lasts"
         )
     if unit == "ns":

@@ -303,8 +303,8 @@ class Spline:
         if not a1[()] > 0:
             raise ValueError(f"dt: expected a positive knot spacing, got {a1[()]!r}")
         self.time_unit = u0
-        self.t0 = a0[()]
-        self.dt = a1[()]
+        self.t0: int | float = a0.item()
+        self.dt: int | float = a1.item()
         self.dt_s = float(self.dt) / NS_PER_S if u0 == "ns" else float(self.dt)
         self.extrapolate = bool(extrapolate)
         self.preset = preset
@@ -353,7 +353,7 @@ class Spline:
         if out.any() and not self.extrapolate:
             k = int(np.flatnonzero(out)[0])
             raise ValueError(
-                f"t: query {k} ({tq[k]!r} {self.time_unit}) is outside the spline's knots "
+                f"t: query {k} ({tq[k].item()!r} {self.time_unit}) is outside the spline's knots "
                 f"[{self.t_min!r}, {self.t_max!r}] {self.time_unit} ({int(out.sum())} of "
                 f"{tq.size} queries); {self.preset or 'this spline'} does not extrapolate "
                 f"(extrapolate=True continues the end segments)"
