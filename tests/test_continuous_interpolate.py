@@ -6,6 +6,9 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
 from scipy.spatial.transform import Rotation, Slerp
 
 from liebridge.check import numerical_jacobian
@@ -143,3 +146,41 @@ def test_bad_input_is_named() -> None:
         interpolate(np.stack([np.eye(4)] * 3), np.eye(4), [0.1, 0.2])
     with pytest.raises(ValueError, match="SE\\(3\\) convention"):
         interpolate(np.eye(4), np.eye(4), 0.5, convention="gtsam_pose2")
+
+
+@pytest.mark.parametrize("method", ["se3", "split"])
+def test_exactly_pi_relative_rotation(method: str) -> None:
+    """At exactly π the two half-way rotations ±π/2 are both geodesic; either is accepted, the
+    endpoints stay exact and nothing is NaN."""
+    axis = np.array([0.0, 0.6, 0.8])
+    T0 = _pose(np.array([0.3, -0.2, 0.1]), np.array([1.0, 2.0, 3.0]))
+    T1 = T0.copy()
+    T1[:3, :3] = T0[:3, :3] @ (2 * np.outer(axis, axis) - np.eye(3))  # exactly π about axis
+    out = interpolate(T0, T1, [0.0, 0.5, 1.0], method=method)
+    assert np.array_equal(out.T[0], T0) and np.array_equal(out.T[2], T1)
+    assert np.isfinite(out.J_T_T0).all() and np.isfinite(out.J_T_T1).all()
+    rel = Rotation.from_matrix(T0[:3, :3].T @ out.T[1, :3, :3]).as_rotvec()
+    assert min(np.abs(rel - np.pi / 2 * axis).max(), np.abs(rel + np.pi / 2 * axis).max()) < 1e-9
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    xi0=arrays(np.float64, 6, elements=st.floats(-2.0, 2.0)),
+    xi1=arrays(np.float64, 6, elements=st.floats(-1.0, 1.0)),
+    tau=st.floats(-0.5, 1.5),
+    method=st.sampled_from(["se3", "split"]),
+)
+def test_jacobians_property(xi0: np.ndarray, xi1: np.ndarray, tau: float, method: str) -> None:
+    from liebridge.lie import se3
+
+    T0 = se3.exp(xi0)
+    T1 = T0 @ se3.exp(xi1)  # relative rotation below √3 rad
+    out = interpolate(T0, T1, tau, method=method, convention="barfoot")
+    c = get("barfoot")
+    N1 = numerical_jacobian(
+        lambda X: interpolate(T0, X, tau, method=method, jacobians=False).T,
+        T1,
+        in_convention=c,
+        out_convention=c,
+    )
+    np.testing.assert_allclose(out.J_T_T1, N1, atol=1e-5)

@@ -302,3 +302,45 @@ def test_constructor_errors_are_named() -> None:
         Spline(_knots(), 0.0, 1.0, kind="split", form="sum")
     with pytest.raises(ValueError, match="name"):
         Spline.from_preset("ceres", _knots(), 0.0, 1.0)
+
+
+def test_split_spline_matches_basalts_definition_written_with_scipy() -> None:
+    """basalt's Se3Spline, written independently with scipy rotations: SO(3) cumulative product
+    of ``Exp(b̃_j·Log(R_{j−1}ᵀR_j))`` and the translation a plain cubic B-spline."""
+    from scipy.spatial.transform import Rotation
+
+    K = _knots(6, 0.7)
+    sp = Spline(K, 0.0, 1.0, 4, "split")
+    for t in (0.0, 0.4, 1.7, 2.999):
+        s, u = int(t), t - int(t)
+        b = [
+            1.0,
+            (5 + 3 * u - 3 * u**2 + u**3) / 6,
+            (1 + 3 * u + 3 * u**2 - 2 * u**3) / 6,
+            u**3 / 6,
+        ]
+        R = Rotation.from_matrix(K[s, :3, :3])
+        for j in range(1, 4):
+            inc = Rotation.from_matrix(K[s + j - 1, :3, :3]).inv() * Rotation.from_matrix(
+                K[s + j, :3, :3]
+            )
+            R = R * Rotation.from_rotvec(b[j] * inc.as_rotvec())
+        w = [b[j] - (b[j + 1] if j < 3 else 0.0) for j in range(4)]
+        p = sum(w[j] * K[s + j, :3, 3] for j in range(4))
+        T = sp.evaluate(t)
+        np.testing.assert_allclose(T[:3, :3], R.as_matrix(), atol=1e-12)
+        np.testing.assert_allclose(T[:3, 3], p, atol=1e-12)
+
+
+@pytest.mark.parametrize("kind,form", KINDS)
+def test_zero_motion_spline(kind: str, form: str) -> None:
+    K = np.tile(_knots(1)[0], (5, 1, 1))
+    sp = Spline(K, 0.0, 1.0, 4, kind, form=form)
+    ts = np.array([0.0, 0.5, 2.0])
+    np.testing.assert_allclose(sp.evaluate(ts), np.broadcast_to(K[0], (3, 4, 4)), atol=1e-14)
+    v, a = sp.velocity(ts), sp.acceleration(ts)
+    for x in (*v, *a):
+        np.testing.assert_allclose(x, 0.0, atol=1e-14)
+    J = sp.jacobians(ts).J_T_knots
+    assert np.isfinite(J).all()
+    np.testing.assert_allclose(J.sum(axis=1), np.broadcast_to(np.eye(6), (3, 6, 6)), atol=1e-12)
