@@ -11,14 +11,17 @@ Models (what each library does, read in its source and, for KISS-ICP, run):
     SE(3) geodesic, ``α = (t − t_min)/(t_max − t_min)`` over the scan's own stamps, reference at
     the scan **end**: ``p' = Exp((α − 1)·Log(ΔT))·p`` with ``ΔT = T_begin⁻¹·T_end``. KISS-ICP
     passes the *previous* scan's relative motion as ``ΔT`` (constant velocity); give that pair of
-    poses here. (PRBonn/kiss-icp@4bd9a10 cpp/kiss_icp/core/Preprocessing.cpp:62-80; checked
-    against the ``kiss-icp`` package's own preprocessor in the tests.)
+    poses here. (PRBonn/kiss-icp@4bd9a10 cpp/kiss_icp/core/Preprocessing.cpp:55-84; run: equal
+    to the ``kiss-icp`` 1.3 package's own preprocessor in the tests.)
 ``"ct_icp"``
     Split: SLERP of the rotations and LERP of the translations between the frame's
     ``begin_pose`` and ``end_pose``, α normalised per scan, reference at the scan **end** (CT-ICP's
     ``DistortFrame`` "put all raw_points in the coordinate frame of the pose at the end of the
-    acquisition"). Source-read: jedeschaud/ct_icp@d467813 src/ct_icp/ct_icp.cpp:199-215,
-    include/ct_icp/cost_functions.h:200-217 (not run: ct_icp does not install from a registry).
+    acquisition"). Source-read (not run: ct_icp does not install from a package index):
+    jedeschaud/ct_icp@d467813 src/ct_icp/ct_icp.cpp:199-212 (``DistortFrame``),
+    src/SlamCore/types.cxx:24-30 (``ContinousTransform``: SLERP + LERP), include/SlamCore/types.h:
+    210-218 (α = (t − t_begin)/(t_end − t_begin) with the two poses' stamps). Eigen's ``slerp``
+    takes the short way, as the principal logarithm here does.
 ``"generic"``
     Your choice: ``method="se3"`` or ``"split"``, ``reference="begin"``, ``"mid"``, ``"end"`` or a
     time (in the stamps' unit), ``t_begin``/``t_end`` the times of the two poses (default: the

@@ -121,8 +121,9 @@ BASALT = SplinePreset(
         chart="so3xr3_world",
         rotation="exp",
         quat_order="xyzw",
-        source="S basalt-headers@a585db3 include/basalt/spline/so3_spline.h (knot ← knot·Exp(δ)), "
-        "rd_spline.h (world translation, additive); d_pose_d_t translation first",
+        source="S basalt-headers@a585db3 include/basalt/spline/ceres_local_param.hpp:74-90 "
+        "(LieLocalParameterization<SO3>: knot ← knot·exp(δ)); rd_spline.h (world translation, "
+        "additive); se3_spline.h d_pose_d_t translation first",
     ),
     extrapolates=False,
     source="S (source-read, not run: basalt does not install here) "
