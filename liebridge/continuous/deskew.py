@@ -11,7 +11,8 @@ Models (what each library does, read in its source and, for KISS-ICP, run):
     SE(3) geodesic, ``α = (t − t_min)/(t_max − t_min)`` over the scan's own stamps, reference at
     the scan **end**: ``p' = Exp((α − 1)·Log(ΔT))·p`` with ``ΔT = T_begin⁻¹·T_end``. KISS-ICP
     passes the *previous* scan's relative motion as ``ΔT`` (constant velocity); give that pair of
-    poses here. (PRBonn/kiss-icp@4bd9a10 cpp/kiss_icp/core/Preprocessing.cpp:55-84; run: equal
+    poses here (only ``ΔT`` matters: ``deskew(points, stamps, np.eye(4), delta, "kiss_icp")``
+    is KISS-ICP's ``Preprocess(points, stamps, delta)``). (PRBonn/kiss-icp@4bd9a10 cpp/kiss_icp/core/Preprocessing.cpp:55-84; run: equal
     to the ``kiss-icp`` 1.3 package's own preprocessor in the tests.)
 ``"ct_icp"``
     Split: SLERP of the rotations and LERP of the translations between the frame's

@@ -635,7 +635,8 @@ class Spline:
 
         Minimises ``Σᵢ ‖Log(T_i⁻¹·S(t_i))‖²`` (GTSAM's right (ω, v) tangent, radians and metres
         weighted equally) over the knots by Levenberg–Marquardt with the analytic knot
-        Jacobians; knots are initialised on the geodesic through the samples.
+        Jacobians (block-banded normal equations, ``scipy.linalg.solveh_banded``: linear in the
+        number of knots); knots are initialised on the geodesic through the samples.
 
         Parameters
         ----------
@@ -699,19 +700,30 @@ class Spline:
 
         lam = 1e-6
         cost, r, Jr, first = cost_and_jac(spl)
+        upper = 6 * order - 1  # the normal equations are block-banded: `order` knots per sample
+        six = np.arange(6)
         for _ in range(max_iterations):
-            H = np.zeros((n * 6, n * 6))
+            ab = np.zeros(
+                (upper + 1, n * 6)
+            )  # upper banded storage: ab[upper + i − j, j] = H[i, j]
             g = np.zeros(n * 6)
             for a in range(order):
-                ia = (first + a)[:, None] * 6 + np.arange(6)[None, :]
-                np.add.at(g, ia, np.einsum("mij,mi->mj", Jr[:, a], r))
-                for b in range(order):
-                    ib = (first + b)[:, None] * 6 + np.arange(6)[None, :]
+                ia = (first + a)[:, None] * 6 + six[None, :]
+                g += np.bincount(
+                    ia.ravel(), np.einsum("mij,mi->mj", Jr[:, a], r).ravel(), minlength=n * 6
+                )
+                for b in range(a, order):
+                    ib = (first + b)[:, None] * 6 + six[None, :]
                     blk = np.einsum("mki,mkj->mij", Jr[:, a], Jr[:, b])
-                    np.add.at(H, (ia[:, :, None], ib[:, None, :]), blk)
+                    rows = np.broadcast_to(ia[:, :, None], blk.shape)
+                    cols = np.broadcast_to(ib[:, None, :], blk.shape)
+                    keep = rows <= cols
+                    flat = (upper + rows[keep] - cols[keep]) * (n * 6) + cols[keep]
+                    ab += np.bincount(flat, blk[keep], minlength=ab.size).reshape(ab.shape)
+            diag = ab[upper].copy()
             while True:
-                damped = H + lam * (np.diag(np.diag(H)) + np.eye(n * 6))
-                step = -np.asarray(np.linalg.solve(damped, g), dtype=np.float64)
+                ab[upper] = diag + lam * (diag + 1.0)
+                step = -np.asarray(scipy.linalg.solveh_banded(ab, g), dtype=np.float64)
                 trial = cls(
                     spl.knots @ lu.se3_exp(step.reshape(n, 6)),
                     start,
