@@ -12,8 +12,9 @@ Models (what each library does, read in its source and, for KISS-ICP, run):
     the scan **end**: ``p' = Exp((α − 1)·Log(ΔT))·p`` with ``ΔT = T_begin⁻¹·T_end``. KISS-ICP
     passes the *previous* scan's relative motion as ``ΔT`` (constant velocity); give that pair of
     poses here (only ``ΔT`` matters: ``deskew(points, stamps, np.eye(4), delta, "kiss_icp")``
-    is KISS-ICP's ``Preprocess(points, stamps, delta)``). (PRBonn/kiss-icp@4bd9a10 cpp/kiss_icp/core/Preprocessing.cpp:55-84; run: equal
-    to the ``kiss-icp`` 1.3 package's own preprocessor in the tests.)
+    is KISS-ICP's ``Preprocess(points, stamps, delta)``). Source: PRBonn/kiss-icp@4bd9a10
+    cpp/kiss_icp/core/Preprocessing.cpp:55-84; run: equal to the ``kiss-icp`` 1.3 package's own
+    preprocessor in the tests.
 ``"ct_icp"``
     Split: SLERP of the rotations and LERP of the translations between the frame's
     ``begin_pose`` and ``end_pose``, α normalised per scan, reference at the scan **end** (CT-ICP's
