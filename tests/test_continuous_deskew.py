@@ -157,13 +157,14 @@ def test_bad_input_is_named() -> None:
     assert np.array_equal(pts, before)
 
 
+@pytest.mark.parametrize("conv", SE3_PRESETS)
 @pytest.mark.parametrize("model,kw", [("ct_icp", {}), ("generic", {"reference": "mid"})])
-def test_point_jacobians_near_pi(model: str, kw: dict) -> None:
+def test_point_jacobians_near_pi(conv: str, model: str, kw: dict) -> None:
     pts, stamps, T_begin, _ = _scan(5)
     T_end = T_begin @ se3.exp(
         np.array([0.0, 0.6 * (math.pi - 1e-3), 0.8 * (math.pi - 1e-3), 0.5, 0.0, 0.2])
     )
-    c = get("sophus")
+    c = get(conv)
     out = deskew(pts, stamps, T_begin, T_end, model, convention=c, jacobians=True, **kw)
     fe = lambda X: deskew(pts, stamps, T_begin, X, model, **kw).points  # noqa: E731
     Ne = numerical_jacobian(fe, T_end, in_convention=c, out_local="euclidean", eps=1e-8)

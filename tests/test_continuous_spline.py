@@ -186,21 +186,23 @@ def test_knot_jacobians_match_central_differences(conv: str, kind: str, form: st
             )
 
 
-def test_knot_jacobians_near_pi_increments() -> None:
+@pytest.mark.parametrize("conv", SE3_PRESETS)
+@pytest.mark.parametrize("kind", ["coupled", "split"])
+def test_knot_jacobians_near_pi_increments(conv: str, kind: str) -> None:
     axis = np.array([0.0, 0.6, 0.8])
     K = np.stack(
         [se3.exp(np.concatenate([k * (math.pi - 1e-3) * axis, [k, 0.0, 0.0]])) for k in range(5)]
     )
-    sp = Spline(K, 0.0, 1.0)
-    jac = sp.jacobians(0.4)
+    sp = Spline(K, 0.0, 1.0, 4, kind)
+    jac = sp.jacobians(0.4, convention=conv)
     for m in range(4):
 
         def f(X: np.ndarray, m: int = m) -> np.ndarray:
             Kp = K.copy()
             Kp[m] = X
-            return Spline(Kp, 0.0, 1.0).evaluate(0.4)
+            return Spline(Kp, 0.0, 1.0, 4, kind).evaluate(0.4)
 
-        N = numerical_jacobian(f, K[m], in_convention="gtsam", out_convention="gtsam", eps=1e-8)
+        N = numerical_jacobian(f, K[m], in_convention=conv, out_convention=conv, eps=1e-8)
         np.testing.assert_allclose(jac.J_T_knots[m], N, atol=5e-5)
 
 
@@ -344,3 +346,21 @@ def test_zero_motion_spline(kind: str, form: str) -> None:
     J = sp.jacobians(ts).J_T_knots
     assert np.isfinite(J).all()
     np.testing.assert_allclose(J.sum(axis=1), np.broadcast_to(np.eye(6), (3, 6, 6)), atol=1e-12)
+
+
+def test_knot_covariance_conversion_matches_monte_carlo() -> None:
+    """Samples drawn in kontiki's knot perturbation (Sophus ``T·exp(δ)``, (υ, ω)), read back in
+    basalt's (``R·Exp(δ_R)``, ``t + δ_t``, translation first): their covariance is the
+    converted one."""
+    rng = np.random.default_rng(8)
+    X = _knots(1, 0.9)[0]
+    L = np.diag([0.02, 0.03, 0.01, 0.004, 0.002, 0.003]) @ np.linalg.qr(rng.normal(size=(6, 6)))[0]
+    cov = L @ L.T
+    src, dst = get("sophus"), SPLINE_PRESETS["basalt"].knot_convention
+    d = rng.multivariate_normal(np.zeros(6), cov, size=200_000)
+    e = dst.local(X, src.retract(X, d))
+    emp = np.cov(e.T)
+    conv = convert_knot_covariance(cov, X, "kontiki", "basalt")
+    scale = np.sqrt(np.outer(np.diag(conv), np.diag(conv)))
+    assert np.abs((emp - conv) / scale).max() < 0.02
+    assert np.abs((cov - conv) / scale).max() > 0.1  # the naive copy is wrong
