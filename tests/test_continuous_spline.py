@@ -364,3 +364,23 @@ def test_knot_covariance_conversion_matches_monte_carlo() -> None:
     scale = np.sqrt(np.outer(np.diag(conv), np.diag(conv)))
     assert np.abs((emp - conv) / scale).max() < 0.02
     assert np.abs((cov - conv) / scale).max() > 0.1  # the naive copy is wrong
+
+
+@pytest.mark.parametrize("pad", [False, True])
+@pytest.mark.parametrize("window", [(3.0, -1.0), (5.0, -1.0), (6.5, 8.2), (0.0, 3.0), (7.0, 7.5)])
+def test_gtsam_cumulative_sample_windows(pad: bool, window: tuple[float, float]) -> None:
+    """A sample window makes its first control point the base (far from the default curve)."""
+    K = _knots(12, 0.7)
+    S = _gtsam_spline(K, 1.3, pad)
+    ours = Spline.from_preset("gtsam_cumulative", K, density=1.3, pad_front=pad, window=window)
+    for t in (4.1, 5.3, 6.9):
+        theirs = S.sampleTrajectory(t, *window).matrix()
+        np.testing.assert_allclose(ours.evaluate(t), theirs, atol=1e-12)
+        u = S.sampleTrajectoryDerivative(t, window[0], window[1], 1)
+        np.testing.assert_allclose(ours.tangent_rate(t, 1), u, atol=1e-11)
+    jac = ours.jacobians(5.3)
+    assert int(jac.first_knot) == ours.knot_offset
+    with pytest.raises(ValueError, match="holds no control point"):
+        Spline.from_preset("gtsam_cumulative", K, window=(30.0, -1.0))
+    with pytest.raises(Exception, match="contains no control points"):
+        _gtsam_spline(K, 1.0, False).sampleTrajectory(5.0, 30.0, -1.0)

@@ -14,6 +14,9 @@ See ``docs/continuous-time.md``.
 from .deskew import DESKEW_MODELS, Deskewed, deskew
 from .interpolate import METHODS, Interpolated, interpolate
 from .spline import (
+    BASALT,
+    GTSAM_CUMULATIVE,
+    KONTIKI,
     SPLINE_PRESETS,
     Acceleration,
     Spline,
@@ -25,7 +28,10 @@ from .spline import (
 )
 
 __all__ = [
+    "BASALT",
     "DESKEW_MODELS",
+    "GTSAM_CUMULATIVE",
+    "KONTIKI",
     "METHODS",
     "SPLINE_PRESETS",
     "Acceleration",

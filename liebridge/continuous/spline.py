@@ -158,7 +158,8 @@ GTSAM_CUMULATIVE = SplinePreset(
     source="V GTSAM 4.3.0 PyPI wheel CumulativeSplineTrajectoryPose3 (sampleTrajectory, "
     "sampleTrajectoryDerivative; tests/test_continuous_spline.py); S borglab/gtsam@30e6a8d "
     "gtsam/basis/CumulativeSplineTrajectory.h (cumulativePathSum: expmap(points.front(), "
-    "Σ wᵢ·logmap(points[i−1], points[i])); default window = every control point; "
+    "Σ wᵢ·logmap(points[i−1], points[i])); default window = every control point, a window "
+    "keeps knots ⌊ws·density⌋ − 3 … ⌈we·density⌉ (padFront: − 0 … + 3), its first the base; "
     "padFront=False: t0 = 3/density, True: t0 = 0)",
 )
 #: The spline presets, by name.
@@ -286,10 +287,11 @@ class Spline:
         K = validate.pose(knots_T, "knots_T")
         if K.ndim != 3:
             raise ValueError(f"knots_T: expected shape (N, 4, 4), got {K.shape}")
-        if K.shape[0] < self.order:
+        need = 1 if self.form == "sum" else self.order
+        if K.shape[0] < need:
             raise ValueError(
-                f"knots_T: an order-{self.order} spline needs at least {self.order} knots, "
-                f"got {K.shape[0]}"
+                f"knots_T: an order-{self.order} {self.form}-form spline needs at least {need} "
+                f"knots, got {K.shape[0]}"
             )
         self.knots = np.array(K, dtype=np.float64)
         self.knots.setflags(write=False)
@@ -309,6 +311,9 @@ class Spline:
         self.dt_s = float(self.dt) / NS_PER_S if u0 == "ns" else float(self.dt)
         self.extrapolate = bool(extrapolate)
         self.preset = preset
+        #: Index of ``knots[0]`` in the caller's knot list (GTSAM's sample windows use a slice);
+        #: :meth:`jacobians` reports ``first_knot`` in the caller's indexing.
+        self.knot_offset = 0
         inc = lu.se3_inverse(K[:-1]) @ K[1:]
         if self.kind == "coupled":
             self._inc = np.asarray(lu.se3_log(inc), dtype=np.float64)
@@ -340,7 +345,7 @@ class Spline:
         same_unit(self.time_unit, f"the spline ({self.preset or 'this spline'})", unit, "t")
         shape = tq.shape
         tq = tq.reshape(-1)
-        nseg = self.n_knots - self.order + 1
+        nseg = max(1, self.n_knots - self.order + 1)
         if self.time_unit == "ns":
             st = tq - np.int64(self.t0)
             s = st // np.int64(self.dt)
@@ -516,7 +521,7 @@ class Spline:
         return SplineJacobians(
             T.reshape((*shape, 4, 4)),
             np.asarray(J, dtype=np.float64).reshape(shape + J.shape[1:]),
-            first.reshape(shape),
+            first.reshape(shape) + self.knot_offset,
         )
 
     def _jacobians_canonical(self, t: Any) -> tuple[FloatArray, FloatArray, np.ndarray[Any, Any]]:
@@ -584,13 +589,19 @@ class Spline:
         *,
         density: float | None = None,
         pad_front: bool = False,
+        window: tuple[float, float] = (0.0, -1.0),
     ) -> Spline:
         """Build a spline with a library's definitions (see :data:`SPLINE_PRESETS`).
 
         ``basalt``: ``t0``, ``dt`` integer nanoseconds (``start_t_ns``, ``dt_ns``); ``kontiki``:
         float seconds; ``gtsam_cumulative``: ``density`` (control points per unit time, GTSAM's
         constructor argument) and ``pad_front`` instead (``t0 = 3/density`` without front
-        padding, ``0`` with it; ``dt = 1/density``), every knot in the sample window.
+        padding, ``0`` with it; ``dt = 1/density``) and GTSAM's sample ``window =
+        (windowStart, windowEnd)`` (default ``(0, −1)``: every knot). A window keeps the knots
+        ``start … end−1`` with ``start = max(0, ⌊windowStart·density⌋ − 3)`` (``− 0`` with front
+        padding) and ``end = min(N, ⌈windowEnd·density⌉ + 0)`` (``+ 3`` with front padding; all
+        knots when ``windowEnd < 0``); ``knots[start]`` becomes the base — measured against
+        ``sampleTrajectory(t, windowStart, windowEnd)``.
         """
         p = SPLINE_PRESETS.get(name) if isinstance(name, str) else None
         if p is None:
@@ -601,10 +612,27 @@ class Spline:
             dens = 1.0 if density is None else float(density)
             if not dens > 0:
                 raise ValueError(f"density: expected a positive number, got {density!r}")
-            start = 0.0 if pad_front else 3.0 / dens
-            return cls(
-                knots_T,
-                start,
+            t_start = 0.0 if pad_front else 3.0 / dens
+            K = validate.pose(knots_T, "knots_T")
+            if K.ndim != 3:
+                raise ValueError(f"knots_T: expected shape (N, 4, 4), got {K.shape}")
+            try:
+                w0, w1 = (float(w) for w in window)
+            except (TypeError, ValueError):
+                raise ValueError(
+                    f"window: expected (windowStart, windowEnd), got {window!r}"
+                ) from None
+            n = K.shape[0]
+            lo = max(0, int(np.floor(w0 * dens)) - (0 if pad_front else 3))
+            hi = n if w1 < 0 else min(n, int(np.ceil(w1 * dens)) + (3 if pad_front else 0))
+            if lo >= hi:
+                raise ValueError(
+                    f"window: {window!r} holds no control point (knots {lo}…{hi - 1} of {n}); "
+                    f"GTSAM raises here too"
+                )
+            sp = cls(
+                K[lo:hi],
+                t_start + lo / dens,
                 1.0 / dens,
                 4,
                 "coupled",
@@ -612,8 +640,10 @@ class Spline:
                 extrapolate=True,
                 preset=p.name,
             )
-        if density is not None:
-            raise ValueError(f"density: only for gtsam_cumulative, not {p.name}")
+            sp.knot_offset = lo
+            return sp
+        if density is not None or window != (0.0, -1.0):
+            raise ValueError(f"density, window: only for gtsam_cumulative, not {p.name}")
         if t0 is None or dt is None:
             raise ValueError(f"{p.name}: t0 and dt are required ({p.time_unit})")
         return cls(knots_T, t0, dt, 4, p.kind, p.time_unit, form=p.form, preset=p.name)
