@@ -184,3 +184,28 @@ def test_jacobians_property(xi0: np.ndarray, xi1: np.ndarray, tau: float, method
         out_convention=c,
     )
     np.testing.assert_allclose(out.J_T_T1, N1, atol=1e-5)
+
+
+def test_string_options_ignore_case_and_spaces() -> None:
+    """Every string option of liebridge reads "SE3", " se3 " and "se3" as one value."""
+    from liebridge.continuous import Spline, deskew
+    from liebridge.lie import se3
+
+    T0, T1 = _pair(1.0)
+    for a, b in (("SE3", "se3"), (" Split ", "split")):
+        np.testing.assert_array_equal(
+            interpolate(T0, T1, 0.3, method=a).T, interpolate(T0, T1, 0.3, method=b).T
+        )
+    pts = np.ones((3, 3))
+    st = np.array([0.0, 0.05, 0.1])
+    np.testing.assert_array_equal(
+        deskew(pts, st, T0, T1, " CT_ICP ").points, deskew(pts, st, T0, T1, "ct_icp").points
+    )
+    np.testing.assert_array_equal(
+        deskew(pts, st, T0, T1, "Generic", reference=" MID ", method="SPLIT").points,
+        deskew(pts, st, T0, T1, "generic", reference="mid", method="split").points,
+    )
+    K = se3.exp(np.random.default_rng(0).normal(size=(5, 6)) * 0.3)
+    sp = Spline(K, 0.0, 1.0, 4, " Split ", form="PRODUCT")
+    assert sp.kind == "split" and sp.form == "product"
+    assert Spline.from_preset("Kontiki", K, 0.0, 1.0).preset == "kontiki"

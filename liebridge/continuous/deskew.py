@@ -187,7 +187,7 @@ def deskew(
     >>> out.time_unit, out.alpha.tolist()
     ('ns', [0.0, 1.0])
     """
-    validate.option(model, "model", DESKEW_MODELS)
+    model = validate.option(model, "model", DESKEW_MODELS)
     if model in _MODEL_DEFAULTS:
         for val, name in ((reference, "reference"), (method, "method")):
             if val is not None:

@@ -112,9 +112,8 @@ def interp_canonical(
     return T, J0, J1, Jt
 
 
-def prepare(T0: Any, T1: Any, tau: Any, method: str) -> tuple[FloatArray, FloatArray, FloatArray]:
+def prepare(T0: Any, T1: Any, tau: Any) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Validate and broadcast ``(T0, T1, tau)``; named errors."""
-    validate.option(method, "method", METHODS)
     A = validate.pose(T0, "T0")
     B = validate.pose(T1, "T1")
     t = validate.as_float_array(tau, "tau")
@@ -173,8 +172,9 @@ def interpolate(
     ((3, 4, 4), (3, 6, 6), True)
     """
     conv = _se3_convention(convention)
-    A, B, t = prepare(T0, T1, tau, method)
-    T, J0, J1, Jt = interp_canonical(A, B, t, method, jacobians)
+    meth = validate.option(method, "method", METHODS)
+    A, B, t = prepare(T0, T1, tau)
+    T, J0, J1, Jt = interp_canonical(A, B, t, meth, jacobians)
     if not jacobians:
         return Interpolated(T, None, None, None)
     assert J0 is not None and J1 is not None and Jt is not None

@@ -299,8 +299,7 @@ class Spline:
         a1, u1 = time_array(dt, "dt")
         same_unit(u0, "t0", u1, "dt")
         if time_unit is not None:
-            validate.option(time_unit, "time_unit", TIME_UNITS)
-            same_unit(time_unit, "time_unit", u0, "t0")
+            same_unit(validate.option(time_unit, "time_unit", TIME_UNITS), "time_unit", u0, "t0")
         if a0.ndim or a1.ndim:
             raise ValueError(f"t0, dt: expected scalars, got shapes {a0.shape}, {a1.shape}")
         if not a1[()] > 0:
@@ -603,9 +602,7 @@ class Spline:
         knots when ``windowEnd < 0``); ``knots[start]`` becomes the base — measured against
         ``sampleTrajectory(t, windowStart, windowEnd)``.
         """
-        p = SPLINE_PRESETS.get(name) if isinstance(name, str) else None
-        if p is None:
-            raise ValueError(f"name: expected one of {', '.join(SPLINE_PRESETS)}, got {name!r}")
+        p = SPLINE_PRESETS[validate.option(name, "name", tuple(SPLINE_PRESETS))]
         if p.name == "gtsam_cumulative":
             if t0 is not None or dt is not None:
                 raise ValueError("gtsam_cumulative: give density (and pad_front), not t0/dt")
@@ -784,7 +781,7 @@ def _convention(c: ConventionLike) -> Convention:
 
 def _frames(x: Any, name: str) -> tuple[str, str]:
     if isinstance(x, str):
-        p = SPLINE_PRESETS.get(x)
+        p = SPLINE_PRESETS.get(x.strip().lower())
         if p is None:
             raise ValueError(
                 f"{name}: expected a spline preset or (omega_frame, v_frame), got {x!r}"
@@ -799,9 +796,8 @@ def _frames(x: Any, name: str) -> tuple[str, str]:
         a, b = x
     except (TypeError, ValueError):
         raise ValueError(f"{name}: expected a preset name or (omega_frame, v_frame)") from None
-    for f in (a, b):
-        validate.option(f, name, ("body", "world"))
-    return str(a), str(b)
+    frames = ("body", "world")
+    return validate.option(a, name, frames), validate.option(b, name, frames)
 
 
 def convert_velocity(
@@ -845,8 +841,8 @@ def convert_knot_covariance(cov: Any, knot_T: Any, src: Any, dst: Any) -> FloatA
     """
 
     def knot_conv(x: Any) -> Convention:
-        if isinstance(x, str) and x in SPLINE_PRESETS:
-            return SPLINE_PRESETS[x].knot_convention
+        if isinstance(x, str) and x.strip().lower() in SPLINE_PRESETS:
+            return SPLINE_PRESETS[x.strip().lower()].knot_convention
         return convention(x)
 
     return convert_covariance(cov, knot_T, knot_conv(src), knot_conv(dst))
