@@ -228,9 +228,13 @@ def test_outside_the_knots_basalt_and_kontiki_raise() -> None:
     with pytest.raises(ValueError, match=r"outside the spline.s knots.*basalt does not extrapol"):
         basalt.evaluate(np.array([1_100, 999]))
     kontiki = Spline.from_preset("kontiki", K, 0.0, 0.5)
-    kontiki.evaluate(1.5)  # the closed end is valid
-    with pytest.raises(ValueError, match="kontiki does not extrapolate"):
-        kontiki.velocity(1.5000001)
+    kontiki.evaluate(1.4999999)
+    with pytest.raises(ValueError, match=r"end excluded.*kontiki does not extrapolate"):
+        kontiki.velocity(1.5)  # kontiki's MaxTime() itself throws there
+    with pytest.raises(ValueError, match="end excluded"):
+        basalt.evaluate(1_300)  # basalt's maxTimeNs is 1_299
+    basalt.evaluate(1_299)
+    Spline(K, 0.0, 0.5).evaluate(1.5)  # a plain spline includes its end (u = 1)
     with pytest.raises(ValueError, match="mixed time units"):
         basalt.evaluate(1.05e-6)
     with pytest.raises(ValueError, match="mixed time units"):

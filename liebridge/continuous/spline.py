@@ -144,7 +144,9 @@ KONTIKI = SplinePreset(
     source="S (source-read, not run: kontiki does not install here) hovren/kontiki@4c44edb "
     "cpplib/include/kontiki/trajectories/uniform_se3_spline_trajectory.h:161-164 (Log(P_a⁻¹P_b) "
     "on SE(3)), :23-30 (knot ← knot·exp(δ), Sophus (υ, ω)), :93-96 (ω̂ = Ṙ Rᵀ: world frame); "
-    "spline_base.h:47-54 (MinTime = t0, MaxTime = t0 + (n − 3)·dt), :148-150 (s = (t − t0)/dt)",
+    "spline_base.h:47-54 (MinTime = t0, MaxTime = t0 + (n − 3)·dt), :148-150 (s = (t − t0)/dt); "
+    "uniform_se3_spline_trajectory.h:118-127 (throws unless 0 ≤ ⌊s⌋ ≤ N − 4: t = MaxTime "
+    "itself is refused)",
 )
 GTSAM_CUMULATIVE = SplinePreset(
     name="gtsam_cumulative",
@@ -260,6 +262,10 @@ class Spline:
     extrapolate : bool
         Evaluate outside ``[t_min, t_max]`` (the product form continues its end segment; the sum
         form as GTSAM does). Default: raise.
+    end_inclusive : bool
+        Whether ``t_max`` itself is valid (default True: the last segment at ``u = 1``). basalt
+        and kontiki exclude it (basalt's ``maxTimeNs`` is ``t_max − 1`` ns; kontiki's
+        ``MaxTime()`` returns ``t_max`` but evaluating there throws), so their presets set False.
     preset : str, optional
         Name shown in messages and kept as :attr:`preset`.
     """
@@ -275,6 +281,7 @@ class Spline:
         *,
         form: str = "product",
         extrapolate: bool = False,
+        end_inclusive: bool = True,
         preset: str | None = None,
     ) -> None:
         self.kind = validate.option(kind, "kind", KINDS)
@@ -309,6 +316,7 @@ class Spline:
         self.dt: int | float = a1.item()
         self.dt_s = float(self.dt) / NS_PER_S if u0 == "ns" else float(self.dt)
         self.extrapolate = bool(extrapolate)
+        self.end_inclusive = bool(end_inclusive)
         self.preset = preset
         #: Index of ``knots[0]`` in the caller's knot list (GTSAM's sample windows use a slice);
         #: :meth:`jacobians` reports ``first_knot`` in the caller's indexing.
@@ -354,12 +362,13 @@ class Spline:
             sigma = (tq - float(self.t0)) / float(self.dt)
             s = np.floor(sigma)
             u = sigma - s
-        out = (sigma < 0) | (sigma > nseg)
+        out = (sigma < 0) | ((sigma > nseg) if self.end_inclusive else (sigma >= nseg))
         if out.any() and not self.extrapolate:
             k = int(np.flatnonzero(out)[0])
+            end = "]" if self.end_inclusive else ") (the end excluded, as the library does)"
             raise ValueError(
                 f"t: query {k} ({tq[k].item()!r} {self.time_unit}) is outside the spline's knots "
-                f"[{self.t_min!r}, {self.t_max!r}] {self.time_unit} ({int(out.sum())} of "
+                f"[{self.t_min!r}, {self.t_max!r}{end} {self.time_unit} ({int(out.sum())} of "
                 f"{tq.size} queries); {self.preset or 'this spline'} does not extrapolate "
                 f"(extrapolate=True continues the end segments)"
             )
@@ -643,7 +652,17 @@ class Spline:
             raise ValueError(f"density, window: only for gtsam_cumulative, not {p.name}")
         if t0 is None or dt is None:
             raise ValueError(f"{p.name}: t0 and dt are required ({p.time_unit})")
-        return cls(knots_T, t0, dt, 4, p.kind, p.time_unit, form=p.form, preset=p.name)
+        return cls(
+            knots_T,
+            t0,
+            dt,
+            4,
+            p.kind,
+            p.time_unit,
+            form=p.form,
+            end_inclusive=False,
+            preset=p.name,
+        )
 
     @classmethod
     def fit(
