@@ -126,3 +126,28 @@ def test_old_adapters_paths_reexport_the_new_modules():
 
     assert adapters.g2o is g2o and adapters.poses is poses and adapters.trajectory_io is trajectory
     assert adapters.convert_covariance is lb.convert_covariance
+
+
+CONTINUOUS = (
+    "interpolate",
+    "deskew",
+    "Spline",
+    "SPLINE_PRESETS",
+    "convert_velocity",
+    "convert_knot_covariance",
+)
+
+
+@pytest.mark.parametrize("name", CONTINUOUS)
+def test_continuous_names(name):
+    mod = importlib.import_module("liebridge.continuous")
+    assert getattr(mod, name) is not None
+
+
+def test_continuous_models_presets_and_methods():
+    from liebridge import continuous
+
+    assert set(continuous.DESKEW_MODELS) == {"kiss_icp", "ct_icp", "generic"}
+    assert {"basalt", "kontiki", "gtsam_cumulative"} <= set(continuous.SPLINE_PRESETS)
+    for meth in ("evaluate", "velocity", "acceleration", "jacobians", "fit"):
+        assert callable(getattr(continuous.Spline, meth))
