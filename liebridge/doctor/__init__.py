@@ -16,5 +16,6 @@ written against no preset. Each function here runs one diagnostic of the failure
 
 from .jacobian import diagnose_jacobian
 from .result import Diagnosis
+from .trajectory import scan_trajectory
 
-__all__ = ["Diagnosis", "diagnose_jacobian"]
+__all__ = ["Diagnosis", "diagnose_jacobian", "scan_trajectory"]
