@@ -96,7 +96,7 @@ def test_planted_sign_flips_are_found_with_the_slerp_spin():
     assert "sign_flip" not in kinds(clean)
 
 
-# ------------------------------------------------------------------ storage order of a w-first TUM file
+# ------------------------------------------------------------------ storage order, w-first TUM
 
 
 def write_w_first_tum(path, stamps, T, canonical=True):

@@ -87,8 +87,8 @@ def measure_quat_order(q: Any, positions: Any = None) -> dict[str, Any]:
     dict
         ``order`` (``"xyzw"``, ``"wxyz"`` or ``"undetermined"``), ``confidence`` (``"high"``,
         ``"low"`` or ``"none"``) and the evidence: ``sign`` (the reading whose ``w`` column is
-        never negative and ≈ 0 at every sign flip — a ``w ≥ 0`` writer — or None) and ``motion`` (body-velocity consistency under
-        each reading, 1 = a steady body direction).
+        never negative and ≈ 0 at every sign flip — a ``w ≥ 0`` writer — or None) and
+        ``motion`` (body-velocity consistency under each reading, 1 = a steady body direction).
     """
     Q = validate.as_float_array(q, "q")
     if Q.ndim != 2 or Q.shape[1] != 4:
@@ -146,7 +146,7 @@ def _read(
     data: Any, n: int, quat_order: str | None
 ) -> tuple[
     FloatArray, FloatArray | None, FloatArray | None, list[dict[str, Any]], dict[str, Any] | None
-]:  # noqa: E501
+]:
     """``(R, t, q, findings, order_evidence)`` from poses, rotations, quaternions or TUM rows."""
     A = validate.as_float_array(data, "T")
     validate.check_finite(A, "T")
