@@ -14,8 +14,16 @@ written against no preset. Each function here runs one diagnostic of the failure
   rotations, time gaps and duplicates, and the quaternion storage order.
 """
 
+from .covariance import diagnose_covariance
 from .jacobian import diagnose_jacobian
+from .residual import diagnose_residual
 from .result import Diagnosis
 from .trajectory import scan_trajectory
 
-__all__ = ["Diagnosis", "diagnose_jacobian", "scan_trajectory"]
+__all__ = [
+    "Diagnosis",
+    "diagnose_covariance",
+    "diagnose_jacobian",
+    "diagnose_residual",
+    "scan_trajectory",
+]
