@@ -1,4 +1,4 @@
-"""The doctor names planted mistakes in residuals and covariance propagations, not in correct ones."""
+"""The doctor names planted mistakes in residuals and covariance propagations, not correct ones."""
 
 from __future__ import annotations
 
