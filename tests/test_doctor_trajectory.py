@@ -159,8 +159,8 @@ def test_pose_jump_is_an_alarm():
     stamps, T = circle_drive(n=80, turns=0.2)
     T[50] = T[50] @ se3.exp([0.0, 0.0, 0.8, 1.0, 0.0, 0.0])
     d = scan_trajectory(stamps, T)
-    jumps = [f["index"] for f in d.evidence["findings"] if f["kind"] == "pose_jump"]
-    assert jumps == [49, 50] and d.verdict == "alarm"
+    jumps = [f["indices"] for f in d.evidence["findings"] if f["kind"] == "pose_jump"]
+    assert jumps == [[49, 50]] and d.verdict == "alarm"
 
 
 def test_non_orthonormal_rotation_and_non_unit_quaternion():
@@ -188,3 +188,30 @@ def test_bad_input():
         scan_trajectory(bad, T)
     with pytest.raises(ValueError, match="quat_order"):
         scan_trajectory(stamps, np.tile([0, 0, 0, 1.0], (10, 1)), quat_order="zyxw")
+
+
+# ------------------------------------------------------------------ a user's SLERP
+
+
+def naive_slerp(q0, q1, tau):  # the bug: no hemisphere check
+    th = np.arccos(np.clip(q0 @ q1, -1.0, 1.0))
+    return q0 if th < 1e-9 else (np.sin((1 - tau) * th) * q0 + np.sin(tau * th) * q1) / np.sin(th)
+
+
+def checked_slerp(q0, q1, tau):
+    return naive_slerp(q0, q1 if q0 @ q1 >= 0 else -q1, tau)
+
+
+def test_slerp_without_the_hemisphere_check_is_a_pose_jump():
+    keys = quaternion.from_matrix(
+        so3.exp(np.linspace(0, 1.2, 6)[:, None] * [0, 0, 1.0]), order="wxyz"
+    )
+    keys[3] *= -1.0  # stored with the other sign: the same rotation
+    taus = np.linspace(0, 1, 10, endpoint=False)
+    stamps = np.arange(50) * 0.01
+    bad = np.array([naive_slerp(keys[k], keys[k + 1], s) for k in range(5) for s in taus])
+    d = scan_trajectory(stamps, bad, quat_order="wxyz")
+    jumps = [f for f in d.evidence["findings"] if f["kind"] == "pose_jump"]
+    assert d.verdict == "alarm" and len(jumps) == 1 and jumps[0]["indices"][0] == 20, d
+    ok = np.array([checked_slerp(keys[k], keys[k + 1], s) for k in range(5) for s in taus])
+    assert scan_trajectory(stamps, ok, quat_order="wxyz").verdict == "ok"

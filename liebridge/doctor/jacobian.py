@@ -568,7 +568,15 @@ def diagnose_jacobian(
         )
     if len(point_names) > 1:
         i0 = point_names.index("0°")
-        near = sorted(hyps, key=lambda h: (h.errors or [math.inf] * npts)[i0])[0]
+        near = sorted(
+            hyps,
+            key=lambda h: (
+                (h.errors or [math.inf] * npts)[i0] > tol,
+                h.cause != "",
+                rank(h)[2:],
+                (h.errors or [math.inf] * npts)[i0],
+            ),
+        )[0]
         if (near.errors or [math.inf] * npts)[i0] <= tol:
             per = ", ".join(
                 f"{nm}: {e:.1e}" for nm, e in zip(point_names, near.errors or [], strict=True)

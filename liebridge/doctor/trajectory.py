@@ -336,20 +336,29 @@ def scan_trajectory(
                 (vel > JUMP_FACTOR * max(float(np.median(vel)), 1e-12)) & (step > JUMP_MIN_TRANS)
             ).tolist()
         )
-    for k in sorted(jumps)[:20]:
+    runs: list[list[int]] = []
+    for k in sorted(jumps):  # consecutive jumping steps are one event (a spin, a glitch)
+        if runs and k == runs[-1][-1] + 1:
+            runs[-1].append(k)
+        else:
+            runs.append([k])
+    for run in runs[:20]:
+        k0, k1 = run[0], run[-1]
+        steps = f"{len(run)} steps, largest" if len(run) > 1 else "rotation"
         findings.append(
             _finding(
                 "pose_jump",
                 "alarm",
-                f"the pose jumps between samples {k} and {k + 1}: rotation "
-                f"{math.degrees(ang[k]):.1f}° (median step "
+                f"the pose jumps between samples {k0} and {k1 + 1}: {steps} "
+                f"{math.degrees(float(ang[run].max())):.1f}° (median step "
                 f"{math.degrees(float(np.median(ang))):.2g}°)"
                 + (
-                    f", translation {float(np.linalg.norm(t[k + 1] - t[k])):.3g} m"
+                    f", translation {float(np.linalg.norm(t[k1 + 1] - t[k0])):.3g} m"
                     if t is not None
                     else ""
                 ),
-                index=int(k),
+                index=int(k0),
+                indices=[int(i) for i in run],
             )
         )
 
@@ -384,8 +393,12 @@ def scan_trajectory(
         qn = q / np.linalg.norm(q, axis=-1, keepdims=True)
         dots = np.einsum("ni,ni->n", qn[:-1], qn[1:])
         flips = np.flatnonzero(dots < 0)
+        wcol = 0 if (order_ev and order_ev["order"] == "wxyz") or quat_order == "wxyz" else 3
+        if order_ev and order_ev["order"] == "xyzw":
+            wcol = 3
         for k in flips[:20]:
             d = float(np.clip(dots[k], -1.0, 1.0))
+            at_zero = abs(qn[k, wcol]) < 0.3 and abs(qn[k + 1, wcol]) < 0.3
             spin = math.degrees(2.0 * math.acos(d))
             true_angle = math.degrees(2.0 * math.acos(-d))
             findings.append(
@@ -394,7 +407,8 @@ def scan_trajectory(
                     "info",
                     f"quaternion sign flip between samples {int(k)} and {int(k) + 1} "
                     f"(dot = {d:.4f}): a SLERP without the hemisphere check would turn "
-                    f"{spin:.1f}° instead of {true_angle:.2g}° (negate q_b when dot < 0)",
+                    f"{spin:.1f}° instead of {true_angle:.2g}° (negate q_b when dot < 0)"
+                    + ("; w ≈ 0 here: the flip of a writer that keeps w ≥ 0" if at_zero else ""),
                     index=int(k),
                     dot=d,
                     slerp_spin_deg=spin,

@@ -1,0 +1,149 @@
+"""``liebridge doctor jacobian|traj``: the diagnosis in words, JSON, exit status, one-line errors."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from liebridge.cli import main
+from liebridge.io.trajectory import write_tum
+from liebridge.lie import so3
+
+ROOT = Path(__file__).resolve().parents[1]
+USER = ROOT / "examples" / "doctor_user_jacobian.py"
+
+
+def call(capsys, *args):
+    try:
+        code = main(list(args))
+    except SystemExit as exc:
+        code = exc.code if isinstance(exc.code, int) else 0
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_jacobian_of_the_example_module(capsys):
+    code, out, err = call(capsys, "doctor", "jacobian", f"{USER}:transform")
+    assert code == 1, err
+    assert out.startswith("verdict: convention_mismatch")
+    assert "(v, ω) order" in out and "swap the rotation and translation column blocks" in out
+    assert "evidence (max relative error per probe point):" in out
+    code, out, _ = call(capsys, "doctor", "jacobian", f"{USER}:transform", "--solver", "sophus")
+    assert code == 0 and out.startswith("verdict: correct")
+
+
+def test_jacobian_json_and_dotted_module(capsys, tmp_path, monkeypatch):
+    (tmp_path / "mymod.py").write_text(
+        "import numpy as np\n"
+        "from liebridge.lie import so3\n"
+        "def f(R):\n    return so3.log(R)\n"
+        "def jacobian(R):\n    return np.eye(3)\n"
+        "point = so3.exp([0.4, -0.2, 0.9])\n"
+    )
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    code, out, _ = call(capsys, "doctor", "jacobian", "mymod:f", "--format", "json")
+    d = json.loads(out)
+    assert code == 1 and d["verdict"] == "mistake" and d["cause"] == "jr_inv_omitted"
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["jacobian", "nomodule_xyz:f"], "MODULE: importing 'nomodule_xyz' raised"),
+        (["jacobian", "no-colon"], "TARGET: expected MODULE:FUNCTION"),
+        (["jacobian", f"{USER}:nothere"], "has no function 'nothere'"),
+        (["jacobian", f"{USER}:transform", "--solver", "gtsm"], "--solver: unknown name"),
+        (["traj", "/nonexistent/file.txt"], "FILE: no such file"),
+    ],
+)
+def test_usage_errors_are_one_line(capsys, args, message):
+    code, out, err = call(capsys, "doctor", *args)
+    assert code == 2 and message in err and err.count("\n") == 1 and "Traceback" not in err
+
+
+def test_a_function_that_raises_is_one_line(capsys, tmp_path):
+    mod = tmp_path / "raising.py"
+    mod.write_text("def f(T):\n    raise ZeroDivisionError('boom')\njacobian = None\n")
+    code, _, err = call(capsys, "doctor", "jacobian", f"{mod}:f")
+    assert code == 2 and "f: raised ZeroDivisionError" in err
+
+
+def _circle(n=300):
+    yaw = np.linspace(0.0, 1.6 * np.pi, n)
+    T = np.tile(np.eye(4), (n, 1, 1))
+    T[:, :3, :3] = so3.exp(yaw[:, None] * np.array([0.0, 0.0, 1.0]))
+    T[:, :3, 3] = np.stack([5 * np.sin(yaw), 5 * (1 - np.cos(yaw)), 0 * yaw], axis=1)
+    return np.arange(n) * 0.1, T
+
+
+def test_traj_clean_and_w_first(capsys, tmp_path):
+    stamps, T = _circle()
+    write_tum(tmp_path / "ok.tum", stamps, T)
+    code, out, _ = call(capsys, "doctor", "traj", str(tmp_path / "ok.tum"))
+    assert code == 0 and out.startswith("verdict: ok")
+    rows = np.loadtxt(tmp_path / "ok.tum")
+    rows[:, 4:8] = rows[:, [7, 4, 5, 6]]  # w first in the xyzw columns
+    np.savetxt(tmp_path / "w.tum", rows, header="timestamp tx ty tz qx qy qz qw")
+    code, out, _ = call(capsys, "doctor", "traj", str(tmp_path / "w.tum"), "--format", "json")
+    d = json.loads(out)
+    assert code == 1 and d["cause"] == "quat_order"
+    assert d["evidence"]["quat_order"]["order"] == "wxyz"
+    # a header that names qw first declares wxyz: no alarm
+    np.savetxt(tmp_path / "w2.tum", rows, header="timestamp tx ty tz qw qx qy qz")
+    code, out, _ = call(capsys, "doctor", "traj", str(tmp_path / "w2.tum"))
+    assert code == 0, out
+
+
+def test_traj_bad_file_is_one_line(capsys, tmp_path):
+    (tmp_path / "bad.tum").write_text("0 1 2 3 0 0 0 1\n1 1 2 x 0 0 0 1\n")
+    code, _, err = call(capsys, "doctor", "traj", str(tmp_path / "bad.tum"))
+    assert code == 2 and "bad.tum:2: not a number" in err
+
+
+def test_console_script_runs_without_traceback(tmp_path):
+    out = subprocess.run(
+        [sys.executable, "-m", "liebridge.cli", "doctor", "jacobian", f"{USER}:transform"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert out.returncode == 1 and "verdict: convention_mismatch" in out.stdout
+    assert out.stderr == ""
+
+
+def test_example_script_runs(tmp_path):
+    pytest.importorskip("matplotlib")
+    out = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "examples" / "convention_doctor.py"),
+            "--out",
+            str(tmp_path),
+            "--no-show",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert out.returncode == 0, out.stderr
+    text = out.stdout
+    for title, verdict in [
+        ("left Jacobian, GTSAM solver", "convention_mismatch"),
+        ("old skew sign", "mistake"),
+        ("between residual without Jr⁻¹", "mistake"),
+        ("small-angle Jacobian", "small_angle_only"),
+        ("inverted residual", "mistake"),
+        ("missing adjoint", "mistake"),
+        ("w-first TUM file", "alarm"),
+        ("SLERP without the hemisphere check", "alarm"),
+        ("SLERP with the check", "ok"),
+    ]:
+        block = text.split(f"== {title}\n", 1)[1]
+        assert block.startswith(f"verdict: {verdict}\n"), (title, block[:200])
+    assert (tmp_path / "convention_doctor.png").stat().st_size > 10_000
