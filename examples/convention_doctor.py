@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from liebridge.doctor import (
+    Diagnosis,
     diagnose_covariance,
     diagnose_jacobian,
     diagnose_residual,
@@ -33,7 +34,7 @@ X = se3.exp(np.array([0.3, -0.2, 0.1, 1.0, 2.0, 3.0]))
 P = np.array([0.5, -1.0, 2.0])
 
 
-def show(title: str, d) -> None:
+def show(title: str, d: Diagnosis) -> None:
     print(f"== {title}\n{d}\n")
 
 
@@ -134,17 +135,12 @@ def main() -> None:
 
         turn = so3.exp(np.linspace(0, 2 * np.pi, 361)[:, None] * np.array([0.0, 0.0, 1.0]))
         th = np.linalg.norm(so3.log(turn), axis=-1)
-        step = lambda q: np.degrees(
-            np.linalg.norm(
-                so3.log(
-                    np.einsum(
-                        "nji,njk->nik",
-                        *(lambda M: (M[:-1], M[1:]))(quaternion.to_matrix(q, order="wxyz")),
-                    )
-                ),
-                axis=-1,
-            )
-        )
+
+        def step(q: np.ndarray) -> np.ndarray:
+            Rs = quaternion.to_matrix(q, order="wxyz")
+            rel = np.einsum("nji,njk->nik", Rs[:-1], Rs[1:])
+            return np.degrees(np.linalg.norm(so3.log(rel), axis=-1))
+
         fig, ax = plt.subplots(1, 2, figsize=(10, 3.6))
         ax[0].plot(np.arange(361), th)
         ax[0].axhline(np.pi, ls="--", c="gray")

@@ -1,4 +1,4 @@
-"""``liebridge doctor jacobian|traj``: the diagnosis in words, JSON, exit status, one-line errors."""
+"""``liebridge doctor jacobian|traj``: the diagnosis in words, JSON, exit status, errors."""
 
 from __future__ import annotations
 
@@ -63,7 +63,7 @@ def test_jacobian_json_and_dotted_module(capsys, tmp_path, monkeypatch):
     ],
 )
 def test_usage_errors_are_one_line(capsys, args, message):
-    code, out, err = call(capsys, "doctor", *args)
+    code, _, err = call(capsys, "doctor", *args)
     assert code == 2 and message in err and err.count("\n") == 1 and "Traceback" not in err
 
 
