@@ -134,7 +134,7 @@ def main() -> None:
         import matplotlib.pyplot as plt
 
         turn = so3.exp(np.linspace(0, 2 * np.pi, 361)[:, None] * np.array([0.0, 0.0, 1.0]))
-        th = np.linalg.norm(so3.log(turn), axis=-1)
+        w = so3.log(turn)
 
         def step(q: np.ndarray) -> np.ndarray:
             Rs = quaternion.to_matrix(q, order="wxyz")
@@ -142,9 +142,11 @@ def main() -> None:
             return np.degrees(np.linalg.norm(so3.log(rel), axis=-1))
 
         fig, ax = plt.subplots(1, 2, figsize=(10, 3.6))
-        ax[0].plot(np.arange(361), th)
+        ax[0].plot(np.arange(361), np.linalg.norm(w, axis=-1), label="‖Log(R_refᵀR)‖")
+        ax[0].plot(np.arange(361), w[:, 2], label="its z component")
         ax[0].axhline(np.pi, ls="--", c="gray")
-        ax[0].set(xlabel="yaw (deg)", ylabel="‖Log(R_refᵀR)‖ (rad)", title="branch cut at π")
+        ax[0].set(xlabel="yaw (deg)", ylabel="rad", title="the log's branch cut at π")
+        ax[0].legend()
         ax[1].plot(step(dense_bad), label="no hemisphere check")
         ax[1].plot(step(dense_ok), label="with the check")
         ax[1].set(xlabel="sample", ylabel="rotation step (deg)", title="SLERP spin")

@@ -150,7 +150,7 @@ def test_wrong_six_vector_order():
 
 
 def test_adjoint_block_layout_of_the_other_order():
-    # Sophus (v, ω) right → Barfoot (ρ, φ) left with the design note's §7.3 layout
+    # Sophus (v, ω) right → Barfoot (ρ, φ) left with the (ω, v) layout (common-formula-errors E4)
     d = diagnose_covariance(
         lambda c, X: ad_wv(X) @ c @ ad_wv(X).T, T, C, src="sophus", dst="barfoot"
     )

@@ -48,7 +48,7 @@ def diagnose_covariance(
     ``M·Σ·Mᵀ``, ``M = lb.tangent_map(T, a, b)``, for every pair of candidate conventions
     ``(a, b)`` (grouped into classes), and with the catalogue of mistakes for the given
     ``src``/``dst``: the adjoint missing (``Σ`` returned as it came), the wrong 6-vector order,
-    the adjoint block layout of the other order (the design note's §7.3, errata 4), the inverse
+    the adjoint block layout of the other order (docs/common-formula-errors.md, E4), the inverse
     adjoint. The given pair (or the best-matching one) is also checked by Monte Carlo
     (:func:`liebridge.check.monte_carlo_covariance`, ``n`` samples; sampling error about
     ``√(2/n)``).
@@ -179,7 +179,7 @@ def diagnose_covariance(
                 "inverse_adjoint": "use Ad_T where Ad_T⁻¹ stands (δ_left = Ad_T·δ_right)",
                 "wrong_order": "permute to the destination's order (rotation/translation blocks)",
                 "adjoint_block_layout": "for (v, ω) Ad_T = [[R, hat(t)R], [0, R]]; for (ω, v) "
-                "[[R, 0], [hat(t)R, R]] (the design note's §7.3 has them swapped)",
+                "[[R, 0], [hat(t)R, R]] (a common swap: docs/common-formula-errors.md, E4)",
             }[best[0]]
             return Diagnosis(
                 "mistake",

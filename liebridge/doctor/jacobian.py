@@ -27,7 +27,7 @@ from .result import Diagnosis
 
 __all__ = ["ANGLES_DEG", "diagnose_jacobian"]
 
-#: Rotation angles (degrees) the Jacobian is also checked at, as the design note asks.
+#: Rotation angles (degrees) the Jacobian is also checked at, where small-angle formulas fail.
 ANGLES_DEG = (0.0, 90.0, 170.0, 179.0)
 
 
