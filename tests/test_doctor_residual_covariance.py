@@ -194,3 +194,46 @@ def test_covariance_bad_input():
         diagnose_covariance(lambda c, X: 1 / 0, T, C)
     with pytest.raises(ValueError, match="cov"):
         diagnose_covariance(lambda c, X: c, T, -C)
+
+
+# ------------------------------------------------------------------ interpolation
+
+T0 = se3.exp([0.1, 0.2, 0.3, 1.0, 0.0, 0.5])
+T1 = se3.exp([0.4, -0.1, 0.6, 2.0, 1.0, 0.0])
+
+
+def test_geodesic_and_split_interpolations_are_correct():
+    from liebridge.doctor import diagnose_interpolation
+
+    d = diagnose_interpolation(lambda A, B, s: A @ se3.exp(s * se3.log(inv(A) @ B)), T0, T1)
+    assert d.verdict == "correct" and "geodesic" in d.explanation, d
+    d = diagnose_interpolation(lambda A, B, s: se3.exp(s * se3.log(B @ inv(A))) @ A, T0, T1)
+    assert d.verdict == "correct", d
+    d = diagnose_interpolation(lambda A, B, s: se3.interpolate(A, B, s), T0, T1)
+    assert d.verdict == "correct", d
+
+    def split(A, B, s):
+        out = np.eye(4)
+        out[:3, :3] = A[:3, :3] @ so3.exp(s * so3.log(A[:3, :3].T @ B[:3, :3]))
+        out[:3, 3] = (1 - s) * A[:3, 3] + s * B[:3, 3]
+        return out
+
+    d = diagnose_interpolation(split, T0, T1)
+    assert d.verdict == "correct" and "separately" in d.explanation, d
+
+
+@pytest.mark.parametrize(
+    "bad, cause",
+    [
+        (lambda A, B, s: se3.exp(s * se3.log(inv(A) @ B)) @ A, "endpoint"),  # sides mixed
+        (lambda A, B, s: A @ se3.exp(s / 0.1 * se3.log(inv(A) @ B)), "endpoint"),  # τ in 0.1 s
+        (lambda A, B, s: (1 - s) * A + s * B, "not_a_pose"),  # matrices blended
+        (lambda A, B, s: A @ se3.exp(s**2 * se3.log(inv(A) @ B)), "not_geodesic"),
+    ],
+    ids=["mixed-sides", "tau-not-normalized", "matrix-lerp", "not-geodesic"],
+)
+def test_interpolation_mistakes(bad, cause):
+    from liebridge.doctor import diagnose_interpolation
+
+    d = diagnose_interpolation(bad, T0, T1)
+    assert (d.verdict, d.cause) == ("mistake", cause), d

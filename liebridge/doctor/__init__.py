@@ -11,10 +11,12 @@ written against no preset. Each function here runs one diagnostic of the failure
 - :func:`diagnose_covariance`: a covariance transformation against Monte Carlo through
   conventions;
 - :func:`scan_trajectory`: branch-cut crossings, quaternion sign flips, non-orthonormal
-  rotations, time gaps and duplicates, and the quaternion storage order.
+  rotations, time gaps and duplicates, and the quaternion storage order;
+- :func:`diagnose_interpolation`: ``T(0) = T_0``, ``T(1) = T_1``, and which curve it follows.
 """
 
 from .covariance import diagnose_covariance
+from .interpolation import diagnose_interpolation
 from .jacobian import diagnose_jacobian
 from .residual import diagnose_residual
 from .result import Diagnosis
@@ -23,6 +25,7 @@ from .trajectory import scan_trajectory
 __all__ = [
     "Diagnosis",
     "diagnose_covariance",
+    "diagnose_interpolation",
     "diagnose_jacobian",
     "diagnose_residual",
     "scan_trajectory",
