@@ -147,3 +147,15 @@ def test_example_script_runs(tmp_path):
         block = text.split(f"== {title}\n", 1)[1]
         assert block.startswith(f"verdict: {verdict}\n"), (title, block[:200])
     assert (tmp_path / "convention_doctor.png").stat().st_size > 10_000
+
+
+def test_readme_doctor_section_runs():
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    quick = readme.split("## Quick start", 1)[1].split("```python", 1)[1].split("```", 1)[0]
+    block = readme.split("## The convention doctor", 1)[1].split("```python", 1)[1]
+    block = block.split("```", 1)[0]
+    ns: dict = {}
+    exec(compile(quick, "README quick start", "exec"), ns)  # T_world_body, se3, np
+    exec(compile(block, "README doctor", "exec"), ns)
+    assert (ns["d"].verdict, ns["d"].cause) == ("convention_mismatch", "right_vs_left")
+    assert "Ad_X on the right" in ns["d"].explanation
