@@ -378,3 +378,89 @@ def test_result_is_json_ready():
     back = json.loads(d.to_json())
     assert back["verdict"] == "convention_mismatch"
     assert back["evidence"]["candidates"][0]["error"] < 1e-7
+
+
+# ------------------------------------------------------------------ every side/order/chart pair
+
+DISTINCT = {}
+for _p in PRESETS:
+    if not _p.is_euler:
+        DISTINCT.setdefault(_p.fields, _p)  # one preset per retraction
+PAIRS = [
+    (a, b)
+    for a in DISTINCT.values()
+    for b in DISTINCT.values()
+    if np.abs(lb.tangent_map(X, a, b) - np.eye(6)).max() > 1e-9  # distinguishable at X
+]
+
+
+def _fields_cause(found, want):
+    parts = []
+    if found.side != want.side:
+        parts.append("right_vs_left")
+    if found.order != want.order:
+        parts.append("order")
+    if found.rotation_scale != want.rotation_scale:
+        parts.append("half_angle")
+    if found.chart != want.chart:
+        parts.append("chart")
+    return parts
+
+
+@pytest.mark.parametrize("wrote, solver", PAIRS, ids=lambda p: p.name)
+def test_a_jacobian_of_one_convention_given_to_a_solver_of_another(wrote, solver):
+    """The user's Jacobian is right for ``wrote``; the solver retracts like ``solver``."""
+    J = lb.convert_jacobian(act_right(X), "gtsam", wrote, at_input=X)
+    d = diagnose_jacobian(act, J, X, solver_convention=solver)
+    assert d.verdict == "convention_mismatch", d
+    assert wrote.name in d.explanation  # the class found names the preset the user wrote for
+    named = set(d.cause.split("+"))
+    expected = set(_fields_cause(wrote, solver))
+    # a chart difference that is invisible at first order is reported as the other fields
+    assert named <= expected | {"chart"} and named & expected, (named, expected)
+    # the fix it prints is right: J·tangent_map(X, solver, found) is the solver's Jacobian
+    fixed = J @ lb.tangent_map(X, solver, wrote)
+    assert diagnose_jacobian(act, fixed, X, solver_convention=solver).verdict == "correct"
+
+
+@pytest.mark.parametrize("preset", list(DISTINCT.values()), ids=lambda p: p.name)
+def test_old_skew_sign_in_every_convention(preset):
+    J = lb.convert_jacobian(act_right(X), "gtsam", preset, at_input=X)
+    rot = [0, 1, 2] if preset.order == "rot_first" else [3, 4, 5]
+    J_bad = J.copy()
+    J_bad[:, rot] *= -1.0
+    d = diagnose_jacobian(act, J_bad, X, solver_convention=preset)
+    assert (d.verdict, d.cause) == ("mistake", "skew_sign"), d
+
+
+def test_solver_given_as_its_own_retraction_is_measured():
+    gtsam = pytest.importorskip("gtsam")
+
+    def retract(T, d):
+        return gtsam.Pose3(T).retract(d).matrix()
+
+    d = diagnose_jacobian(act, act_left, X, solver_convention=retract)
+    assert (d.verdict, d.cause) == ("convention_mismatch", "right_vs_left"), d
+    assert d.evidence["solver_measured"] and "measured" in d.explanation
+    assert diagnose_jacobian(act, act_right, X, solver_convention=retract).verdict == "correct"
+
+
+def test_solver_retraction_that_is_not_one():
+    with pytest.raises(ValueError, match="solver_convention: "):
+        diagnose_jacobian(act, act_right, X, solver_convention=lambda T, d: T * 2.0)
+
+
+def test_gtsam_pose2_objects_are_handed_back():
+    gtsam = pytest.importorskip("gtsam")
+
+    def f(pose):
+        assert isinstance(pose, gtsam.Pose2)
+        return pose.transformFrom(P2)
+
+    d = diagnose_jacobian(
+        f,
+        lambda pose: act2_right(pose.matrix()),
+        gtsam.Pose2(1.0, 2.0, 0.6),
+        solver_convention="gtsam_pose2",
+    )
+    assert d.verdict == "correct", d

@@ -12,7 +12,7 @@ import numpy as np
 from .. import _validate as validate
 from .._validate import FloatArray
 from ..check import numerical_jacobian
-from ..conventions import Convention, ConventionLike, get, tangent_map
+from ..conventions import Convention, ConventionLike, detect_convention, get, tangent_map
 from ..lie import se2, se3, so3
 from .elements import (
     CANONICAL_NAME,
@@ -194,6 +194,12 @@ def _the(words: str) -> str:
     return words if words.startswith("the ") else f"the Jacobian for {words}"
 
 
+def _solver_words(solver: Convention, evidence: dict[str, Any]) -> str:
+    if evidence.get("solver_measured"):
+        return f"your solver's retraction (measured: like {solver.name!r})"
+    return f"your solver ({solver.name})"
+
+
 def _name(conv: Convention) -> str:
     return repr(conv.name) if "/" not in conv.name else f"Convention({conv.describe()!r})"
 
@@ -203,7 +209,7 @@ def diagnose_jacobian(
     J: Any,
     X: Any,
     *,
-    solver_convention: ConventionLike | None = None,
+    solver_convention: ConventionLike | Callable[[Any, Any], Any] | None = None,
     group: str | None = None,
     tol: float = 1e-6,
     eps: float = 1e-6,
@@ -235,9 +241,12 @@ def diagnose_jacobian(
         block per input).
     X : element or tuple of elements
         Where to check: one input, or a tuple of inputs (then ``f(*X)``).
-    solver_convention : Convention or str, optional
+    solver_convention : Convention, str or callable, optional
         The retraction the user's solver uses, when known: the verdict is then ``"correct"``
-        only for that convention's Jacobian, and a mismatch gets its fix.
+        only for that convention's Jacobian, and a mismatch gets its fix. A callable is the
+        solver's own ``retract(X, d)``; its convention is measured with
+        :func:`liebridge.detect_convention` (on the inputs' group, or the output's for a
+        function of vectors).
     group : {"so3", "se2"}, optional
         How to read ``(3, 3)`` inputs when both readings hold (the identity).
     tol : float
@@ -262,7 +271,12 @@ def diagnose_jacobian(
     """
     if not callable(f):
         raise TypeError(f"f: expected a callable, got {type(f).__name__}")
-    solver = get(solver_convention) if solver_convention is not None else None
+    measured = callable(solver_convention) and not isinstance(solver_convention, Convention)
+    solver = (
+        get(solver_convention)  # type: ignore[arg-type]
+        if solver_convention is not None and not measured
+        else None
+    )
     if group is None and solver is not None and solver.group == "se2":
         group = "se2"
     xs = X if isinstance(X, (tuple, list)) else (X,)
@@ -297,6 +311,14 @@ def diagnose_jacobian(
         if y.shape != ys[0].shape:
             raise ValueError(f"f: returned shape {y.shape} at {nm} but {ys[0].shape} at X")
     m = {"se3": 6, "so3": 3, "se2": 3}.get(out_kind, int(ys[0].size))
+    if measured:  # the solver's own retraction: measure its convention
+        on = in_kind if in_kind != "vector" else out_kind
+        if on == "vector":
+            raise ValueError("solver_convention: a retraction needs a pose or rotation to act on")
+        try:
+            solver = detect_convention(solver_convention, group=on)  # type: ignore[arg-type]
+        except ValueError as exc:
+            raise ValueError(f"solver_convention: {exc}") from exc
     dims = [
         solver.dim()
         if (solver is not None and solver.embed is not None and e.kind == solver.group)
@@ -521,6 +543,7 @@ def diagnose_jacobian(
         "input_kind": in_kind,
         "output_kind": out_kind,
         "solver_convention": solver.name if solver is not None else None,
+        "solver_measured": bool(measured),
         "candidates": [
             {
                 "explanation": h.words,
@@ -627,7 +650,8 @@ def _convention_verdict(
     if not bad_in and not bad_out:
         return Diagnosis(
             "correct",
-            f"your Jacobian is {_the(best.words)} ({err}), which is what {solver.name!r} needs.",
+            f"your Jacobian is {_the(best.words)} ({err}), which is what "
+            f"{_solver_words(solver, evidence)} needs.",
             evidence,
         )
     fixes: list[str] = []
@@ -647,7 +671,7 @@ def _convention_verdict(
     side = {"right": "on the right (X·Exp(δ))", "left": "on the left (Exp(δ)·X)"}[solver.side]
     return Diagnosis(
         "convention_mismatch",
-        f"your Jacobian is {_the(best.words)} ({err}); your solver ({solver.name}) "
+        f"your Jacobian is {_the(best.words)} ({err}); {_solver_words(solver, evidence)} "
         f"retracts {side}: " + "; ".join(fixes) + ".",
         evidence,
         "+".join(dict.fromkeys("+".join(causes).split("+"))),
