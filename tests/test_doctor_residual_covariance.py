@@ -237,3 +237,16 @@ def test_interpolation_mistakes(bad, cause):
 
     d = diagnose_interpolation(bad, T0, T1)
     assert (d.verdict, d.cause) == ("mistake", cause), d
+
+
+def test_interpolation_bad_input():
+    from liebridge.doctor import diagnose_interpolation
+
+    with pytest.raises(ValueError, match=r"interpolate: raised ZeroDivisionError at tau = 0"):
+        diagnose_interpolation(lambda A, B, s: 1 / 0, T0, T1)
+    with pytest.raises(ValueError, match=r"interpolate: returned 16 NaN/Inf entries at tau = 0"):
+        diagnose_interpolation(lambda A, B, s: np.full((4, 4), np.nan), T0, T1)
+    with pytest.raises(ValueError, match=r"interpolate: returned shape \(3, 3\)"):
+        diagnose_interpolation(lambda A, B, s: np.eye(3), T0, T1)
+    with pytest.raises(ValueError, match=r"T0, T1: expected two"):
+        diagnose_interpolation(lambda A, B, s: A, T0, T1[:3, :3])
