@@ -47,7 +47,7 @@ def test_jacobian_json_and_dotted_module(capsys, tmp_path, monkeypatch):
     )
     monkeypatch.chdir(tmp_path)
     monkeypatch.syspath_prepend(str(tmp_path))
-    code, out, _ = call(capsys, "doctor", "jacobian", "mymod:f", "--format", "json")
+    code, out, _ = call(capsys, "doctor", "jacobian", "mymod:f", "--format", " JSON")
     d = json.loads(out)
     assert code == 1 and d["verdict"] == "mistake" and d["cause"] == "jr_inv_omitted"
 

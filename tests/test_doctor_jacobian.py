@@ -464,3 +464,16 @@ def test_gtsam_pose2_objects_are_handed_back():
         solver_convention="gtsam_pose2",
     )
     assert d.verdict == "correct", d
+
+
+def test_rotation_output_conventions():
+    Zr = so3.exp([0.4, -0.3, 0.2])
+
+    def f(Rm):
+        return Rm @ Zr
+
+    ok = diagnose_jacobian(f, lambda Rm: Zr.T, R, solver_convention="gtsam")  # right: Zᵀ
+    assert ok.verdict == "correct", ok
+    d = diagnose_jacobian(f, lambda Rm: np.eye(3), R, solver_convention="gtsam")  # left: I
+    assert (d.verdict, d.cause) == ("convention_mismatch", "right_vs_left"), d
+    assert diagnose_jacobian(f, lambda Rm: np.eye(3), R, solver_convention="barfoot").ok

@@ -32,7 +32,7 @@ import numpy as np
 
 from ..doctor import Diagnosis, diagnose_jacobian, scan_trajectory
 from ..lie import se3
-from ._common import CLIError, convention_arg, one_line
+from ._common import CLIError, convention_arg, one_line, option_value
 
 __all__ = ["add_parser"]
 
@@ -196,7 +196,7 @@ def add_parser(sub: Any) -> None:
     )
     j.add_argument("target", metavar="MODULE:FUNCTION")
     j.add_argument("--solver", help="your solver's convention (a preset name, e.g. gtsam)")
-    j.add_argument("--format", choices=("text", "json"), default="text")
+    j.add_argument("--format", type=option_value, choices=("text", "json"), default="text")
     j.set_defaults(func=_run_jacobian)
     t = dsub.add_parser(
         "traj",
@@ -208,6 +208,8 @@ def add_parser(sub: Any) -> None:
         "header naming qw first, else xyzw as TUM).",
     )
     t.add_argument("file", metavar="FILE")
-    t.add_argument("--order", choices=("xyzw", "wxyz"), help="declared quaternion order")
-    t.add_argument("--format", choices=("text", "json"), default="text")
+    t.add_argument(
+        "--order", type=option_value, choices=("xyzw", "wxyz"), help="declared quaternion order"
+    )
+    t.add_argument("--format", type=option_value, choices=("text", "json"), default="text")
     t.set_defaults(func=_run_traj)
