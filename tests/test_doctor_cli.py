@@ -159,3 +159,14 @@ def test_readme_doctor_section_runs():
     exec(compile(block, "README doctor", "exec"), ns)
     assert (ns["d"].verdict, ns["d"].cause) == ("convention_mismatch", "right_vs_left")
     assert "Ad_X on the right" in ns["d"].explanation
+
+
+@pytest.mark.parametrize("sub", [["doctor"], ["doctor", "jacobian"], ["doctor", "traj"]])
+def test_help(capsys, sub):
+    code, out, _ = call(capsys, *sub, "--help")
+    assert code == 0 and out.startswith(f"usage: liebridge {' '.join(sub)}")
+
+
+def test_doctor_without_a_subcommand_is_a_usage_error(capsys):
+    code, _, err = call(capsys, "doctor")
+    assert code == 2 and "Traceback" not in err

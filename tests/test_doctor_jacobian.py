@@ -477,3 +477,13 @@ def test_rotation_output_conventions():
     d = diagnose_jacobian(f, lambda Rm: np.eye(3), R, solver_convention="gtsam")  # left: I
     assert (d.verdict, d.cause) == ("convention_mismatch", "right_vs_left"), d
     assert diagnose_jacobian(f, lambda Rm: np.eye(3), R, solver_convention="barfoot").ok
+
+
+def test_identity_pose_is_flagged_as_uninformative():
+    # at X = I the left and right Jacobians coincide: the doctor says so instead of guessing
+    J = act_left(np.eye(4))
+    d = diagnose_jacobian(act, J, np.eye(4), solver_convention="gtsam")
+    assert d.verdict == "correct" and "generic pose" in d.explanation, d
+    # a function J adds the probe angles, where left and right differ
+    bad = diagnose_jacobian(act, act_left, np.eye(4), solver_convention="gtsam")
+    assert bad.cause == "right_vs_left", bad

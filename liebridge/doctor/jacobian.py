@@ -638,11 +638,18 @@ def _convention_verdict(
     err: str,
     evidence: dict[str, Any],
 ) -> Diagnosis:
+    sides = {c.side for c in (best.inc.members if best.inc is not None else [])}
+    if len(sides) > 1:  # a degenerate point: left and right Jacobians coincide there
+        evidence["note"] = (
+            "left and right perturbations give the same Jacobian at this X: check at a generic "
+            "pose (or pass J as a function, which adds the probe angles)"
+        )
     if solver is None:
         return Diagnosis(
             "correct",
             f"your Jacobian is {_the(best.words)} ({err}); it is right for a solver that "
-            "retracts that way (pass solver_convention= to check against yours).",
+            "retracts that way (pass solver_convention= to check against yours)"
+            + (f"; {evidence['note']}." if "note" in evidence else "."),
             evidence,
         )
     bad_in = best.inc is not None and best.inc is not solver_in
@@ -651,7 +658,8 @@ def _convention_verdict(
         return Diagnosis(
             "correct",
             f"your Jacobian is {_the(best.words)} ({err}), which is what "
-            f"{_solver_words(solver, evidence)} needs.",
+            f"{_solver_words(solver, evidence)} needs"
+            + (f" ({evidence['note']})." if "note" in evidence else "."),
             evidence,
         )
     fixes: list[str] = []
