@@ -215,3 +215,16 @@ def test_slerp_without_the_hemisphere_check_is_a_pose_jump():
     assert d.verdict == "alarm" and len(jumps) == 1 and jumps[0]["indices"][0] == 20, d
     ok = np.array([checked_slerp(keys[k], keys[k + 1], s) for k in range(5) for s in taus])
     assert scan_trajectory(stamps, ok, quat_order="wxyz").verdict == "ok"
+
+
+def test_a_step_of_nearly_180_degrees_is_an_alarm():
+    yaw = np.radians(np.r_[np.arange(0, 20, 1.0), 199.0 + np.arange(0, 20, 1.0)])
+    R = so3.exp(yaw[:, None] * np.array([0.0, 0.0, 1.0]))
+    d = scan_trajectory(np.arange(len(yaw)) * 0.1, R)
+    assert {"pose_jump", "between_near_pi"} <= set(kinds(d, "alarm")), d
+    near = next(f for f in d.evidence["findings"] if f["kind"] == "between_near_pi")
+    assert near["indices"] == [19]
+    ok = scan_trajectory(
+        np.arange(40) * 0.1, so3.exp(np.radians(np.arange(40.0))[:, None] * [0, 0, 1.0])
+    )
+    assert "between_near_pi" not in kinds(ok)

@@ -7,7 +7,8 @@ What is measured (each a finding with a severity; ``alarm`` and ``warning`` set 
   median step (warning);
 - rotations that are not orthonormal, quaternions that are not unit (alarm);
 - pose jumps: a step whose rotation or translation rate is ten times the median and large in
-  absolute terms (alarm);
+  absolute terms (alarm); a step of nearly 180°, where a between residual ``Log(R_kᵀ·R_{k+1})``
+  sits on the log's branch cut (alarm);
 - rotation-log branch-cut crossings: ``‖Log(R_refᵀR)‖`` near π with ``Log`` jumping between
   consecutive samples while the rotation itself moves little (info: a residual written as
   ``Log(R_refᵀR)`` would jump there, the trajectory does not);
@@ -259,7 +260,7 @@ def scan_trajectory(
         ``verdict`` ``"ok"`` (no alarm or warning; information may be listed), ``"warning"``
         or ``"alarm"``; ``evidence["findings"]`` lists every finding with its kind
         (``duplicate_stamp``, ``backward_stamp``, ``time_gap``, ``non_orthonormal``,
-        ``non_unit_quaternion``, ``pose_jump``, ``branch_cut``, ``sign_flip``,
+        ``non_unit_quaternion``, ``pose_jump``, ``between_near_pi``, ``branch_cut``, ``sign_flip``,
         ``quat_order``), severity, indices and message; ``evidence["quat_order"]`` the order
         measurement.
 
@@ -359,6 +360,21 @@ def scan_trajectory(
                 ),
                 index=int(k0),
                 indices=[int(i) for i in run],
+            )
+        )
+
+    # --- a between residual Log(R_kᵀ·R_{k+1}) on the branch cut: its axis is undefined
+    near_pi = np.flatnonzero(ang > math.pi - BRANCH_BAND)
+    if near_pi.size:
+        findings.append(
+            _finding(
+                "between_near_pi",
+                "alarm",
+                f"{near_pi.size} consecutive step(s) rotate by nearly 180° (first between "
+                f"samples {int(near_pi[0])} and {int(near_pi[0]) + 1}: "
+                f"{math.degrees(float(ang[near_pi[0]])):.1f}°): a between residual "
+                "Log(R_kᵀ·R_{k+1}) sits on the log's branch cut there (axis defined up to sign)",
+                indices=near_pi[:20].tolist(),
             )
         )
 
