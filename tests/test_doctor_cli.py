@@ -170,3 +170,23 @@ def test_help(capsys, sub):
 def test_doctor_without_a_subcommand_is_a_usage_error(capsys):
     code, _, err = call(capsys, "doctor")
     assert code == 2 and "Traceback" not in err
+
+
+def test_traj_plot(capsys, tmp_path):
+    pytest.importorskip("matplotlib")
+    stamps, T = _circle()
+    write_tum(tmp_path / "ok.tum", stamps, T)
+    code, _, err = call(
+        capsys, "doctor", "traj", str(tmp_path / "ok.tum"), "--plot", str(tmp_path / "scan.png")
+    )
+    assert code == 0 and "wrote" in err
+    assert (tmp_path / "scan.png").stat().st_size > 10_000
+    code, _, err = call(
+        capsys,
+        "doctor",
+        "traj",
+        str(tmp_path / "ok.tum"),
+        "--plot",
+        str(tmp_path / "nodir" / "scan.png"),
+    )
+    assert code == 2 and "--plot: directory" in err

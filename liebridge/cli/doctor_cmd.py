@@ -31,8 +31,16 @@ from typing import Any
 import numpy as np
 
 from ..doctor import Diagnosis, diagnose_jacobian, scan_trajectory
-from ..lie import se3
-from ._common import CLIError, convention_arg, one_line, option_value
+from ..lie import quaternion, se3, so3
+from ._common import (
+    CLIError,
+    check_output_path,
+    convention_arg,
+    need_matplotlib,
+    one_line,
+    option_value,
+    say,
+)
 
 __all__ = ["add_parser"]
 
@@ -160,17 +168,56 @@ def _read_rows(path: Path) -> np.ndarray:
     return np.asarray(rows, dtype=np.float64)
 
 
+def _plot_traj(
+    out: Path, name: str, stamps: np.ndarray, q: np.ndarray, order: str, d: Diagnosis
+) -> None:
+    """‖Log(R_0ᵀR)‖ and the step angle along the sequence, with the findings marked."""
+    plt = need_matplotlib()
+    qn = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    R = quaternion.to_matrix(qn, order=order)  # type: ignore[arg-type]
+    w = so3.log(np.einsum("ji,njk->nik", R[0], R))
+    step = np.degrees(np.linalg.norm(so3.log(np.einsum("nji,njk->nik", R[:-1], R[1:])), axis=-1))
+    dots = np.einsum("ni,ni->n", qn[:-1], qn[1:])
+    fig, ax = plt.subplots(3, 1, figsize=(9, 7.5), sharex=True)
+    ax[0].plot(stamps, np.linalg.norm(w, axis=-1), "k-", lw=1, label="‖Log(R_0ᵀR)‖")
+    ax[0].plot(stamps, w, lw=0.8, alpha=0.7)
+    ax[0].axhline(np.pi, ls="--", c="gray", lw=0.8)
+    ax[0].set(ylabel="rad", title=f"{name}: verdict {d.verdict} (quaternions read {order})")
+    ax[1].plot(stamps[1:], step, "C0-", lw=1)
+    ax[1].set(ylabel="rotation step (deg)")
+    ax[2].plot(stamps[1:], dots, "C2-", lw=1)
+    ax[2].axhline(0.0, ls="--", c="gray", lw=0.8)
+    ax[2].set(ylabel="dot(q_k, q_k+1)", xlabel="time (s)")
+    colors = {"alarm": "red", "warning": "orange", "info": "0.6"}
+    for f in d.evidence["findings"]:
+        for k in f.get("indices", [f["index"]] if "index" in f else [])[:20]:
+            k = min(int(k), len(stamps) - 1)
+            for a in ax:
+                a.axvline(stamps[k], color=colors[f["severity"]], lw=0.8, alpha=0.6)
+    ax[0].legend(loc="upper right", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    say(f"wrote {out}")
+
+
 def _run_traj(args: argparse.Namespace) -> int:
     path = Path(args.file)
     if not path.is_file():
         raise CLIError(f"FILE: no such file: {args.file}")
+    plot = check_output_path(args.plot, "--plot", (".png", ".pdf", ".svg")) if args.plot else None
     data = _read_rows(path)
     order = _declared_order(path, args.order)
     try:
         d = scan_trajectory(data[:, 0], data[:, 1:], quat_order=order)
     except (ValueError, TypeError) as exc:
         raise CLIError(f"{path}: {one_line(str(exc))}") from None
-    return _print(d, args.format, [])
+    status = _print(d, args.format, [])
+    if plot is not None:
+        measured = (d.evidence.get("quat_order") or {}).get("order")
+        use = measured if measured in ("xyzw", "wxyz") else order
+        _plot_traj(plot, path.name, data[:, 0], data[:, -4:], use, d)
+    return status
 
 
 def add_parser(sub: Any) -> None:
@@ -212,4 +259,10 @@ def add_parser(sub: Any) -> None:
         "--order", type=option_value, choices=("xyzw", "wxyz"), help="declared quaternion order"
     )
     t.add_argument("--format", type=option_value, choices=("text", "json"), default="text")
+    t.add_argument(
+        "--plot",
+        metavar="OUT",
+        help="write ‖Log(R_0ᵀR)‖, the rotation steps and dot(q_k, q_k+1) along the sequence with "
+        "the findings marked (.png/.pdf/.svg; needs matplotlib)",
+    )
     t.set_defaults(func=_run_traj)
