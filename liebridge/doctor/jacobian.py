@@ -292,7 +292,7 @@ def diagnose_jacobian(
     if j_call is None and isinstance(J, (tuple, list)) and all(np.ndim(b) == 2 for b in J):
         J = np.hstack([np.asarray(b, dtype=np.float64) for b in J])  # one block per input
 
-    # probe points: X itself, then (J a function) every rotation input at the note's angles
+    # probe points: X itself, then (J a function) every rotation input at the table's angles
     point_names = ["X"]
     points = [[e.array for e in els]]
     if j_call is not None and in_kind != "vector":
@@ -352,7 +352,7 @@ def diagnose_jacobian(
     group_idx = [k for k, e in enumerate(els) if e.kind != "vector"]
     in_classes: list[ConventionClass | None] = [None]
     if in_kind != "vector":
-        key_pts = [p[group_idx[0]] for p in points]
+        key_pts = [p[k] for p in points for k in group_idx]  # every group input, every point
         ext = [c for c in extra if (c.group == "se2") == (in_kind == "se2")]
         in_classes = list(conventions_classes(in_kind, key_pts, ext))
     out_classes: list[ConventionClass | None] = [None]
