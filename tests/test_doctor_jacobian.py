@@ -487,3 +487,30 @@ def test_identity_pose_is_flagged_as_uninformative():
     # a function J adds the probe angles, where left and right differ
     bad = diagnose_jacobian(act, act_left, np.eye(4), solver_convention="gtsam")
     assert bad.cause == "right_vs_left", bad
+
+
+def test_a_pose_and_a_bias_together():
+    # a bias-corrected point: f(T, b) = T·(p − b); columns (δ_T, δ_b)
+    def f(T, b):
+        return T[:3, :3] @ (P - b) + T[:3, 3]
+
+    def J(T, b):
+        Rm = T[:3, :3]
+        return np.hstack([-Rm @ so3.hat(P - b), Rm, -Rm])
+
+    b = np.array([0.01, -0.02, 0.03])
+    assert diagnose_jacobian(f, J, (X, b), solver_convention="gtsam").verdict == "correct"
+
+    def J_blocks(T, b):  # one block per input is accepted too
+        full = J(T, b)
+        return full[:, :6], full[:, 6:]
+
+    assert diagnose_jacobian(f, J_blocks, (X, b), solver_convention="gtsam").verdict == "correct"
+    d = diagnose_jacobian(
+        f, lambda T, b: J(T, b) * [-1, -1, -1, 1, 1, 1, 1, 1, 1], (X, b), solver_convention="gtsam"
+    )
+    assert d.cause == "skew_sign", d
+    d = diagnose_jacobian(
+        f, lambda T, b: J(T, b) @ np.diag([1.0] * 6 + [-1.0] * 3), (X, b), solver_convention="gtsam"
+    )
+    assert not d.ok, d  # the bias block's sign: no convention explains it
