@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -190,3 +191,31 @@ def test_traj_plot(capsys, tmp_path):
         str(tmp_path / "nodir" / "scan.png"),
     )
     assert code == 2 and "--plot: directory" in err
+
+
+PAGES = sorted((ROOT / "docs" / "cookbook").glob("doctor-*.md"))
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: p.stem)
+def test_cookbook_page_shows_what_its_code_prints(page, tmp_path, monkeypatch):
+    """The report shown on each symptom page is the one its code prints (verdict lines)."""
+    import contextlib
+    import io
+    import re
+
+    text = page.read_text(encoding="utf-8")
+    code = re.search(r"```python\n(.*?)```", text, re.S).group(1)
+    shown = re.search(r"Output:\n\n```text\n(.*?)```", text, re.S).group(1)
+    monkeypatch.chdir(tmp_path)
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        exec(compile(code, page.name, "exec"), {"__name__": page.stem})
+    printed = buf.getvalue()
+    assert printed.splitlines()[0] == shown.splitlines()[0]
+    assert len(printed.splitlines()) == len(shown.splitlines())
+
+
+def test_there_is_a_page_per_failure_table_row():
+    guide = (ROOT / "docs" / "doctor.md").read_text(encoding="utf-8")
+    linked = set(re.findall(r"\(cookbook/(doctor-[a-z0-9-]+)\.md\)", guide))
+    assert linked == {p.stem for p in PAGES} and len(linked) >= 10
