@@ -514,3 +514,19 @@ def test_a_pose_and_a_bias_together():
         f, lambda T, b: J(T, b) @ np.diag([1.0] * 6 + [-1.0] * 3), (X, b), solver_convention="gtsam"
     )
     assert not d.ok, d  # the bias block's sign: no convention explains it
+
+
+def test_the_printed_fix_for_input_and_output_sides_is_right():
+    # T ↦ T·Z with left perturbations in and out: J = I; a GTSAM solver needs Ad_{Z⁻¹}
+    d = diagnose_jacobian(compose, lambda T: np.eye(6), X, solver_convention="gtsam")
+    assert d.verdict == "convention_mismatch" and d.cause == "right_vs_left", d
+    assert "lb.tangent_map(X, 'gtsam', 'pytransform3d_global')" in d.explanation
+    assert "lb.tangent_map(Y, 'pytransform3d_global', 'gtsam')·J" in d.explanation
+    Y = compose(X)
+    fixed = (
+        lb.tangent_map(Y, "pytransform3d_global", "gtsam")
+        @ np.eye(6)
+        @ lb.tangent_map(X, "gtsam", "pytransform3d_global")
+    )
+    np.testing.assert_allclose(fixed, se3.adjoint(se3.inverse(Z)), atol=1e-12)
+    assert diagnose_jacobian(compose, fixed, X, solver_convention="gtsam").verdict == "correct"

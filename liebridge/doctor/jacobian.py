@@ -520,12 +520,27 @@ def diagnose_jacobian(
             if oc is not None and solver in oc.members:
                 solver_out = oc
 
-    def rank(h: _Hyp) -> tuple[float, int, int, int]:
+    def distance(cls: ConventionClass | None) -> int:
+        """How many fields separate a class from the solver's (ties go to the closest)."""
+        if cls is None or solver is None:
+            return 0
+        a = cls.rep
+        return sum(
+            (
+                a.side != solver.side,
+                a.order != solver.order,
+                a.chart != solver.chart,
+                a.rotation_scale != solver.rotation_scale,
+            )
+        )
+
+    def rank(h: _Hyp) -> tuple[float, int, int, int, int]:
         good = h.error <= tol
         return (
             0.0 if good else h.error,
             0 if h.cause == "" else 1,
             0 if (h.inc is solver_in and h.outc is solver_out) else 1,
+            distance(h.inc) + distance(h.outc),
             0
             if (
                 h.inc is None
