@@ -10,7 +10,7 @@ The numpy core (``lie``, ``conventions``, the conversion functions, ``poses``, `
 
 from typing import Any
 
-from . import check, conventions, interop, io, lie
+from . import check, conventions, doctor, interop, io, lie
 from .conventions import (
     Convention,
     convert_covariance,
@@ -37,6 +37,7 @@ __all__ = [
     "convert_jacobian",
     "convert_tangent",
     "detect_convention",
+    "doctor",
     "factors",
     "g2o",
     "gtsam",

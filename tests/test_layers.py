@@ -25,7 +25,7 @@ FLOORS: list[set[str]] = [
     {"conventions"},
     {"uncertain"},
     {"check", "io"},
-    {"frames", "traj", "continuous"},
+    {"frames", "traj", "continuous", "doctor"},
     {"gtsam"},
     {"imu"},
     {"ros"},

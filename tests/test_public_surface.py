@@ -48,6 +48,16 @@ TOP = (
 )
 
 
+DOCTOR = ("diagnose_jacobian", "diagnose_residual", "diagnose_covariance", "scan_trajectory")
+
+
+@pytest.mark.parametrize("name", DOCTOR)
+def test_liebridge_doctor_keeps_its_names(name):
+    mod = importlib.import_module("liebridge.doctor")
+    assert callable(getattr(mod, name))
+    assert getattr(lb.doctor, name) is getattr(mod, name)
+
+
 @pytest.mark.parametrize("name", FACTORS)
 def test_liebridge_factors_keeps_its_names(name):
     mod = importlib.import_module("liebridge.factors")
