@@ -536,19 +536,45 @@ G2O_SE2 = Convention(
     name="g2o_se2",
     side="right",
     order="trans_first",
+    chart="split_world",
+    rotation="exp",
+    quat_order="xyzw",
+    group="se2",
+    source="V g2opy 2.3.0 (VertexSE2.oplus); S g2o/types/slam2d/vertex_se2.h (oplusImpl: "
+    "t += update.head<2>(), angle = normalize_theta(angle + update[2]))",
+    notes=(
+        "The vertex chart, the one g2o's marginals and solver increments live in: "
+        "oplus(d) = (t + (dx, dy), θ + dθ), d = (dx, dy, dθ): translation added in the world "
+        "frame, angle added. False: oplus(d) = X·SE2(dx, dy, dθ) (body frame) — that is the "
+        "chart of g2o's EDGE_SE2 error toVector(Z⁻¹·Xi⁻¹·Xj), preset g2o_se2_edge. g2o's SE(2) "
+        "vertex chart and its edge-error chart differ: the vertex adds coordinates, the edge "
+        "measures the relative pose in the first pose's frame. Convert g2o vertex covariances "
+        "(marginals) with g2o_se2; write factors whose residual is g2o's edge error with "
+        "g2o_se2_edge. No quaternions."
+    ),
+)
+"""g2o ``VertexSE2`` update: (dx, dy, dθ), world-frame translation increment, angle added."""
+
+G2O_SE2_EDGE = Convention(
+    name="g2o_se2_edge",
+    side="right",
+    order="trans_first",
     chart="split_body",
     rotation="exp",
     quat_order="xyzw",
     group="se2",
-    source="S g2o/types/slam2d/vertex_se2.h (oplusImpl: estimate * SE2(update)), "
-    "types/slam2d/se2.h (operator*)",
+    source="V g2opy 2.3.0 (EdgeSE2.compute_error); S g2o/types/slam2d/edge_se2.h (computeError: "
+    "toVector(Z⁻¹·Xi⁻¹·Xj)), types/slam2d/se2.h (operator*, toVector)",
     notes=(
-        "oplus(d) = X·SE2(dx, dy, dθ) = (R·Rot(dθ), t + R·(dx, dy)): the pose product with an "
-        "SE2 built from (x, y, θ) directly, not the exponential. False: X·Exp(d) (equal to first "
-        "order only)."
+        "The chart of g2o's EDGE_SE2 error: e = local(Z, Xi⁻¹·Xj) = toVector(Z⁻¹·Xi⁻¹·Xj), "
+        "retract(X, d) = X·SE2(dx, dy, dθ) = (R·Rot(dθ), t + R·(dx, dy)): an SE2 built from "
+        "(x, y, θ) directly (body frame), not the exponential. The 2-D file reader and "
+        "factors with g2o's residual use it. False: it is the chart of VertexSE2.oplus (that "
+        "adds the translation in the world frame: preset g2o_se2); X·Exp(d) (equal to first "
+        "order only). No quaternions."
     ),
 )
-"""g2o ``VertexSE2``: (dx, dy, dθ), body-frame translation increment (split)."""
+"""g2o ``EDGE_SE2`` error chart: (dx, dy, dθ) of ``Z⁻¹·Xi⁻¹·Xj``, body-frame translation (split)."""
 
 G2O_SIM3 = Convention(
     name="g2o_sim3",
@@ -612,6 +638,7 @@ GROUP_PRESETS: tuple[Convention, ...] = (
     SYMFORCE_POSE2,
     THESEUS_SE2,
     G2O_SE2,
+    G2O_SE2_EDGE,
     ROS_POSE2,
     GTSAM_SIMILARITY3,
     SOPHUS_SIM3,
