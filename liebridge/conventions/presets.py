@@ -327,6 +327,23 @@ MR_SPACE = Convention(
 )
 """Modern Robotics space twist: left, (ω, v), SE(3) exp."""
 
+KORNIA = Convention(
+    name="kornia",
+    side="right",
+    order="trans_first",
+    chart="se3",
+    rotation="exp",
+    quat_order="wxyz",
+    source="V kornia 0.9.0 (Se3.exp/log, composition); S kornia/geometry/liegroup/se3.py",
+    notes=(
+        "Se3.exp(v), v = (translation part, rotation vector) = (v, ω); Se3.r is a Quaternion "
+        "stored wxyz. kornia has no update: the side is the one Sophus's (which kornia's Se3 "
+        "follows) uses, X·exp(v); the order and the exponential are kornia's. False: "
+        "v = (ω, v) as in GTSAM."
+    ),
+)
+"""kornia ``Se3``: (v, ω), SE(3) exp, quaternions wxyz (no update: right, as Sophus)."""
+
 #: All presets, in registry order (ties in :func:`detect_convention` resolve to the first).
 PRESETS: tuple[Convention, ...] = (
     GTSAM,
@@ -350,6 +367,7 @@ PRESETS: tuple[Convention, ...] = (
     ROS,
     MR_BODY,
     MR_SPACE,
+    KORNIA,
 )
 
 
