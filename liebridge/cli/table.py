@@ -317,6 +317,10 @@ def _describe_group(c: Convention) -> str:
 
 
 def _run(args: argparse.Namespace) -> int:
+    if args.name == "verify":  # not a preset name: measure the installed libraries
+        from . import verify_cmd
+
+        return verify_cmd.run(args.format)
     if args.name:
         from ._common import convention_arg
 
@@ -340,13 +344,17 @@ def add_parser(sub: Any) -> None:
         "evidence",
         description="List every convention preset with its side, tangent order, chart, rotation "
         "coordinates, quaternion storage order and evidence (V = checked by running the "
-        "library, S = its source, D = documentation). With NAME, show one preset in full.",
+        "library, S = its source, D = documentation). With NAME, show one preset in full. "
+        "'liebridge conventions verify' runs every installed library's own update against its "
+        "presets and prints one row per preset (never importing what is not installed).",
     )
     p.add_argument(
         "name",
         nargs="?",
         metavar="NAME",
-        help="show one preset in full (--format markdown: a table row and a list; json: as JSON)",
+        help="show one preset in full (--format markdown: a table row and a list; json: as JSON); "
+        "'verify': run every installed library against its presets (library, version, worst "
+        "error, detected preset, verdict)",
     )
     p.add_argument(
         "--format",

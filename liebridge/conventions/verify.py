@@ -25,6 +25,7 @@ import importlib
 import importlib.metadata
 import importlib.util
 import math
+import warnings
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass
@@ -111,7 +112,7 @@ class VerifyRow:
     what: str = ""
 
     def as_dict(self) -> dict[str, Any]:
-        """The row as a JSON-ready dict."""
+        """Return the row as a JSON-ready dict."""
         return asdict(self)
 
 
@@ -119,7 +120,7 @@ class VerifyRow:
 
 
 def _np(y: Any) -> FloatArray:
-    """A library's result as a float64 array (torch tensors, JAX arrays, lists)."""
+    """Return a library's result as a float64 array (torch tensors, JAX arrays, lists)."""
     if hasattr(y, "detach"):
         y = y.detach().cpu().numpy()
     return np.asarray(y, dtype=np.float64)
@@ -144,7 +145,7 @@ def _mat2(x: float, y: float, th: float) -> FloatArray:
 
 
 def _quat_wxyz(R: FloatArray) -> FloatArray:
-    """Unit quaternion (w ≥ 0) of a rotation matrix (Shepperd's method)."""
+    """Return the unit quaternion (w ≥ 0) of a rotation matrix (Shepperd's method)."""
     m = R
     tr = m[0, 0] + m[1, 1] + m[2, 2]
     cands = [tr, m[0, 0], m[1, 1], m[2, 2]]
@@ -386,7 +387,7 @@ def _aria_so3(sophus: Any) -> Ops:
 
 def _sophuspy(kind: str) -> Callable[[Any], Ops]:
     def make(sp: Any) -> Ops:
-        cls = {"se2": sp.SE2, "sim3": getattr(sp, "Sim3", None), "se3": sp.SE3}[kind]
+        cls = {"se2": sp.SE2, "se3": sp.SE3, "so3": sp.SO3}[kind]
 
         def exp(d: FloatArray) -> FloatArray:
             return np.asarray(cls.exp(np.asarray(d, dtype=np.float64)).matrix())
@@ -574,7 +575,7 @@ def _theseus(kind: str) -> Callable[[Any], Ops]:
 
 
 def _five_point(f: Fn, n: int, h: float = 1e-3) -> FloatArray:
-    """d f(δ)/dδ at 0 by the five-point stencil (error O(h⁴) ≈ 1e-12 here)."""
+    """Return ∂f(δ)/∂δ at 0 by the five-point stencil (error O(h⁴) ≈ 1e-12 here)."""
     cols = []
     for e in np.eye(n):
         cols.append((-f(2 * h * e) + 8 * f(h * e) - 8 * f(-h * e) + f(-2 * h * e)) / (12 * h))
@@ -602,7 +603,7 @@ def _ceres_step(
             self.set_num_residuals(c.size)
             self.set_parameter_block_sizes(sizes)
 
-        def Evaluate(self, parameters: Any, residuals: Any, jacobians: Any) -> bool:  # noqa: N802
+        def Evaluate(self, parameters: Any, residuals: Any, jacobians: Any) -> bool:
             x = np.concatenate([np.asarray(p) for p in parameters])
             residuals[:] = -c if np.array_equal(x, x0) else 0.0
             if jacobians is not None:
@@ -719,6 +720,23 @@ CHECKS: tuple[Check, ...] = (
         "so3",
     ),
     Check(
+        "sophus",
+        "sophuspy",
+        "sophuspy",
+        "sophuspy",
+        "SE3.exp/log/operator* (" + _EXP + ")",
+        _sophuspy("se3"),
+    ),
+    Check(
+        "sophus",
+        "sophuspy",
+        "sophuspy",
+        "sophuspy",
+        "SO3.exp/log/operator* (" + _EXP + ")",
+        _sophuspy("so3"),
+        "so3",
+    ),
+    Check(
         "pinocchio",
         "pin",
         "pinocchio",
@@ -829,7 +847,7 @@ CHECKS: tuple[Check, ...] = (
     Check(
         "sophus_se2",
         "sophuspy",
-        "sophus",
+        "sophuspy",
         "sophuspy",
         "SE2.exp/log/operator* (" + _EXP + ")",
         _sophuspy("se2"),
@@ -858,14 +876,6 @@ CHECKS: tuple[Check, ...] = (
         "Similarity3.retract/localCoordinates",
         _gtsam_sim3,
     ),
-    Check(
-        "sophus_sim3",
-        "sophuspy",
-        "sophus",
-        "sophuspy",
-        "Sim3.exp/log/operator* (" + _EXP + ")",
-        _sophuspy("sim3"),
-    ),
     Check("g2o_sim3", "g2opy", "g2opy", "g2opy", "VertexSim3Expmap.oplus / Sim3.log", _g2o_sim3),
     Check("pypose_sim3", "pypose", "pypose", "pypose", "Sim3 Retr / (Y·X⁻¹).Log", _pypose("sim3")),
     Check(
@@ -880,13 +890,14 @@ CHECKS: tuple[Check, ...] = (
 
 #: Presets no installable library runs, and why (the table's evidence stays S or D).
 NOT_RUNNABLE: dict[str, tuple[str, str]] = {
-    "manif": ("manif", "manifpy is not on the package index (conda-forge only)"),
-    "manif_se2": ("manif", "manifpy is not on the package index (conda-forge only)"),
-    "manif_se23": ("manif", "manifpy is not on the package index (conda-forge only)"),
+    "manif": ("manif", "no manifpy wheel on the package index (conda-forge only)"),
+    "manif_se2": ("manif", "no manifpy wheel on the package index (conda-forge only)"),
+    "manif_se23": ("manif", "no manifpy wheel on the package index (conda-forge only)"),
     "barfoot": (
         "liegroups (utiasSTARS)",
         "not on the package index (PyPI's liegroups is another package)",
     ),
+    "sophus_sim3": ("sophuspy", "sophuspy binds SO2, SE2, SO3 and SE3 only (no Sim3)"),
     "ros": ("ROS", "a message definition: no update to run"),
     "ros_pose2": ("ROS", "a message definition: no update to run"),
 }
@@ -898,7 +909,7 @@ _PI = math.pi
 
 
 def _rot_coords(conv: Convention, axis: FloatArray, theta: float) -> FloatArray:
-    """A rotation by ``theta`` about ``axis`` in ``conv``'s rotation coordinates."""
+    """Return a rotation by ``theta`` about ``axis`` in ``conv``'s rotation coordinates."""
     r = conv.rotation
     if r == "half_exp":
         return axis * theta / 2
@@ -910,7 +921,7 @@ def _rot_coords(conv: Convention, axis: FloatArray, theta: float) -> FloatArray:
 
 
 def _tangent(conv: Convention, group: str, theta: float, rng: np.random.Generator) -> FloatArray:
-    """An increment in ``conv``'s own tangent whose rotation angle is ``theta``."""
+    """Return an increment in ``conv``'s own tangent whose rotation angle is ``theta``."""
     if group in ("so2", "se2"):
         rot = np.array([theta * rng.choice([-1.0, 1.0])])
     else:
@@ -1070,7 +1081,9 @@ def run_check(check: Check, tol: float = TOL, seed: int = 0) -> VerifyRow:
     """Run one check (its library must be installed); never raises for a library's failure."""
     version = _version(check.dist)
     try:
-        module = importlib.import_module(check.module)
+        with warnings.catch_warnings():  # a library's import-time notices are not our verdict
+            warnings.simplefilter("ignore")
+            module = importlib.import_module(check.module)
         ops = check.make(module)
         g, gw, e, ew = measure(check, ops, seed)
         found = _detect(check, ops)
@@ -1093,7 +1106,11 @@ def run_check(check: Check, tol: float = TOL, seed: int = 0) -> VerifyRow:
 
 
 def verify(
-    libraries: Iterable[str] | None = None, *, tol: float = TOL, seed: int = 0
+    libraries: Iterable[str] | None = None,
+    *,
+    tol: float = TOL,
+    seed: int = 0,
+    progress: Callable[[str], None] | None = None,
 ) -> list[VerifyRow]:
     """Measure every preset against the installed version of its library.
 
@@ -1107,6 +1124,8 @@ def verify(
         ``agrees`` when the detected fields are the preset's.
     seed : int
         Seed of the random elements and increments.
+    progress : callable, optional
+        Called with ``"<preset> (<library>)"`` before each measurement.
 
     Returns
     -------
@@ -1141,6 +1160,8 @@ def verify(
                 )
             )
             continue
+        if progress is not None:
+            progress(f"{check.preset} ({check.library})")
         rows.append(run_check(check, tol, seed))
     for name, (lib, why) in NOT_RUNNABLE.items():
         if wanted is None or lib.lower() in wanted:
