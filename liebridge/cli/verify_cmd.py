@@ -11,7 +11,7 @@ import json
 import math
 import sys
 
-from ..conventions.verify import VerifyRow, verify
+from ..conventions.verification import VerifyRow, verify
 
 __all__ = ["render", "run"]
 

@@ -82,6 +82,7 @@ from .state_presets import (
     STATE_PRESETS_15,
     VINS,
 )
+from .verification import VerifyRow, verify
 
 __all__ = [
     "ALL_PRESETS",
@@ -150,6 +151,7 @@ __all__ = [
     "Sphere",
     "StorageLayout",
     "Vector",
+    "VerifyRow",
     "convert_covariance",
     "convert_information",
     "convert_jacobian",
@@ -164,4 +166,5 @@ __all__ = [
     "nav_state",
     "tangent_map",
     "unchecked",
+    "verify",
 ]

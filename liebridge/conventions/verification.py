@@ -597,7 +597,7 @@ def _ceres_step(
     B = np.linalg.pinv(_five_point(model, c.size))
     sizes = [b[0].size for b in blocks]
 
-    class Step(pyceres.CostFunction):  # type: ignore[misc,name-defined]
+    class Step(pyceres.CostFunction):
         def __init__(self) -> None:
             super().__init__()
             self.set_num_residuals(c.size)
