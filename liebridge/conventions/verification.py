@@ -890,16 +890,16 @@ CHECKS: tuple[Check, ...] = (
 
 #: Presets no installable library runs, and why (the table's evidence stays S or D).
 NOT_RUNNABLE: dict[str, tuple[str, str]] = {
-    "manif": ("manif", "no manifpy wheel on the package index (conda-forge only)"),
-    "manif_se2": ("manif", "no manifpy wheel on the package index (conda-forge only)"),
-    "manif_se23": ("manif", "no manifpy wheel on the package index (conda-forge only)"),
+    "manif": ("manif", "no manifpy wheel on PyPI (conda-forge only)"),
+    "manif_se2": ("manif", "no manifpy wheel on PyPI (conda-forge only)"),
+    "manif_se23": ("manif", "no manifpy wheel on PyPI (conda-forge only)"),
     "barfoot": (
         "liegroups (utiasSTARS)",
-        "not on the package index (PyPI's liegroups is another package)",
+        "not on PyPI (PyPI's liegroups is another package)",
     ),
     "sophus_sim3": ("sophuspy", "sophuspy binds SO2, SE2, SO3 and SE3 only (no Sim3)"),
-    "ros": ("ROS", "a message definition: no update to run"),
-    "ros_pose2": ("ROS", "a message definition: no update to run"),
+    "ros": ("ROS", "a message, no update to run"),
+    "ros_pose2": ("ROS", "a message, no update to run"),
 }
 
 
@@ -1084,6 +1084,9 @@ def run_check(check: Check, tol: float = TOL, seed: int = 0) -> VerifyRow:
         with warnings.catch_warnings():  # a library's import-time notices are not our verdict
             warnings.simplefilter("ignore")
             module = importlib.import_module(check.module)
+        ceres = getattr(module, "__ceres_version__", None)  # pyceres: the Ceres it wraps
+        if ceres and version:
+            version = f"{version} (Ceres {ceres})"
         ops = check.make(module)
         g, gw, e, ew = measure(check, ops, seed)
         found = _detect(check, ops)
