@@ -191,8 +191,7 @@ PYTRANSFORM3D_LOCAL = Convention(
     chart="se3",
     rotation="exp",
     quat_order="wxyz",
-    source="V pytransform3d 3.17.0 concat_locally_uncertain_transforms; "
-    "tests/test_presets_libs.py",
+    source="V pytransform3d 3.17.0 concat_locally_uncertain_transforms; tests/test_presets_libs.py",
     notes="Local uncertainty: T = T̄·Exp(ξ), ξ = (ω, v) — identical to GTSAM's tangent.",
 )
 """pytransform3d "local" uncertainty: right, (ω, v), SE(3) exp (same fields as GTSAM)."""
