@@ -207,3 +207,48 @@ def test_verify_is_fast_enough() -> None:
     t = time.perf_counter()
     verify()
     assert time.perf_counter() - t < 30
+
+
+# ------------------------------------------------------------------ adjoints of exp-only libraries
+def _adjoint_cases() -> list[tuple[str, str]]:
+    return [("kornia", "kornia"), ("mr_body", "modern_robotics"), ("pytransform3d_local", "pt")]
+
+
+@pytest.mark.parametrize(("preset", "lib"), _adjoint_cases())
+def test_library_adjoint_moves_an_increment_across_the_pose(preset: str, lib: str) -> None:
+    """X·Exp(d) = Exp(Ad_X d)·X with the library's own exp, product and adjoint, in its order."""
+    conv = get(preset)
+    check = next(c for c in CHECKS if c.preset == preset)
+    module = _module(check)
+    ops = check.make(module)
+    if lib == "kornia":
+        import torch
+
+        def adjoint(X: np.ndarray) -> np.ndarray:
+            T = module.Se3.from_matrix(torch.tensor(X[None], dtype=torch.float64))
+            return T.adjoint()[0].detach().numpy()
+    elif lib == "modern_robotics":
+        adjoint = module.Adjoint
+    else:
+        adjoint = importlib.import_module("pytransform3d.transformations").adjoint_from_transform
+    rng = np.random.default_rng(3)
+    for X, d, _, _ in samples(conv, "se3", rng, (0.0, 0.4, 1.7, 3.0)):
+        A = np.asarray(adjoint(X), dtype=np.float64)
+        lhs = ops.retract(X, d)  # X·Exp(d) through the library
+        rhs = np.linalg.solve(
+            X, ops.retract(X, A @ d)
+        )  # X·Exp(Ad d)·… → Exp(Ad d) = X⁻¹·(X·Exp(Ad d))
+        np.testing.assert_allclose(rhs @ X, lhs, atol=1e-10 * max(1.0, np.abs(lhs).max()))
+        # the preset's own adjoint, in its order, from its first-order map
+        P = _adjoint_in_order(X, conv)
+        np.testing.assert_allclose(A, P, atol=1e-10 * max(1.0, np.abs(P).max()))
+
+
+def _adjoint_in_order(X: np.ndarray, conv) -> np.ndarray:  # type: ignore[no-untyped-def]
+    """Ad_X in ``conv``'s order: the tangent map from ``conv`` to its left-sided twin."""
+    import dataclasses
+
+    from liebridge import tangent_map
+
+    left = dataclasses.replace(conv, name=conv.name + "_left", side="left")
+    return tangent_map(X, conv, left)
