@@ -161,7 +161,7 @@ def test_measure_reports_a_wrong_preset() -> None:
 def test_verify_rows_have_the_public_fields_and_never_import_a_missing_library() -> None:
     code = (
         "import sys, json; from liebridge.conventions import verify; "
-        "rows = verify(['kornia', 'gtsam', 'nosuchlib']); "
+        "rows = verify(['kornia', 'gtsam']); "
         "print(json.dumps([[r.preset, r.library, r.version, r.worst_error, r.detected, "
         "r.verdict] for r in rows])); print('torch' in sys.modules)"
     )
@@ -174,6 +174,12 @@ def test_verify_rows_have_the_public_fields_and_never_import_a_missing_library()
     if importlib.util.find_spec("kornia") is None:
         assert out[1] == "False"  # kornia absent: torch never imported
         assert all(r[5].startswith("not installed") for r in rows if r[1] == "kornia")
+
+
+def test_verify_names_an_unknown_library() -> None:
+    with pytest.raises(ValueError, match=r"libraries: unknown 'nosuchlib' \(known: .*gtsam"):
+        verify(["gtsam", "nosuchlib"])
+    assert {r.library for r in verify("pin")} == {"pin"}  # one name, not its letters
 
 
 def test_cli_verify_json_and_table() -> None:

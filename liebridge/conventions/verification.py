@@ -1119,7 +1119,7 @@ def verify(
 
     Parameters
     ----------
-    libraries : iterable of str, optional
+    libraries : str or iterable of str, optional
         Only these libraries (names as in the rows' ``library``, e.g. ``"gtsam"``, ``"g2opy"``);
         default: all.
     tol : float
@@ -1140,11 +1140,27 @@ def verify(
         (``agrees``, ``DIFFERS: <which field>``, ``not installed (pip install …)``,
         ``not runnable here: <why>``, ``could not run: <error>``) and ``what`` (the calls).
 
+    Raises
+    ------
+    ValueError
+        For a library name no row has (the message lists the known ones).
+
     Notes
     -----
     A library that is not installed is never imported (:func:`importlib.util.find_spec`).
     """
-    wanted = None if libraries is None else {w.strip().lower() for w in libraries}
+    wanted = None
+    if libraries is not None:
+        if isinstance(libraries, str):
+            libraries = [libraries]
+        known = {c.library.lower() for c in CHECKS} | {v[0].lower() for v in NOT_RUNNABLE.values()}
+        wanted = {str(w).strip().lower() for w in libraries}
+        unknown = sorted(wanted - known)
+        if unknown:
+            raise ValueError(
+                f"libraries: unknown {', '.join(map(repr, unknown))} "
+                f"(known: {', '.join(sorted(known))})"
+            )
     rows: list[VerifyRow] = []
     order = {c.name: i for i, c in enumerate(ALL_PRESETS)}
     for check in sorted(CHECKS, key=lambda c: order.get(c.preset, len(order))):
