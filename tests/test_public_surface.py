@@ -126,3 +126,17 @@ def test_old_adapters_paths_reexport_the_new_modules():
 
     assert adapters.g2o is g2o and adapters.poses is poses and adapters.trajectory_io is trajectory
     assert adapters.convert_covariance is lb.convert_covariance
+
+
+def test_conventions_verify_is_a_function_with_the_promised_row_fields():
+    from liebridge import conventions
+
+    assert callable(conventions.verify)
+    assert {f.name for f in dataclasses.fields(conventions.VerifyRow)} >= {
+        "preset",
+        "library",
+        "version",
+        "worst_error",
+        "detected",
+        "verdict",
+    }
