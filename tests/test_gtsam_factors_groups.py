@@ -386,7 +386,7 @@ def test_pose2_custom_factors_are_batched_and_equal_the_callbacks() -> None:
     from liebridge.gtsam.optimize import _SplitGraph
 
     g = lb.io.g2o2d.read(gtsam.findExampleDataFile("w100_30.g2o"))
-    graph, values = build_2d(g, get("g2o_se2"))
+    graph, values = build_2d(g, get("g2o_se2_edge"))
     split = _SplitGraph(graph, values, batch=True)
     assert split.n_batched == g.edges.shape[0]  # every custom Pose2 factor, none left to GTSAM
     assert split.error(values) == pytest.approx(graph.error(values), rel=1e-12)
@@ -412,9 +412,9 @@ def test_isam2_takes_pose2_custom_factors_through_gtsam() -> None:
     for Z in steps:
         T.append(T[-1] @ Z)
     graph = gtsam.NonlinearFactorGraph()
-    graph.add(prior(0, np.eye(3), np.eye(3) * 1e-6, "g2o_se2", native=False))
+    graph.add(prior(0, np.eye(3), np.eye(3) * 1e-6, "g2o_se2_edge", native=False))
     for k, Z in enumerate(steps):
-        graph.add(between(k, k + 1, Z, np.eye(3) * 1e-2, "g2o_se2", native=False))
+        graph.add(between(k, k + 1, Z, np.eye(3) * 1e-2, "g2o_se2_edge", native=False))
     params = gtsam.ISAM2Params()
     params.relinearizeSkip = 1
     params.setRelinearizeThreshold(1e-9)  # relinearize every step: GN to convergence

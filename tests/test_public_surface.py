@@ -161,3 +161,17 @@ def test_continuous_models_presets_and_methods():
     assert {"basalt", "kontiki", "gtsam_cumulative"} <= set(continuous.SPLINE_PRESETS)
     for meth in ("evaluate", "velocity", "acceleration", "jacobians", "fit"):
         assert callable(getattr(continuous.Spline, meth))
+
+
+def test_conventions_verify_is_a_function_with_the_promised_row_fields():
+    from liebridge import conventions
+
+    assert callable(conventions.verify)
+    assert {f.name for f in dataclasses.fields(conventions.VerifyRow)} >= {
+        "preset",
+        "library",
+        "version",
+        "worst_error",
+        "detected",
+        "verdict",
+    }

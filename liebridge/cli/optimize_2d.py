@@ -5,7 +5,8 @@ The graph is read by :func:`liebridge.io.g2o2d.read` (information over GTSAM's P
 ``--convention`` (default ``gtsam_pose2``), like the 3-D path: native ``gtsam.BetweenFactorPose2``
 when the conversion to GTSAM's tangent is exact (:func:`liebridge.is_exactly_linear`: GTSAM,
 Sophus, manif, jaxlie, Theseus), else liebridge's custom factors with the convention's own
-residual (``g2o_se2``: g2o's ``(x, y, θ)`` of ``Z⁻¹Ti⁻¹Tj``; ``symforce_pose2``, ``ros_pose2``)
+residual (``g2o_se2_edge``: g2o's ``(x, y, θ)`` of ``Z⁻¹Ti⁻¹Tj``; ``g2o_se2``, ``symforce_pose2``,
+``ros_pose2``)
 and each edge's covariance converted to that convention at its measurement; a prior on the first
 vertex fixes the gauge. It is optimized by :func:`liebridge.gtsam.optimize`, and its marginals
 (``gtsam.Marginals``, over GTSAM's Pose2 tangent) are converted to the convention. The plot

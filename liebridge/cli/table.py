@@ -28,7 +28,12 @@ from ._common import option_value
 __all__ = ["add_parser", "evidence_summary", "render", "rows"]
 
 COLUMNS = ("name", "side", "order", "chart", "rotation", "quat", "evidence")
-EVIDENCE_CODES = {"V": "verified by running it", "S": "source", "D": "documentation"}
+EVIDENCE_CODES = {
+    "V": "verified by running it",
+    "S": "source",
+    "D": "documentation",
+    "N": "why it is not run here",
+}
 #: Longest evidence cell in the tables (the JSON keeps the full ``source``).
 EVIDENCE_WIDTH = 76
 
@@ -38,8 +43,10 @@ LEGEND = (
     "rotation and translation perturbed separately, translation increment in the body "
     "(t + R·u) or world (t + u) frame. rotation: `exp` = rotation vector, `half_exp` = half "
     "angle (Ceres), `quat_vec` = quaternion vector part (g2o), `cayley` = Cayley. quat: storage "
-    "order. Evidence: V = checked by running the library, S = read in its source, "
-    "D = documentation; full sources and notes: `liebridge conventions --format json`."
+    "order. Evidence: V = checked by running the library (the version measured; "
+    "`liebridge conventions verify` re-measures your installed versions), S = read in its "
+    "source, D = documentation, N = why no library runs it here; full sources and notes: "
+    "`liebridge conventions --format json`."
 )
 
 
@@ -63,6 +70,9 @@ def evidence_summary(source: str, width: int = EVIDENCE_WIDTH) -> str:
         code, _, text = segment.partition(" ")
         if code not in EVIDENCE_CODES or not text:
             continue  # e.g. a test file path: the JSON has it
+        if code == "N":  # the reason, whole (no file to shorten)
+            parts.append(f"N {_strip_parentheticals(text).strip()}")
+            continue
         text = _strip_parentheticals(text).split(":")[0].split(",")[0].strip()
         parts.append(f"{code} {text}")
     out = "; ".join(parts)
@@ -321,6 +331,10 @@ def _describe_group(c: Chart) -> str:
 
 
 def _run(args: argparse.Namespace) -> int:
+    if args.name == "verify":  # not a preset name: measure the installed libraries
+        from . import verify_cmd
+
+        return verify_cmd.run(args.format)
     if args.name:
         from ._common import convention_arg
 
@@ -344,13 +358,17 @@ def add_parser(sub: Any) -> None:
         "evidence",
         description="List every convention preset with its side, tangent order, chart, rotation "
         "coordinates, quaternion storage order and evidence (V = checked by running the "
-        "library, S = its source, D = documentation). With NAME, show one preset in full.",
+        "library, S = its source, D = documentation). With NAME, show one preset in full. "
+        "'liebridge conventions verify' runs every installed library's own update against its "
+        "presets and prints one row per preset (never importing what is not installed).",
     )
     p.add_argument(
         "name",
         nargs="?",
         metavar="NAME",
-        help="show one preset in full (--format markdown: a table row and a list; json: as JSON)",
+        help="show one preset in full (--format markdown: a table row and a list; json: as JSON); "
+        "'verify': run every installed library against its presets (library, version, worst "
+        "error, detected preset, verdict)",
     )
     p.add_argument(
         "--format",

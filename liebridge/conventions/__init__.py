@@ -31,6 +31,7 @@ from .presets import (
     G2O,
     G2O_EXPMAP,
     G2O_SE2,
+    G2O_SE2_EDGE,
     G2O_SIM3,
     GROUP_PRESETS,
     GTSAM,
@@ -41,6 +42,7 @@ from .presets import (
     GTSAM_SIMILARITY3,
     JAXLIE,
     JAXLIE_SE2,
+    KORNIA,
     LAYOUTS,
     MANIF,
     MANIF_SE2,
@@ -81,6 +83,7 @@ from .state_presets import (
     STATE_PRESETS_15,
     VINS,
 )
+from .verification import VerifyRow, verify
 
 __all__ = [
     "ALL_PRESETS",
@@ -96,6 +99,7 @@ __all__ = [
     "G2O",
     "G2O_EXPMAP",
     "G2O_SE2",
+    "G2O_SE2_EDGE",
     "G2O_SIM3",
     "GROUP_NAMES",
     "GROUP_PRESETS",
@@ -110,6 +114,7 @@ __all__ = [
     "JAXLIE",
     "JAXLIE_SE2",
     "KIMERA",
+    "KORNIA",
     "LAYOUTS",
     "MANIF",
     "MANIF_SE2",
@@ -148,6 +153,7 @@ __all__ = [
     "Sphere",
     "StorageLayout",
     "Vector",
+    "VerifyRow",
     "convert_covariance",
     "convert_information",
     "convert_jacobian",
@@ -164,4 +170,5 @@ __all__ = [
     "single_group",
     "tangent_map",
     "unchecked",
+    "verify",
 ]

@@ -1,8 +1,9 @@
 """Named presets for real libraries, each with its evidence.
 
 Notation: right = ``X·Exp(d)``, left = ``Exp(d)·X``; ``(ω, v)`` = rotation first. Evidence codes as
-in ``docs/library-facts.md``: **V** checked by running the library (and re-checked in
-``tests/test_presets_*.py`` where it installs from PyPI), **S** read in its source, **D** docs.
+in ``docs/library-facts.md``: **V** checked by running the library, with the version measured
+(re-measured by ``tests/test_presets_run.py`` and by ``liebridge conventions verify`` against the
+installed version), **S** read in its source, **D** docs, **N** why no library runs it here.
 Every preset lists the defining identity of its ``retract`` and, where one tempts, a false one.
 A library without quaternions still gets a ``quat_order`` (it never enters a retraction); that is
 said in its notes.
@@ -40,7 +41,7 @@ GTSAM_CAYLEY = Convention(
     rotation="cayley",
     quat_order="wxyz",
     source="S gtsam/geometry/Pose3.cpp ChartAtOrigin, Rot3M.cpp CayleyChart "
-    "(GTSAM_POSE3_EXPMAP=OFF)",
+    "(GTSAM_POSE3_EXPMAP=OFF); N the wheel is an exp build (verify: DIFFERS)",
     notes=(
         "retract(ξ) = (R·Cay(ω), t + R·v), Cay(ω) = (I − hat(ω)/2)⁻¹(I + hat(ω)/2). "
         "False: retract(ξ) = X·Exp(ξ) (agrees only to first order)."
@@ -55,8 +56,9 @@ SOPHUS = Convention(
     chart="se3",
     rotation="exp",
     quat_order="xyzw",
-    source="S Sophus sophus/se3.hpp (SE3::exp, tangent (υ, ω)), sophus/ceres_manifold.hpp "
-    "(T·exp(δ))",
+    source="V projectaria-tools 2.3.0 sophus.SE3 (C++ Sophus exp, log, product), sophuspy "
+    "1.2.0 SE3/SO3; S Sophus sophus/se3.hpp (SE3::exp, tangent (υ, ω)), sophus/ceres_manifold.hpp "
+    "(T·exp(δ): the side)",
     notes=(
         "retract(d) = X·exp(d), d = (υ, ω). SE3::params() = [qx, qy, qz, qw, tx, ty, tz]. "
         "False: d = (ω, υ) as in GTSAM."
@@ -71,7 +73,8 @@ MANIF = Convention(
     chart="se3",
     rotation="exp",
     quat_order="xyzw",
-    source="S manif include/manif/impl/lie_group_base.h (plus = rplus), impl/se3/SE3Tangent.h",
+    source="S manif include/manif/impl/lie_group_base.h (plus = rplus), impl/se3/SE3Tangent.h; "
+    "N no manifpy wheel on PyPI",
     notes=(
         "X.plus(d) = X.rplus(d) = X·Exp(d), d = (ρ, θ); X.minus(Y) = Log(Y⁻¹X). "
         "coeffs = [x, y, z, qx, qy, qz, qw]. False: X.minus(Y) = Log(X⁻¹Y) (argument order)."
@@ -86,7 +89,7 @@ PINOCCHIO = Convention(
     chart="se3",
     rotation="exp",
     quat_order="xyzw",
-    source="V pin 4.1 (integrate/difference on the free-flyer, exp6/log6); "
+    source="V pin 4.1.0 (integrate/difference on the free-flyer, exp6/log6); "
     "tests/test_presets_libs.py",
     notes=(
         "integrate(q, v) = X·exp6(v), v = (linear, angular); q = [x, y, z, qx, qy, qz, qw]. "
@@ -103,7 +106,7 @@ PINOCCHIO_R3XSO3 = Convention(
     chart="so3xr3_world",
     rotation="exp",
     quat_order="xyzw",
-    source="V pin 4.1 liegroups R3×SO3 (integrate/difference); tests/test_presets_libs.py",
+    source="V pin 4.1.0 liegroups R3×SO3 (integrate/difference); tests/test_presets_libs.py",
     notes=(
         "integrate(q, d) = (t + u, R·Exp(ω)), d = (u, ω): translation added in the world frame. "
         "False: integrate = X·exp6(d)."
@@ -118,7 +121,7 @@ JAXLIE = Convention(
     chart="se3",
     rotation="exp",
     quat_order="wxyz",
-    source="V jaxlie 1.5 (SE3.rplus/exp); S jaxlie/_se3.py",
+    source="V jaxlie 1.5.0 (manifold.rplus/rminus on SE3); S jaxlie/_se3.py",
     notes="rplus(X, d) = X·exp(d), d = (v, ω); SE3.wxyz_xyz = [qw, qx, qy, qz, x, y, z].",
 )
 """jaxlie: right (``rplus``), (v, ω), SE(3) exp; storage ``wxyz_xyz``."""
@@ -130,7 +133,8 @@ THESEUS = Convention(
     chart="se3",
     rotation="exp",
     quat_order="wxyz",
-    source="S theseus/geometry/se3.py (retract = compose(exp_map)), quaternion helpers wxyz",
+    source="V theseus-ai 0.2.3 (SE3.retract/local); S theseus/geometry/se3.py (retract = "
+    "compose(exp_map)), quaternion helpers wxyz",
     notes="retract(X, d) = X·exp(d), d = (v, ω).",
 )
 """Theseus: right, (v, ω), SE(3) exp; quaternions wxyz."""
@@ -142,8 +146,8 @@ PYPOSE = Convention(
     chart="se3",
     rotation="exp",
     quat_order="xyzw",
-    source="S pypose/lietensor/lietensor.py (Retr = Exp(d)·X), storage [tx, ty, tz, qx, qy, "
-    "qz, qw]",
+    source="V pypose 0.9.5 (SE3 Retr, Log); S pypose/lietensor/lietensor.py (Retr = Exp(d)·X), "
+    "storage [tx, ty, tz, qx, qy, qz, qw]",
     notes="X.Retr(d) = Exp(d)·X (left), d = (τ, φ). False: X·Exp(d).",
 )
 """PyPose: left, (v, ω), SE(3) exp; storage translation then xyzw."""
@@ -156,7 +160,7 @@ BARFOOT = Convention(
     rotation="exp",
     quat_order="wxyz",
     source="V utiasSTARS liegroups (source package) SE3.perturb; D Barfoot, State Estimation for "
-    "Robotics, 2nd ed., §7.1.7 (ξ = (ρ, φ))",
+    "Robotics, 2nd ed., §7.1.7 (ξ = (ρ, φ)); N not on the package index",
     notes=(
         "perturb: T ← Exp(ξ)·T, ξ = (ρ, φ) (left, translation first). False: the utiasSTARS "
         "package is `pip install liegroups` — that name on PyPI is an unrelated package."
@@ -171,7 +175,7 @@ PYTRANSFORM3D_GLOBAL = Convention(
     chart="se3",
     rotation="exp",
     quat_order="wxyz",
-    source="V pytransform3d 3.17 concat_globally_uncertain_transforms (Monte Carlo); "
+    source="V pytransform3d 3.17.0 concat_globally_uncertain_transforms (Monte Carlo); "
     "tests/test_presets_libs.py",
     notes=(
         "Global uncertainty: T = Exp(ξ)·T̄, ξ = (ω, v) (exponential coordinates, rotation first). "
@@ -187,7 +191,7 @@ PYTRANSFORM3D_LOCAL = Convention(
     chart="se3",
     rotation="exp",
     quat_order="wxyz",
-    source="V pytransform3d 3.17 concat_locally_uncertain_transforms; tests/test_presets_libs.py",
+    source="V pytransform3d 3.17.0 concat_locally_uncertain_transforms; tests/test_presets_libs.py",
     notes="Local uncertainty: T = T̄·Exp(ξ), ξ = (ω, v) — identical to GTSAM's tangent.",
 )
 """pytransform3d "local" uncertainty: right, (ω, v), SE(3) exp (same fields as GTSAM)."""
@@ -199,7 +203,8 @@ SYMFORCE = Convention(
     chart="so3xr3_world",
     rotation="exp",
     quat_order="xyzw",
-    source="V symforce 0.12; S symforce/geo/pose3.py docstring (retract is not a group op)",
+    source="V symforce-sym 0.12.0 (Pose3/Rot3 retract, local_coordinates); S "
+    "symforce/geo/pose3.py docstring (retract is not a group op)",
     notes=(
         "Pose3.retract(a, v) = (R·Exp(ω), t + v), v = (ω, t). Stated by symforce itself: "
         "retract(a, v) != compose(a, from_tangent(v)). Storage [qx, qy, qz, qw, x, y, z]."
@@ -214,7 +219,8 @@ CERES_QUATERNION = Convention(
     chart="so3xr3_world",
     rotation="half_exp",
     quat_order="wxyz",
-    source="V pyceres (Ceres 2.2.0) QuaternionManifold; S include/ceres/manifold.h",
+    source="V pyceres 2.6 (Ceres 2.2.0) QuaternionManifold, one Gauss–Newton step; "
+    "S include/ceres/manifold.h",
     notes=(
         "SO(3) manifold: Plus(q, δ) = q(δ) ⊗ q, q(δ) = [cos‖δ‖, sin‖δ‖·δ/‖δ‖]: the rotation angle "
         "is 2‖δ‖ (half-angle tangent, left). Storage [w, x, y, z]. False: Plus = q ⊗ exp(δ) "
@@ -231,7 +237,8 @@ CERES_EIGEN_QUATERNION = Convention(
     chart="so3xr3_world",
     rotation="half_exp",
     quat_order="xyzw",
-    source="V pyceres (Ceres 2.2.0) EigenQuaternionManifold; S include/ceres/manifold.h",
+    source="V pyceres 2.6 (Ceres 2.2.0) EigenQuaternionManifold, one Gauss–Newton step; "
+    "S ceres/manifold.h",
     notes="As ceres_quaternion, with Eigen's storage [x, y, z, w].",
 )
 """Ceres ``EigenQuaternionManifold`` (2.2): left, half angle, xyzw."""
@@ -243,8 +250,9 @@ CERES_POSE = Convention(
     chart="so3xr3_world",
     rotation="half_exp",
     quat_order="wxyz",
-    source="S include/ceres/product_manifold.h; ProductManifold<QuaternionManifold, "
-    "EuclideanManifold<3>> over a [qw, qx, qy, qz, x, y, z] block",
+    source="V pyceres 2.6 (Ceres 2.2.0) QuaternionManifold × Euclidean<3>, one Gauss–Newton "
+    "step; S include/ceres/product_manifold.h (ProductManifold<QuaternionManifold, "
+    "EuclideanManifold<3>> over a [qw, qx, qy, qz, x, y, z] block)",
     notes=(
         "Plus((q, t), (δ, u)) = (q(δ) ⊗ q, t + u): left half-angle rotation, world translation, "
         "rotation block first (the product's order; reverse it for a [t, q] block)."
@@ -259,7 +267,8 @@ G2O = Convention(
     chart="so3xr3_body",
     rotation="quat_vec",
     quat_order="xyzw",
-    source="V g2opy 2.3; S g2o types/slam3d/vertex_se3.h (oplusImpl: _estimate * increment), "
+    source="V g2opy 2.3.0 (VertexSE3.oplus, EdgeSE3 error); S g2o types/slam3d/vertex_se3.h "
+    "(oplusImpl: _estimate * increment), "
     "edge_se3.cpp, isometry3d_mappings.cpp (toVectorMQT/fromVectorMQT)",
     notes=(
         "VertexSE3 oplus: X ← X·[R(q(r)), u], q(r) = (sqrt(1 − ‖r‖²), r): d = (u, r), r the "
@@ -277,7 +286,7 @@ G2O_EXPMAP = Convention(
     chart="se3",
     rotation="exp",
     quat_order="xyzw",
-    source="V g2opy 2.3 VertexSE3Expmap; S g2o types/sba/vertex_se3_expmap.cpp "
+    source="V g2opy 2.3.0 VertexSE3Expmap; S g2o types/sba/vertex_se3_expmap.cpp "
     "(setEstimate(SE3Quat::exp(update) * estimate()))",
     notes="VertexSE3Expmap (ORB-SLAM style) oplus: X ← Exp(ξ)·X, ξ = (ω, v).",
 )
@@ -291,7 +300,8 @@ ROS = Convention(
     rotation="exp",
     quat_order="xyzw",
     source="S geometry_msgs/PoseWithCovariance.msg (noetic, ROS 2): covariance over "
-    "(x, y, z, rotX, rotY, rotZ), rotations about the parent frame's fixed axes",
+    "(x, y, z, rotX, rotY, rotZ), rotations about the parent frame's fixed axes; N a message, "
+    "no update to run",
     notes=(
         "ROS defines no retraction; this preset's retract (t + u, Exp(ω)·R) is the one whose "
         "first-order map reproduces the message semantics: from GTSAM's tangent, "
@@ -308,7 +318,7 @@ MR_BODY = Convention(
     chart="se3",
     rotation="exp",
     quat_order="wxyz",
-    source="V modern_robotics package (MatrixExp6, body twist); D Lynch & Park, Modern "
+    source="V modern-robotics 1.1.1 (MatrixExp6/MatrixLog6, body twist); D Lynch & Park, Modern "
     "Robotics §3.3",
     notes="Body twist V_b = (ω_b, v_b): T·e^[V_b]. No quaternions (quat_order unused).",
 )
@@ -321,11 +331,28 @@ MR_SPACE = Convention(
     chart="se3",
     rotation="exp",
     quat_order="wxyz",
-    source="V modern_robotics package (MatrixExp6, space twist); D Lynch & Park, Modern "
+    source="V modern-robotics 1.1.1 (MatrixExp6/MatrixLog6, space twist); D Lynch & Park, Modern "
     "Robotics §3.3",
     notes="Space twist V_s = (ω_s, v_s): e^[V_s]·T; V_s = Ad_T V_b. No quaternions.",
 )
 """Modern Robotics space twist: left, (ω, v), SE(3) exp."""
+
+KORNIA = Convention(
+    name="kornia",
+    side="right",
+    order="trans_first",
+    chart="se3",
+    rotation="exp",
+    quat_order="wxyz",
+    source="V kornia 0.9.0 (Se3.exp/log, composition); S kornia/geometry/liegroup/se3.py",
+    notes=(
+        "Se3.exp(v), v = (translation part, rotation vector) = (v, ω); Se3.r is a Quaternion "
+        "stored wxyz. kornia has no update: the side is the one Sophus's (which kornia's Se3 "
+        "follows) uses, X·exp(v); the order and the exponential are kornia's. False: "
+        "v = (ω, v) as in GTSAM."
+    ),
+)
+"""kornia ``Se3``: (v, ω), SE(3) exp, quaternions wxyz (no update: right, as Sophus)."""
 
 #: All presets, in registry order (ties in :func:`detect_convention` resolve to the first).
 PRESETS: tuple[Convention, ...] = (
@@ -350,6 +377,7 @@ PRESETS: tuple[Convention, ...] = (
     ROS,
     MR_BODY,
     MR_SPACE,
+    KORNIA,
 )
 
 
@@ -434,8 +462,8 @@ SOPHUS_SE2 = Convention(
     rotation="exp",
     quat_order="xyzw",
     group="se2",
-    source="S Sophus sophus/se2.hpp (SE2::exp, tangent (υ, θ)), sophus/ceres_manifold.hpp "
-    "(T·exp(δ))",
+    source="V sophuspy 1.2.0 (SE2.exp/log, product, numpy < 2); S Sophus sophus/se2.hpp "
+    "(SE2::exp, tangent (υ, θ)), sophus/ceres_manifold.hpp (T·exp(δ): the side)",
     notes="retract(d) = X·exp(d), d = (υ1, υ2, θ); SE2::params() = [Re(z), Im(z), x, y].",
 )
 """Sophus ``SE2``: right, (υ, θ), SE(2) exp."""
@@ -448,7 +476,8 @@ SOPHUS_SIM3 = Convention(
     rotation="exp",
     quat_order="xyzw",
     group="sim3",
-    source="S Sophus sophus/sim3.hpp (Sim3::exp, tangent (υ, ω, σ)), sophus/ceres_manifold.hpp",
+    source="S Sophus sophus/sim3.hpp (Sim3::exp, tangent (υ, ω, σ)), sophus/ceres_manifold.hpp; "
+    "N sophuspy binds no Sim3",
     notes=(
         "retract(d) = X·exp(d), d = (υ, ω, σ); Sim3::matrix() = [sR t; 0 1] (liebridge's). "
         "False: d = (σ, ...) scale first; the scale is stored in the quaternion's norm (s = |q|²)."
@@ -465,7 +494,7 @@ MANIF_SE2 = Convention(
     quat_order="xyzw",
     group="se2",
     source="S manif include/manif/impl/se2/SE2Tangent_base.h (x, y, angle), "
-    "impl/lie_group_base.h (plus = rplus)",
+    "impl/lie_group_base.h (plus = rplus); N no manifpy wheel on PyPI",
     notes="X.plus(d) = X·Exp(d), d = (ρx, ρy, θ); coeffs = [x, y, cos θ, sin θ]. "
     "False: X.minus(Y) = Log(X⁻¹Y) (it is Log(Y⁻¹X)).",
 )
@@ -480,7 +509,7 @@ MANIF_SE23 = Convention(
     quat_order="xyzw",
     group="se23",
     source="S manif include/manif/impl/se_2_3/SE_2_3Tangent_base.h (ρ, ν, θ), "
-    "impl/lie_group_base.h (plus = rplus)",
+    "impl/lie_group_base.h (plus = rplus); N no manifpy wheel on PyPI",
     notes=(
         "X.plus(d) = X·Exp(d), d = (ρ, ν, θ) = (position, velocity, rotation) parts, coupled "
         "SE₂(3) exponential. False: manif's plus equals GTSAM's NavState.retract (that one is "
@@ -497,8 +526,8 @@ JAXLIE_SE2 = Convention(
     rotation="exp",
     quat_order="wxyz",
     group="se2",
-    source="S jaxlie/_se2.py (tangent (vx, vy, omega)), jaxlie/manifold/_manifold_helpers.py "
-    "(rplus = X @ exp(d))",
+    source="V jaxlie 1.5.0 (manifold.rplus/rminus on SE2); S jaxlie/_se2.py (tangent (vx, vy, "
+    "omega)), jaxlie/manifold/_manifold_helpers.py (rplus = X @ exp(d))",
     notes="rplus(X, d) = X·exp(d), d = (vx, vy, ω); SE2.unit_complex_xy = [cos, sin, x, y].",
 )
 """jaxlie ``SE2``: right, (vx, vy, ω), SE(2) exp."""
@@ -511,7 +540,7 @@ SYMFORCE_POSE2 = Convention(
     rotation="exp",
     quat_order="xyzw",
     group="se2",
-    source="V symforce-sym 0.12 (sym.Pose2.retract); S sym/ops/pose2/lie_group_ops.py",
+    source="V symforce-sym 0.12.0 (sym.Pose2.retract); S sym/ops/pose2/lie_group_ops.py",
     notes=(
         "Pose2.retract(d) = (R·Exp(θ), t + (x, y)), d = (θ, x, y): rotation first, translation "
         "added in the world frame. False: retract(d) = X·Exp(d). Storage [cos, sin, x, y]."
@@ -527,7 +556,8 @@ THESEUS_SE2 = Convention(
     rotation="exp",
     quat_order="wxyz",
     group="se2",
-    source="S theseus/geometry/se2.py (exp_map of (ux, uy, θ), retract = compose with exp_map)",
+    source="V theseus-ai 0.2.3 (SE2.retract/local); S theseus/geometry/se2.py (exp_map of "
+    "(ux, uy, θ), retract = compose with exp_map)",
     notes="retract(X, d) = X·exp(d), d = (ux, uy, θ); storage [x, y, cos, sin].",
 )
 """Theseus ``SE2``: right, (u, θ), SE(2) exp."""
@@ -536,19 +566,45 @@ G2O_SE2 = Convention(
     name="g2o_se2",
     side="right",
     order="trans_first",
+    chart="split_world",
+    rotation="exp",
+    quat_order="xyzw",
+    group="se2",
+    source="V g2opy 2.3.0 (VertexSE2.oplus); S g2o/types/slam2d/vertex_se2.h (oplusImpl: "
+    "t += update.head<2>(), angle = normalize_theta(angle + update[2]))",
+    notes=(
+        "The vertex chart, the one g2o's marginals and solver increments live in: "
+        "oplus(d) = (t + (dx, dy), θ + dθ), d = (dx, dy, dθ): translation added in the world "
+        "frame, angle added. False: oplus(d) = X·SE2(dx, dy, dθ) (body frame) — that is the "
+        "chart of g2o's EDGE_SE2 error toVector(Z⁻¹·Xi⁻¹·Xj), preset g2o_se2_edge. g2o's SE(2) "
+        "vertex chart and its edge-error chart differ: the vertex adds coordinates, the edge "
+        "measures the relative pose in the first pose's frame. Convert g2o vertex covariances "
+        "(marginals) with g2o_se2; write factors whose residual is g2o's edge error with "
+        "g2o_se2_edge. No quaternions."
+    ),
+)
+"""g2o ``VertexSE2`` update: (dx, dy, dθ), world-frame translation increment, angle added."""
+
+G2O_SE2_EDGE = Convention(
+    name="g2o_se2_edge",
+    side="right",
+    order="trans_first",
     chart="split_body",
     rotation="exp",
     quat_order="xyzw",
     group="se2",
-    source="S g2o/types/slam2d/vertex_se2.h (oplusImpl: estimate * SE2(update)), "
-    "types/slam2d/se2.h (operator*)",
+    source="V g2opy 2.3.0 (EdgeSE2.compute_error); S g2o/types/slam2d/edge_se2.h (computeError: "
+    "toVector(Z⁻¹·Xi⁻¹·Xj)), types/slam2d/se2.h (operator*, toVector)",
     notes=(
-        "oplus(d) = X·SE2(dx, dy, dθ) = (R·Rot(dθ), t + R·(dx, dy)): the pose product with an "
-        "SE2 built from (x, y, θ) directly, not the exponential. False: X·Exp(d) (equal to first "
-        "order only)."
+        "The chart of g2o's EDGE_SE2 error: e = local(Z, Xi⁻¹·Xj) = toVector(Z⁻¹·Xi⁻¹·Xj), "
+        "retract(X, d) = X·SE2(dx, dy, dθ) = (R·Rot(dθ), t + R·(dx, dy)): an SE2 built from "
+        "(x, y, θ) directly (body frame), not the exponential. The 2-D file reader and "
+        "factors with g2o's residual use it. False: it is the chart of VertexSE2.oplus (that "
+        "adds the translation in the world frame: preset g2o_se2); X·Exp(d) (equal to first "
+        "order only). No quaternions."
     ),
 )
-"""g2o ``VertexSE2``: (dx, dy, dθ), body-frame translation increment (split)."""
+"""g2o ``EDGE_SE2`` error chart: (dx, dy, dθ) of ``Z⁻¹·Xi⁻¹·Xj``, body-frame translation (split)."""
 
 G2O_SIM3 = Convention(
     name="g2o_sim3",
@@ -558,7 +614,8 @@ G2O_SIM3 = Convention(
     rotation="exp",
     quat_order="xyzw",
     group="sim3",
-    source="S g2o/types/sim3/types_seven_dof_expmap.h (VertexSim3Expmap::oplusImpl: "
+    source="V g2opy 2.3.0 (VertexSim3Expmap.oplus, Sim3.log); S "
+    "g2o/types/sim3/types_seven_dof_expmap.h (VertexSim3Expmap::oplusImpl: "
     "Sim3(update)·estimate), types/sim3/sim3.h (Sim3(const Vector7&): ω, υ, σ)",
     notes=(
         "oplus(d) = Exp(d)·X (left), d = (ω, υ, σ). False: X·Exp(d) (g2o's SE3Expmap vertex is "
@@ -575,8 +632,8 @@ PYPOSE_SIM3 = Convention(
     rotation="exp",
     quat_order="xyzw",
     group="sim3",
-    source="S pypose/lietensor/lietensor.py (Retr = Exp(d)·X), storage [tx, ty, tz, qx, qy, qz, "
-    "qw, s]",
+    source="V pypose 0.9.5 (Sim3 Retr, Log); S pypose/lietensor/lietensor.py (Retr = Exp(d)·X), "
+    "storage [tx, ty, tz, qx, qy, qz, qw, s]",
     notes="X.Retr(d) = Exp(d)·X (left), d = (τ, φ, σ). False: X·Exp(d).",
 )
 """PyPose ``Sim3``: left, (τ, φ, σ), Sim(3) exp."""
@@ -591,7 +648,7 @@ ROS_POSE2 = Convention(
     group="se2",
     embed=Embed(index=(0, 1, 5), size=6),
     source="D REP 103/105, geometry_msgs/PoseWithCovariance.msg (6×6 row-major, (x, y, z, "
-    "rot X, rot Y, rot Z), parent frame)",
+    "rot X, rot Y, rot Z), parent frame); N a message, no update to run",
     notes=(
         "A planar pose inside the 6×6 PoseWithCovariance: (x, y, yaw) at rows/columns (0, 1, 5), "
         "x, y in the parent frame, yaw variance at flat index 35; z, roll, pitch rows/columns are "
@@ -612,6 +669,7 @@ GROUP_PRESETS: tuple[Convention, ...] = (
     SYMFORCE_POSE2,
     THESEUS_SE2,
     G2O_SE2,
+    G2O_SE2_EDGE,
     ROS_POSE2,
     GTSAM_SIMILARITY3,
     SOPHUS_SIM3,

@@ -11,7 +11,7 @@ gets the custom factor: GTSAM 4.3.0's ``BetweenFactorSimilarity3``/``PriorFactor
 linearize with the zero-residual Jacobians (see :mod:`liebridge.gtsam.pose_factors`).
 
 Every group: the wrapper's variables are of its convention's group — ``Pose3`` (SE(3)),
-``Pose2`` (SE(2), e.g. ``ConventionGraph("g2o_se2")``), ``Similarity3`` (Sim(3)), ``NavState``
+``Pose2`` (SE(2), e.g. ``ConventionGraph("g2o_se2_edge")``), ``Similarity3`` (Sim(3)), ``NavState``
 (SE₂(3)) — and poses go in and come out as liebridge's matrices of that group (``(3, 3)`` for
 SE(2), ``[sR t; 0 1]`` for Sim(3), ``(5, 5)`` for SE₂(3)).
 """

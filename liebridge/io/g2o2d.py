@@ -19,7 +19,7 @@ over **GTSAM's Pose2 tangent** of the edge error, ``ξ = (vx, vy, ω) = Logmap(Z
     g2o's error is ``(x, y, θ)`` of ``Z⁻¹·Ti⁻¹·Tj`` (``SE2::toVector``); GTSAM's is
     ``Logmap`` of the same pose, whose translation is ``V(ω)⁻¹·(x, y)``. The two agree to first
     order at zero error (``V(0) = I``): the information matrix is the same in both readings, the
-    objectives differ at second order (a factor in the ``g2o_se2`` convention keeps g2o's own).
+    objectives differ at second order (a factor in the ``g2o_se2_edge`` convention keeps g2o's own).
     Unlike the 3-D ``EDGE_SE3:QUAT`` (whose quaternion-vector error is half the angle) there is no
     rescaling trap here.
 
