@@ -165,7 +165,7 @@ def detect_convention(
         canon = Convention(  # the group's canonical tangent: right, its order, its exp
             "canonical",
             "right",
-            g.canonical_order,  # type: ignore[arg-type]
+            g.canonical_order,
             g.coupled_chart,
             "exp",
             "wxyz",

@@ -34,10 +34,12 @@ from typing import Any
 import numpy as np
 
 from .._validate import FloatArray
+from ..lie import group as lie_group
+from ..lie import se3
 from .convention import Convention
 from .detect import ConventionNotDetected, detect_convention, matches_so3
 from .presets import ALL_PRESETS
-from .registry import get
+from .registry import get, single_group
 
 __all__ = ["CHECKS", "NOT_RUNNABLE", "Check", "Ops", "VerifyRow", "measure", "verify"]
 
@@ -418,7 +420,7 @@ def _jaxlie(kind: str) -> Callable[[Any], Ops]:
         import jax  # jaxlie's own dependency
         import jax.numpy as jnp
 
-        cls = jaxlie.SE3 if kind == "se3" else jaxlie.SE2
+        cls = jaxlie.SE3 if _is(kind, se3) else jaxlie.SE2
 
         def G(X: FloatArray) -> Any:
             return cls.from_matrix(jnp.asarray(X))
@@ -531,9 +533,9 @@ def _pypose(kind: str) -> Callable[[Any], Ops]:
 
         def G(X: FloatArray) -> Any:
             M = torch.tensor(X, dtype=torch.float64)
-            return pp.mat2SE3(M, check=False) if kind == "se3" else pp.mat2Sim3(M, check=False)
+            return pp.mat2SE3(M, check=False) if _is(kind, se3) else pp.mat2Sim3(M, check=False)
 
-        tangent = pp.se3 if kind == "se3" else pp.sim3
+        tangent = pp.se3 if _is(kind, se3) else pp.sim3
 
         def retract(X: FloatArray, d: FloatArray) -> FloatArray:
             return _np(G(X).Retr(tangent(torch.tensor(d, dtype=torch.float64))).matrix())
@@ -551,7 +553,7 @@ def _theseus(kind: str) -> Callable[[Any], Ops]:
         import torch  # theseus's own dependency
 
         def G(X: FloatArray) -> Any:
-            if kind == "se3":
+            if _is(kind, se3):
                 return th.SE3(tensor=torch.tensor(X[None, :3, :], dtype=torch.float64))
             v = np.array([X[0, 2], X[1, 2], X[0, 0], X[1, 0]])
             return th.SE2(tensor=torch.tensor(v[None], dtype=torch.float64))
@@ -922,15 +924,16 @@ def _rot_coords(conv: Convention, axis: FloatArray, theta: float) -> FloatArray:
 
 def _tangent(conv: Convention, group: str, theta: float, rng: np.random.Generator) -> FloatArray:
     """Return an increment in ``conv``'s own tangent whose rotation angle is ``theta``."""
-    if group in ("so2", "se2"):
+    g = lie_group(group)
+    if g.rot_dim == 1:
         rot = np.array([theta * rng.choice([-1.0, 1.0])])
     else:
         axis = rng.normal(size=3)
         rot = _rot_coords(conv, axis / np.linalg.norm(axis), theta)
-    k = {"so3": 0, "so2": 0, "se2": 2, "se3": 3, "sim3": 3, "se23": 6}[group]
+    k = sum(sl.stop - sl.start for sl in g.vecs)  # the vector coordinates
     vec = rng.normal(size=k) * 2.0
     d = np.r_[rot, vec] if conv.order == "rot_first" else np.r_[vec, rot]
-    if group == "sim3":
+    if g.scale is not None:
         d = np.r_[d, rng.normal() * 0.3]
     if conv.embed is not None:
         d = np.zeros(conv.embed.size)
@@ -938,15 +941,19 @@ def _tangent(conv: Convention, group: str, theta: float, rng: np.random.Generato
     return d
 
 
-_HUB = {"se3": "gtsam", "so3": "gtsam", "so2": "gtsam_rot2", "se2": "gtsam_pose2"}
-_HUB |= {"sim3": "gtsam_similarity3", "se23": "gtsam_navstate"}
-_IDENTITY = {"se3": 4, "so3": 3, "so2": 2, "se2": 3, "sim3": 4, "se23": 5}
+def _is(group: str, module: Any) -> bool:
+    """Whether ``group`` names the group of ``module`` (``lie.se3``, ...): its record."""
+    return lie_group(group) is module.GROUP
 
 
 def _element(group: str, theta: float, rng: np.random.Generator) -> FloatArray:
-    hub = get(_HUB[group])
+    """Return an element whose rotation angle is ``theta`` (Exp of a tangent at the identity)."""
+    g = lie_group(group)
+    hub = Convention(  # the group's own exponential, on the right, in its canonical order
+        "hub", "right", g.canonical_order, g.coupled_chart, "exp", "wxyz", group=g.name
+    )
     xi = _tangent(hub, group, theta, rng)
-    return hub.retract(np.eye(_IDENTITY[group]), xi)
+    return hub.retract(g.identity(), xi)
 
 
 #: Rotation angles of the elements and of the increments: 0, tiny, generic, near π.
@@ -992,7 +999,7 @@ def measure(check: Check, ops: Ops, seed: int = 0) -> tuple[float, str, float, s
     Returns ``(generic worst, where, edge worst, where)``; edges are angles near 0 (not 0) and
     near π, where libraries lose accuracy in their own series and branches.
     """
-    conv = get(check.preset)
+    conv = single_group(get(check.preset))
     group = _group_of(check, conv)
     rng = np.random.default_rng(seed)
     worst = {False: (0.0, ""), True: (0.0, "")}
@@ -1013,17 +1020,18 @@ def measure(check: Check, ops: Ops, seed: int = 0) -> tuple[float, str, float, s
 
 
 def _detect(check: Check, ops: Ops) -> Convention | None:
-    conv = get(check.preset)
+    conv = single_group(get(check.preset))
     group = _group_of(check, conv)
     try:
-        return detect_convention(ops.retract, group=group, prefer=check.preset)  # type: ignore[arg-type]
+        return detect_convention(ops.retract, group=group, prefer=check.preset)
     except ConventionNotDetected:
         return None
 
 
 def _same(check: Check, conv: Convention, found: Convention) -> list[str]:
     """Fields of ``conv`` the detected convention differs in (rotations: side and rotation)."""
-    names = ("side", "rotation") if check.on == "so3" else ("side", "order", "chart", "rotation")
+    rotation_only = bool(check.on) and not lie_group(check.on).cols
+    names = ("side", "rotation") if rotation_only else ("side", "order", "chart", "rotation")
     return [
         f"{n} (measured {getattr(found, n)}, preset {getattr(conv, n)})"
         for n in names
@@ -1038,7 +1046,7 @@ def _verdict(
     found: Convention | None,
     tol: float,
 ) -> str:
-    conv = get(check.preset)
+    conv = single_group(get(check.preset))
     if found is None:
         return "DIFFERS: no convention of the model reproduces the library's update"
     variants = dict(check.variants)
@@ -1057,7 +1065,7 @@ def _verdict(
 def _detected_name(check: Check, found: Convention | None) -> str | None:
     if found is None:
         return None
-    if check.on == "so3":
+    if check.on and not lie_group(check.on).cols:  # a rotation: side and rotation coordinates
         same = [c.name for c in matches_so3(found)]
         return check.preset if check.preset in same else found.name
     return found.name

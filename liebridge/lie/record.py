@@ -32,7 +32,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -215,7 +215,7 @@ class Group:
         return np.array((rot + vec if order == "rot_first" else vec + rot) + tail)
 
     @property
-    def canonical_order(self) -> str:
+    def canonical_order(self) -> Literal["rot_first", "trans_first"]:
         """``rot_first`` if the canonical tangent starts with the rotation, else ``trans_first``."""
         return "rot_first" if self.rot is None or self.rot.start == 0 else "trans_first"
 
