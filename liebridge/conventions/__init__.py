@@ -64,6 +64,7 @@ from .presets import (
     THESEUS_SE2,
     StorageLayout,
 )
+from .registration_presets import REGISTRATION_PRESETS
 from .registry import ConventionLike, get, matching_presets, names
 from .sphere import Sphere
 from .state_presets import (
@@ -125,6 +126,7 @@ __all__ = [
     "PYPOSE_SIM3",
     "PYTRANSFORM3D_GLOBAL",
     "PYTRANSFORM3D_LOCAL",
+    "REGISTRATION_PRESETS",
     "ROS",
     "ROS_POSE2",
     "SOPHUS",

@@ -6,9 +6,12 @@ import difflib
 
 from .convention import Convention
 from .presets import ALL_PRESETS
+from .registration_presets import REGISTRATION_PRESETS
 from .state_presets import STATE_PRESETS
 
-_REGISTRY: dict[str, Convention] = {c.name: c for c in (*ALL_PRESETS, *STATE_PRESETS)}
+_REGISTRY: dict[str, Convention] = {
+    c.name: c for c in (*ALL_PRESETS, *STATE_PRESETS, *REGISTRATION_PRESETS)
+}
 
 ConventionLike = Convention | str
 
