@@ -25,7 +25,7 @@ FLOORS: list[set[str]] = [
     {"conventions"},
     {"uncertain"},
     {"check", "io"},
-    {"frames", "traj"},
+    {"frames", "traj", "registration"},
     {"gtsam"},
     {"imu"},
     {"ros"},

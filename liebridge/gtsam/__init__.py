@@ -17,6 +17,7 @@ from .isam2 import ISAM2
 from .marginals import marginals
 from .optimize import OptimizeResult, optimize
 from .pose_factors import between, prior
+from .registration import registration_factor
 
 __all__ = [
     "ISAM2",
@@ -30,6 +31,7 @@ __all__ = [
     "marginals",
     "optimize",
     "prior",
+    "registration_factor",
     "to_pose3",
     "to_values",
 ]

@@ -1,4 +1,4 @@
-"""Point-cloud registration into pose graphs: residuals, Jacobians and information in any convention.
+"""Point-cloud registration into pose graphs: residuals, Jacobians, information, any convention.
 
 ``T = T_target_source`` throughout (``q ≈ T·p`` maps a source point into the target frame). The
 Jacobians are over any SE(3) convention's tangent of ``T``; :func:`information` is the

@@ -17,7 +17,7 @@ _TRIU = np.triu_indices(6)
 
 
 def g2o_edge(id_target: Any, id_source: Any, result: UncertainPose) -> str:
-    """The ``EDGE_SE3:QUAT id_target id_source`` line of a registration result.
+    """Return the ``EDGE_SE3:QUAT id_target id_source`` line of a registration result.
 
     g2o's ``EdgeSE3`` between vertices ``i = target``, ``j = source`` (poses ``T_world_i``) has
     the error ``toVectorMQT(Z⁻¹·Ti⁻¹·Tj)`` over ``(x, y, z, qx, qy, qz)`` (preset ``g2o``), so
@@ -40,7 +40,9 @@ def g2o_edge(id_target: Any, id_source: Any, result: UncertainPose) -> str:
     """
     if not isinstance(result, UncertainPose) or result.is_rotation or result.batch_shape:
         raise TypeError("result: expected one UncertainPose of a pose (unbatched)")
-    ids = [validate.key(k, name) for k, name in ((id_target, "id_target"), (id_source, "id_source"))]
+    ids = [
+        validate.key(k, name) for k, name in ((id_target, "id_target"), (id_source, "id_source"))
+    ]
     info = convert_information(np.linalg.inv(result.cov), result.T, result.convention, "g2o")
     info = 0.5 * (info + info.T)
     x = layouts.from_matrix(result.T, layout="xyz_qxyzw")

@@ -113,7 +113,7 @@ def _labels(conv: Convention) -> list[str]:
 
 
 def unobservable_directions(H: Any, convention: ConventionLike = "gtsam") -> list[str]:
-    """The near-null directions of a 6×6 Hessian, described in ``convention``'s coordinates.
+    """Describe the near-null directions of a 6×6 Hessian in ``convention``'s coordinates.
 
     A direction is an eigenvector whose eigenvalue is below :data:`DEGENERATE_RTOL` times the
     largest; each is written as its components above 0.1, e.g. ``"+1.00·vx +0.00·vy"``.
@@ -148,7 +148,7 @@ def _raise_if_degenerate(H: FloatArray, conv: Convention, name: str) -> None:
 
 
 def nees_scale(errors: Any, covariances: Any) -> float:
-    """The covariance factor that makes a held-out set consistent: ``mean(eᵀΣ⁻¹e) / dim``.
+    """Return the covariance factor that makes a held-out set consistent: ``mean(eᵀΣ⁻¹e)/dim``.
 
     Parameters
     ----------
@@ -205,7 +205,7 @@ def information(
     inflate: Any = None,
     holdout: Any = None,
 ) -> RegistrationPose:
-    """The information of an alignment, as an uncertain ``T_target_source`` in ``convention``.
+    """Return the information of an alignment: an uncertain ``T_target_source`` in ``convention``.
 
     ``Λ = Σᵢ JᵢᵀWᵢJᵢ / σ²`` — the Gauss–Newton Hessian of ``½Σ rᵀWr/σ²`` at ``T`` with the
     Jacobians over ``convention``'s tangent (:func:`point_to_point`, :func:`point_to_plane`,

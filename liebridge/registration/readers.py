@@ -72,7 +72,7 @@ def from_open3d(
     source: Any = None,
     target: Any = None,
 ) -> RegistrationPose:
-    """An Open3D registration as an uncertain ``T_target_source`` in ``convention``.
+    """Read an Open3D registration as an uncertain ``T_target_source`` in ``convention``.
 
     Parameters
     ----------
@@ -119,9 +119,7 @@ def from_open3d(
                     f"{name} has {n} points: not the cloud the result was computed from"
                 )
         Tm = np.asarray(result_or_information.transformation, dtype=np.float64)
-        return information(
-            Tm, p[idx[:, 0]], q[idx[:, 1]], sigma=sigma, convention=convention
-        )
+        return information(Tm, p[idx[:, 0]], q[idx[:, 1]], sigma=sigma, convention=convention)
     pair = _pair(result_or_information, "result_or_information")
     if pair is not None:
         if T is not None:
@@ -131,8 +129,7 @@ def from_open3d(
         info = result_or_information
     if T is None:
         raise ValueError(
-            "T: Open3D's information matrix is at T_target_source (its 'transformation'); "
-            "pass it"
+            "T: Open3D's information matrix is at T_target_source (its 'transformation'); pass it"
         )
     if sigma is None:
         raise ValueError(
@@ -146,7 +143,7 @@ def from_open3d(
 def from_small_gicp(
     result: Any, sigma: Any = None, *, convention: ConventionLike = "gtsam"
 ) -> RegistrationPose:
-    """A small_gicp ``RegistrationResult`` as an uncertain ``T_target_source``.
+    """Read a small_gicp ``RegistrationResult`` as an uncertain ``T_target_source``.
 
     Parameters
     ----------
@@ -190,7 +187,7 @@ def from_kiss_icp(
     sigma: Any = None,
     convention: ConventionLike = "gtsam",
 ) -> RegistrationPose:
-    """A KISS-ICP alignment as an uncertain ``T_target_source``, its covariance computed here.
+    """Read a KISS-ICP alignment as an uncertain ``T_target_source`` (covariance computed here).
 
     KISS-ICP publishes no covariance (its ROS node writes a fixed diagonal). This finds the
     correspondences it would use — nearest target point to each ``T·p`` within

@@ -69,7 +69,7 @@ def _normals(x: Any, q: FloatArray) -> FloatArray:
         norm = float(np.linalg.norm(n[i]))
         raise ValueError(
             f"n_tgt: normal at index {i} has norm {norm:.6g}, not 1 (tolerance {NORMAL_TOL:g}); "
-            f"{int((err > 2 * NORMAL_TOL).sum())} of {err.size} normals are not unit: normalise them"
+            f"{int((err > 2 * NORMAL_TOL).sum())} of {err.size} normals are not unit: normalise"
         )
     return n
 
@@ -251,4 +251,5 @@ def gicp(
             f"{np.array2string(lam[i], precision=3)}); {int(bad.sum())} of {bad.size} are"
         )
     info = np.linalg.inv(C)
-    return s - q, _point_jacobian(Tm, s, conv), 0.5 * (info + np.swapaxes(info, -1, -2))
+    info = np.asarray(0.5 * (info + np.swapaxes(info, -1, -2)), dtype=np.float64)
+    return s - q, _point_jacobian(Tm, s, conv), info
