@@ -250,6 +250,6 @@ def gicp(
             f"C_src, C_tgt: C_tgt + R·C_src·Rᵀ is singular at correspondence {i} (eigenvalues "
             f"{np.array2string(lam[i], precision=3)}); {int(bad.sum())} of {bad.size} are"
         )
-    info = np.linalg.inv(C)
-    info = np.asarray(0.5 * (info + np.swapaxes(info, -1, -2)), dtype=np.float64)
-    return s - q, _point_jacobian(Tm, s, conv), info
+    inv = np.linalg.inv(C)
+    W: FloatArray = np.asarray(0.5 * (inv + np.swapaxes(inv, -1, -2)), dtype=np.float64)
+    return s - q, _point_jacobian(Tm, s, conv), W
