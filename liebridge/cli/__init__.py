@@ -5,8 +5,9 @@ convention), ``convert-cov`` (a covariance or information matrix at a pose, betw
 ``optimize`` (a g2o / EDGE3 pose graph in any convention; default sphere2500.txt), ``g2o convert``
 (information between g2o's and GTSAM's semantics), ``bag`` (ROS bags: info, export,
 write-marginals), ``traj ape|rpe|nees`` (trajectory evaluation), ``extrinsics convert`` (a
-camera–IMU extrinsic between Kalibr, OKVIS, ORB-SLAM3, OpenVINS, Basalt, VINS-Fusion, OpenCV)
-and ``demo``. Bad input gets one line on stderr and a non-zero exit status, never a traceback.
+camera–IMU extrinsic between Kalibr, OKVIS, ORB-SLAM3, OpenVINS, Basalt, VINS-Fusion, OpenCV),
+``registration info`` (a saved ICP/GICP result's information in any convention) and ``demo``.
+Bad input gets one line on stderr and a non-zero exit status, never a traceback.
 """
 
 from __future__ import annotations
@@ -17,7 +18,17 @@ import sys
 from collections.abc import Sequence
 
 from .. import __version__
-from . import bag_cmd, convert_cov, detect, extrinsics_cmd, g2o_cmd, optimize, table, traj_cmd
+from . import (
+    bag_cmd,
+    convert_cov,
+    detect,
+    extrinsics_cmd,
+    g2o_cmd,
+    optimize,
+    registration_cmd,
+    table,
+    traj_cmd,
+)
 from ._common import CLIError, OneLineParser, one_line
 
 __all__ = ["build_parser", "main"]
@@ -56,6 +67,7 @@ def build_parser() -> argparse.ArgumentParser:
     bag_cmd.add_parser(sub)
     traj_cmd.add_parser(sub)
     extrinsics_cmd.add_parser(sub)
+    registration_cmd.add_parser(sub)
     d = sub.add_parser(
         "demo",
         help="a one-second self-check: liebridge's SE(3) exp/log against the installed GTSAM",
@@ -85,6 +97,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 getattr(args, "bag_command", None),
                 getattr(args, "traj_command", None),
                 getattr(args, "extrinsics_command", None),
+                getattr(args, "registration_command", None),
             )
             if w
         ]
