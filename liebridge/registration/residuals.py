@@ -31,6 +31,7 @@ from .. import _validate as validate
 from .._validate import FloatArray
 from ..conventions import Convention, ConventionLike, get
 from ..conventions import unchecked as CU
+from ..conventions.presets import GTSAM
 from ..conventions.registration_presets import OPEN3D
 
 __all__ = ["gicp", "point_to_plane", "point_to_point"]
@@ -94,11 +95,49 @@ def _transformed(T: FloatArray, p: FloatArray) -> FloatArray:
     return np.einsum("...ij,...j->...i", R, p) + t
 
 
-def _to_convention(T: FloatArray, conv: Convention) -> FloatArray | None:
-    """``M`` with ``δ_open3d = M·d_conv`` at ``T`` (``None`` where it is the identity)."""
-    if conv.fields == OPEN3D.fields:
+def _to_convention(T: FloatArray, conv: Convention, base: Convention = OPEN3D) -> FloatArray | None:
+    """``M`` with ``δ_base = M·d_conv`` at ``T`` (``None`` where it is the identity)."""
+    if conv.fields == base.fields:
         return None
-    return CU.tangent_map(T, conv, OPEN3D)
+    return CU.tangent_map(T, conv, base)
+
+
+def _assemble(rot: FloatArray, trans: FloatArray, M: FloatArray | None) -> FloatArray:
+    """``[rot | trans] @ M`` over the last axis (blocks ``(..., 3)`` in the base's ``(ω, v)``).
+
+    A signed, scaled permutation ``M`` (each column one non-zero, up to rounding: an order swap,
+    the factor 2 of half-angle coordinates) is written block by block into the result; a dense ``M`` goes
+    through one BLAS product laid out as ``(M.T @ J.T).T`` (OpenBLAS is several times slower on
+    the tall ``J @ M``); one ``M`` per batch element through ``matmul``.
+    """
+    if M is None:
+        return np.concatenate([rot, trans], axis=-1)
+    if M.ndim == 2:
+        # entries at rounding level of the largest are the zeros of an exact permutation
+        # (a map composed of rotations rounds its zero blocks to ~1e-16): dropped
+        nz = np.abs(M) > 1e-12 * np.abs(M).max()
+        if (nz.sum(axis=0) == 1).all():
+            out = np.empty((*rot.shape[:-1], 6))
+            rows = np.argmax(nz, axis=0)
+            scale = M[rows, np.arange(6)]
+            for lo in (0, 3):  # whole 3-blocks where they move as blocks (order swaps)
+                r = rows[lo : lo + 3]
+                if r[0] in (0, 3) and (np.diff(r) == 1).all():
+                    src = rot if r[0] == 0 else trans
+                    sc = scale[lo : lo + 3]
+                    if (sc == 1.0).all():
+                        out[..., lo : lo + 3] = src
+                    else:
+                        np.multiply(src, sc, out=out[..., lo : lo + 3])
+                    continue
+                for j in range(lo, lo + 3):
+                    col = rot[..., rows[j]] if rows[j] < 3 else trans[..., rows[j] - 3]
+                    np.multiply(col, scale[j], out=out[..., j])
+            return out
+        J = np.concatenate([rot, trans], axis=-1)
+        flat = J.reshape(-1, 6)
+        return np.ascontiguousarray((M.T @ flat.T).T).reshape(J.shape)
+    return np.asarray(np.concatenate([rot, trans], axis=-1) @ M, dtype=np.float64)
 
 
 def _setup(
@@ -120,18 +159,16 @@ def _setup(
 
 def _point_jacobian(T: FloatArray, s: FloatArray, conv: Convention) -> FloatArray:
     """``∂(T·p)/∂d`` ``(..., N, 3, 6)`` from the left form ``[−[s]ₓ | I]``."""
-    J = np.zeros((*s.shape, 6))
+    rot = np.zeros((*s.shape, 3))
     x, y, z = s[..., 0], s[..., 1], s[..., 2]
-    J[..., 0, 1], J[..., 0, 2] = z, -y
-    J[..., 1, 0], J[..., 1, 2] = -z, x
-    J[..., 2, 0], J[..., 2, 1] = y, -x
-    J[..., 0, 3] = J[..., 1, 4] = J[..., 2, 5] = 1.0
+    rot[..., 0, 1], rot[..., 0, 2] = z, -y
+    rot[..., 1, 0], rot[..., 1, 2] = -z, x
+    rot[..., 2, 0], rot[..., 2, 1] = y, -x
+    trans = np.broadcast_to(np.eye(3), rot.shape)
     M = _to_convention(T, conv)
-    if M is None:
-        return J
-    if M.ndim == 2:
-        return (J.reshape(-1, 6) @ M).reshape(J.shape)
-    return np.asarray(J @ M[..., None, :, :], dtype=np.float64)
+    if M is not None and M.ndim > 2:
+        M = M[..., None, :, :]
+    return _assemble(rot, trans, M)
 
 
 def point_to_point(
@@ -195,11 +232,13 @@ def point_to_plane(
     n = _normals(n_tgt, q)
     s = _transformed(Tm, p)
     r = np.einsum("...i,...i->...", n, s - q)
-    J = np.concatenate([np.cross(s, n), np.broadcast_to(n, s.shape)], axis=-1)
-    M = _to_convention(Tm, conv)
-    if M is not None:
-        J = np.asarray(J @ M, dtype=np.float64)  # (..., N, 6) @ (..., 6, 6)
-    return r, J
+    if conv.side == "left":  # the left form [s×n, n] (rows over (ω, v)), then to conv
+        return r, _assemble(np.cross(s, n), np.broadcast_to(n, s.shape), _to_convention(Tm, conv))
+    # the right form [p×m, m], m = Rᵀn, then to conv (a permutation for most right charts)
+    R = Tm[..., :3, :3]
+    m = n @ R if Tm.ndim == 2 else np.einsum("...nj,...jk->...nk", n, R)
+    rot = np.cross(np.broadcast_to(p, m.shape), m)
+    return r, _assemble(rot, m, _to_convention(Tm, conv, GTSAM))
 
 
 def gicp(
