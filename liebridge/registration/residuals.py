@@ -106,9 +106,9 @@ def _assemble(rot: FloatArray, trans: FloatArray, M: FloatArray | None) -> Float
     """``[rot | trans] @ M`` over the last axis (blocks ``(..., 3)`` in the base's ``(ω, v)``).
 
     A signed, scaled permutation ``M`` (each column one non-zero, up to rounding: an order swap,
-    the factor 2 of half-angle coordinates) is written block by block into the result; a dense ``M`` goes
-    through one BLAS product laid out as ``(M.T @ J.T).T`` (OpenBLAS is several times slower on
-    the tall ``J @ M``); one ``M`` per batch element through ``matmul``.
+    the factor 2 of half-angle coordinates) is written block by block into the result; a dense
+    ``M`` goes through one BLAS product laid out as ``(M.T @ J.T).T`` (OpenBLAS is several times
+    slower on the tall ``J @ M``); one ``M`` per batch element through ``matmul``.
     """
     if M is None:
         return np.concatenate([rot, trans], axis=-1)
