@@ -118,11 +118,7 @@ def register(
         R.ICPConvergenceCriteria(1e-12, 1e-12, 100),
     )
     T = np.asarray(r.transformation)
-    return (
-        T,
-        np.asarray(R.get_information_matrix_from_point_clouds(src, tgt, MAX_DIST, T)),
-        "open3d",
-    )
+    return T, np.asarray(R.get_information_matrix_from_point_clouds(src, tgt, MAX_DIST, T))
 
 
 def graph_error(loop: gtsam.BetweenFactorPose3, odo: list[np.ndarray], rng) -> np.ndarray:

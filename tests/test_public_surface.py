@@ -126,3 +126,29 @@ def test_old_adapters_paths_reexport_the_new_modules():
 
     assert adapters.g2o is g2o and adapters.poses is poses and adapters.trajectory_io is trajectory
     assert adapters.convert_covariance is lb.convert_covariance
+
+
+REGISTRATION = (
+    "point_to_point",
+    "point_to_plane",
+    "gicp",
+    "information",
+    "from_open3d",
+    "from_small_gicp",
+    "from_kiss_icp",
+)
+
+
+@pytest.mark.parametrize("name", REGISTRATION)
+def test_registration_names(name):
+    mod = importlib.import_module("liebridge.registration")
+    assert callable(getattr(mod, name))
+    assert callable(getattr(lb.registration, name))
+
+
+def test_registration_presets_and_factor():
+    from liebridge.conventions import get
+
+    for name in ("open3d", "small_gicp", "kiss_icp", "hdl_graph_slam"):
+        assert get(name).name == name
+    assert callable(lb.gtsam.registration_factor)

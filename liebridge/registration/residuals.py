@@ -12,7 +12,7 @@ The Jacobian ``∂r/∂d`` is over the named convention's tangent ``d`` of ``T``
 ``convention.retract(T, d)``. Written once, in the left, rotation-first SE(3) tangent (preset
 ``open3d``: ``Exp(δ)·T``, ``δ = (ω, v)``), where ``∂s/∂δ = [−[s]ₓ | I]``; any other convention is
 that times ``M = tangent_map(T, convention, "open3d")`` (``δ = M·d`` to first order), a 6×6
-product. In particular (design note, rows over ``(ω, v)``):
+product. In particular (rows over ``(ω, v)``; derivation in ``docs/registration.md``):
 
 * left (``open3d``, ``g2o_expmap``): point-to-plane ``J = nᵀ[−[T·p]ₓ | I] = [(T·p)×n, n]``;
 * right (``gtsam``, ``small_gicp``): ``J = nᵀR[−[p]ₓ | I] = [p×(Rᵀn), Rᵀn]``.
