@@ -43,8 +43,16 @@ def _central(f, T, conv, h: float = 1e-6) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- Jacobians
+NEAR_PI = se3.exp(
+    np.array([0.0, (np.pi - 1e-9) / np.sqrt(2), (np.pi - 1e-9) / np.sqrt(2), 1, 2, 3])
+)
+TINY = se3.exp(np.array([1e-12, 0.0, -1e-12, 30.0, 0.0, 0.0]))
+
+
 @pytest.mark.parametrize("conv", SE3_CONVENTIONS)
-@pytest.mark.parametrize("T", [np.eye(4), T_TS], ids=["identity", "far"])
+@pytest.mark.parametrize(
+    "T", [np.eye(4), T_TS, NEAR_PI, TINY], ids=["identity", "far", "near_pi", "tiny_30m"]
+)
 def test_point_to_point_jacobian_matches_central_differences(conv: str, T: np.ndarray) -> None:
     p, q, *_ = _scene(noise=0.01)
     r, J = reg.point_to_point(T, p, q, conv)
@@ -91,6 +99,17 @@ def test_batched_poses_give_the_per_pose_results() -> None:
 def _hat(v: np.ndarray) -> np.ndarray:
     x, y, z = v
     return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+
+
+def test_information_batched_over_poses_is_the_per_pose_information() -> None:
+    p, q, nrm, *_ = _scene(noise=0.01)
+    Ts = np.stack([T_TS, se3.exp(np.array([0.1, 0.2, -0.3, 1.0, 0.0, 2.0]))])
+    est = reg.information(Ts, p, q, n_tgt=nrm, convention="kiss_icp")
+    assert est.batch_shape == (2,) and est.sigma.shape == (2,)
+    for i in range(2):
+        one = reg.information(Ts[i], p, q, n_tgt=nrm, convention="kiss_icp")
+        _close(est.information[i], one.information, 1e-12)
+        assert est.sigma[i] == pytest.approx(one.sigma)
 
 
 def test_point_to_plane_left_form_of_the_design_note() -> None:

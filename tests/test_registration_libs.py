@@ -164,6 +164,48 @@ def test_small_gicp_H_is_liebridges_information_at_its_linearisation_point(kind:
         assert _rel(kiss, np.asarray(r.H)) > 1e-2  # (ρ, ω) left is not small_gicp's tangent
 
 
+@pytest.mark.parametrize("kind", ["ICP", "GICP"])
+def test_small_gicp_H_into_gtsam_equals_the_between_factor_hessian(kind: str) -> None:
+    """The library's own H through registration_factor = GN Hessian via ``Pose3.retract``."""
+    sg = _sg()
+    gtsam = pytest.importorskip("gtsam")
+    from liebridge.gtsam import registration_factor
+
+    p, q = _scene()
+    tgt, src = sg.PointCloud(q), sg.PointCloud(p)
+    sg.estimate_normals_covariances(tgt, num_neighbors=10)
+    sg.estimate_normals_covariances(src, num_neighbors=10)
+    r = sg.align(
+        tgt,
+        src,
+        init_T_target_source=T_0,
+        registration_type=kind,
+        max_iterations=1,
+        max_correspondence_distance=1.0,
+    )
+    sigma = 0.003 if kind == "ICP" else None
+    f = registration_factor(0, 1, (T_0, np.asarray(r.H)), sigma=sigma, convention="small_gicp")
+    v = gtsam.Values()
+    v.insert(0, gtsam.Pose3())
+    v.insert(1, gtsam.Pose3(T_0))
+    H = np.asarray(f.linearize(v).information())[6:, 6:]
+    ps, _, keep, nn = _pairs(T_0, p, q, 1.0)  # J does not depend on q
+    X = gtsam.Pose3(T_0)
+    cols = []
+    for k in range(6):
+        d = np.zeros(6)
+        d[k] = 1e-6
+        a, b = X.retract(d).matrix(), X.retract(-d).matrix()
+        cols.append(((ps @ a[:3, :3].T + a[:3, 3]) - (ps @ b[:3, :3].T + b[:3, 3])) / 2e-6)
+    J = np.stack(cols, axis=-1)  # (N, 3, 6)
+    if kind == "ICP":
+        W = np.broadcast_to(np.eye(3) / sigma**2, (len(ps), 3, 3))
+    else:
+        R = T_0[:3, :3]
+        W = np.linalg.inv(_covs(tgt)[nn[keep]] + R @ _covs(src)[keep] @ R.T)
+    assert _rel(H, np.einsum("nia,nij,njb->ab", J, W, J)) < 1e-6
+
+
 def test_small_gicp_updates_on_the_right_with_omega_first() -> None:
     """One Levenberg–Marquardt step (λ = 1e-3): T₁ = T₀·Exp(−(H + λI)⁻¹b), δ = (ω, ρ)."""
     sg = _sg()
