@@ -235,7 +235,9 @@ def information(
         A number: multiply the covariance by it. Correlated correspondences (Censi) make the
         unit-noise Hessian over-confident: calibrate.
     holdout : tuple (errors, covariances), optional
-        For ``inflate="nees"``.
+        For ``inflate="nees"``: errors ``local(T_true, T_est)`` ``(K, 6)`` of registrations with
+        known truth, in ``convention``, and the covariances this function returned for them
+        *without* ``inflate`` (same ``sigma``, same model): the factor is relative to those.
 
     Returns
     -------

@@ -38,7 +38,11 @@ def _as_points(x: Any, name: str) -> FloatArray:
     arr = validate.as_float_array(np.asarray(pts), name)
     if arr.ndim != 2 or arr.shape[1] not in (3, 4):
         raise ValueError(f"{name}: expected points of shape (N, 3), got {arr.shape}")
-    return np.ascontiguousarray(arr[:, :3])
+    arr = np.ascontiguousarray(arr[:, :3])
+    if not np.isfinite(arr).all():
+        i = validate.batch_index(~np.isfinite(arr))
+        raise ValueError(f"{name}: NaN or Inf at point index {i[0]} of {len(arr)}; drop it first")
+    return arr
 
 
 def _pair(result: Any, name: str) -> tuple[Any, Any] | None:
