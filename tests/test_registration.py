@@ -6,8 +6,11 @@ Carlo — closed-form (Kabsch) registrations of noisy point sets, and sampled ch
 
 from __future__ import annotations
 
+import _strategies
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from liebridge import check
 from liebridge import registration as reg
@@ -379,3 +382,18 @@ def test_presets_are_in_the_registry() -> None:
         c = get(name)
         assert c.fields == fields
         assert "False" in c.notes and c.source
+
+
+@given(
+    w=_strategies.rotvecs(),
+    t=_strategies.translations(),
+    conv=st.sampled_from(SE3_CONVENTIONS),
+    seed=st.integers(0, 2**16),
+)
+def test_point_to_plane_jacobian_property(w, t, conv, seed) -> None:
+    """Any pose (angles up to π, 30 m), any preset: the Jacobian is the central difference."""
+    T = _strategies.assemble(_strategies.rotation_from_rotvec(w), t)
+    p, q, nrm, *_ = _scene(n=8, seed=seed, noise=0.05)
+    _, J = reg.point_to_plane(T, p, q, nrm, conv)
+    Jn = _central(lambda X: reg.point_to_plane(X, p, q, nrm, conv)[0], T, conv)
+    np.testing.assert_allclose(J, Jn, rtol=0, atol=5e-6 * max(1.0, np.abs(J).max()))
