@@ -50,6 +50,7 @@ __all__ = [
     "lie",
     "marginals",
     "poses",
+    "registration",
     "tangent_map",
     "trajectory_io",
 ]
@@ -64,6 +65,7 @@ def __getattr__(name: str) -> Any:
         "factors": ("liebridge.factors", None),
         "imu": ("liebridge.imu", None),
         "gtsam": ("liebridge.gtsam", None),
+        "registration": ("liebridge.registration", None),
         "ConventionGraph": ("liebridge.gtsam.graph", "ConventionGraph"),
         "marginals": ("liebridge.gtsam.marginals", "marginals"),
         "gtsam_convention": ("liebridge.gtsam.build", "gtsam_convention"),

@@ -25,7 +25,7 @@ FLOORS: list[set[str]] = [
     {"conventions"},
     {"uncertain"},
     {"check", "io"},
-    {"frames", "traj", "continuous", "doctor"},
+    {"frames", "traj", "continuous", "doctor", "registration"},
     {"gtsam"},
     {"imu"},
     {"ros"},

@@ -175,3 +175,29 @@ def test_conventions_verify_is_a_function_with_the_promised_row_fields():
         "detected",
         "verdict",
     }
+
+
+REGISTRATION = (
+    "point_to_point",
+    "point_to_plane",
+    "gicp",
+    "information",
+    "from_open3d",
+    "from_small_gicp",
+    "from_kiss_icp",
+)
+
+
+@pytest.mark.parametrize("name", REGISTRATION)
+def test_registration_names(name):
+    mod = importlib.import_module("liebridge.registration")
+    assert callable(getattr(mod, name))
+    assert callable(getattr(lb.registration, name))
+
+
+def test_registration_presets_and_factor():
+    from liebridge.conventions import get
+
+    for name in ("open3d", "small_gicp", "kiss_icp", "hdl_graph_slam"):
+        assert get(name).name == name
+    assert callable(lb.gtsam.registration_factor)

@@ -6,8 +6,9 @@ convention), ``convert-cov`` (a covariance or information matrix at a pose, betw
 (information between g2o's and GTSAM's semantics), ``bag`` (ROS bags: info, export,
 write-marginals), ``traj ape|rpe|nees`` (trajectory evaluation), ``extrinsics convert`` (a
 camera–IMU extrinsic between Kalibr, OKVIS, ORB-SLAM3, OpenVINS, Basalt, VINS-Fusion, OpenCV),
-``doctor jacobian|traj`` (diagnose the user's own Jacobian or trajectory) and ``demo``. Bad
-input gets one line on stderr and a non-zero exit status, never a traceback.
+``doctor jacobian|traj`` (diagnose the user's own Jacobian or trajectory), ``registration info``
+(a saved ICP/GICP result's information in any convention) and ``demo``. Bad input gets one line
+on stderr and a non-zero exit status, never a traceback.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from . import (
     extrinsics_cmd,
     g2o_cmd,
     optimize,
+    registration_cmd,
     table,
     traj_cmd,
 )
@@ -68,6 +70,7 @@ def build_parser() -> argparse.ArgumentParser:
     traj_cmd.add_parser(sub)
     extrinsics_cmd.add_parser(sub)
     doctor_cmd.add_parser(sub)
+    registration_cmd.add_parser(sub)
     d = sub.add_parser(
         "demo",
         help="a one-second self-check: liebridge's SE(3) exp/log against the installed GTSAM",
@@ -98,6 +101,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 getattr(args, "traj_command", None),
                 getattr(args, "extrinsics_command", None),
                 getattr(args, "doctor_command", None),
+                getattr(args, "registration_command", None),
             )
             if w
         ]

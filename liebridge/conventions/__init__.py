@@ -67,6 +67,7 @@ from .presets import (
     THESEUS_SE2,
     StorageLayout,
 )
+from .registration_presets import REGISTRATION_PRESETS
 from .registry import ConventionLike, get, matching_presets, names, register, single_group
 from .sphere import Sphere
 from .state_presets import (
@@ -131,6 +132,7 @@ __all__ = [
     "PYPOSE_SIM3",
     "PYTRANSFORM3D_GLOBAL",
     "PYTRANSFORM3D_LOCAL",
+    "REGISTRATION_PRESETS",
     "ROS",
     "ROS_POSE2",
     "SOPHUS",

@@ -7,9 +7,12 @@ import difflib
 from .chart import Chart
 from .convention import Convention
 from .presets import ALL_PRESETS
+from .registration_presets import REGISTRATION_PRESETS
 from .state_presets import STATE_PRESETS
 
-_REGISTRY: dict[str, Chart] = {c.name: c for c in (*ALL_PRESETS, *STATE_PRESETS)}
+_REGISTRY: dict[str, Chart] = {
+    c.name: c for c in (*ALL_PRESETS, *STATE_PRESETS, *REGISTRATION_PRESETS)
+}
 #: Conventions registered by the user (:func:`register`), in registration order.
 _USER: list[Convention] = []
 

@@ -19,6 +19,7 @@ from .isam2 import ISAM2
 from .marginals import marginals
 from .optimize import OptimizeResult, optimize
 from .pose_factors import between, prior
+from .registration import registration_factor
 
 __all__ = [
     "GTSAM_GROUPS",
@@ -36,6 +37,7 @@ __all__ = [
     "optimize",
     "prior",
     "register_group",
+    "registration_factor",
     "to_pose3",
     "to_values",
 ]
