@@ -24,7 +24,9 @@ ENGINES: tuple[str, ...] = ("serial", "processes", "dask")
 CONNECT_TIMEOUT = 10.0
 
 
-def _call(func: Callable[..., dict[str, Any]], index: int, job: dict[str, Any]) -> tuple[int, dict[str, Any]]:
+def _call(
+    func: Callable[..., dict[str, Any]], index: int, job: dict[str, Any]
+) -> tuple[int, dict[str, Any]]:
     """Run one job; whatever escapes the job function becomes an error row, never an exception."""
     try:
         return index, func(**job)
@@ -33,7 +35,7 @@ def _call(func: Callable[..., dict[str, Any]], index: int, job: dict[str, Any]) 
 
 
 def _lost(job: dict[str, Any], exc: BaseException) -> dict[str, Any]:
-    """The row of a job whose worker died (a crash, or killed for memory)."""
+    """Build the row of a job whose worker died (a crash, or killed for memory)."""
     text = " ".join(str(exc).split()) or "worker lost"
     return {**job, "status": "error", "error": f"{type(exc).__name__}: {text}"}
 
@@ -121,7 +123,9 @@ def _connect(scheduler: Any, timeout: float) -> Any:
     if isinstance(scheduler, Client):
         return scheduler
     if not isinstance(scheduler, str) or not scheduler.strip():
-        raise ValueError(f"scheduler: expected an address such as tcp://host:8786, got {scheduler!r}")
+        raise ValueError(
+            f"scheduler: expected an address such as tcp://host:8786, got {scheduler!r}"
+        )
     try:
         return Client(scheduler, timeout=timeout)
     except (OSError, TimeoutError) as exc:
@@ -143,7 +147,8 @@ def _dask(
         from distributed import Client, LocalCluster, as_completed
     except ImportError:
         raise ImportError(
-            'the dask engine needs dask.distributed, an optional extra: pip install "liebridge[dask]"'
+            "the dask engine needs dask.distributed, an optional extra: "
+            'pip install "liebridge[dask]"'
         ) from None
     own_cluster = None
     own_client = None

@@ -10,6 +10,7 @@ A process pool or a Dask cluster maps these module-level functions over a manife
 
 from __future__ import annotations
 
+import functools
 import os
 import time
 from collections.abc import Iterable
@@ -27,6 +28,7 @@ __all__ = [
     "STAT_KEYS",
     "convert",
     "evaluate",
+    "output_name",
 ]
 
 #: Metrics :func:`evaluate` computes, by name.
@@ -79,10 +81,15 @@ _ALIGN_KEYS = ("n_ref", "n_est", "n_associated", "resampled", "scale")
 _SUFFIX = {"tum": ".txt", "kitti": ".txt", "euroc": ".csv"}
 
 
+@functools.lru_cache(maxsize=1)
 def _version() -> str:
-    from .. import __version__
+    """Liebridge's installed version (the package's own ``__init__`` is above this floor)."""
+    import importlib.metadata
 
-    return __version__
+    try:
+        return importlib.metadata.version("liebridge")
+    except importlib.metadata.PackageNotFoundError:  # run from a checkout without installing
+        return "unknown"
 
 
 def _error_text(exc: BaseException) -> str:
@@ -284,7 +291,8 @@ def _stats(row: dict[str, Any], metric: str, errors: Any) -> None:
         row[f"{metric}_{k}"] = v
 
 
-def _stem(src: str, topic: str | None) -> str:
+def output_name(src: str, topic: str | None = None) -> str:
+    """Return :func:`convert`'s default output name: the input's stem, plus ``_topic`` (bags)."""
     path, spec_topic = split_topic(src)
     topic = topic or spec_topic
     stem = Path(path).name
@@ -379,7 +387,7 @@ def _convert_into(row: dict[str, Any], o: dict[str, Any]) -> None:
         cov=o["cov"],
         convention=cov_conv if o["cov"] is not None else None,
     )
-    name = o["name"] or _stem(row["src"], o["src_topic"])
+    name = o["name"] or output_name(row["src"], o["src_topic"])
     dst = dst_dir / (name + _SUFFIX[to])
     dst.parent.mkdir(parents=True, exist_ok=True)
     tmp = dst.with_name(f".{dst.name}.{os.getpid()}.{time.monotonic_ns()}.part")

@@ -32,7 +32,7 @@ def _label(row: dict[str, Any]) -> str:
 
 
 def worst(rows: Sequence[dict[str, Any]], column: str, k: int = 5) -> list[tuple[float, str]]:
-    """The ``k`` largest values of ``column`` with their logs, largest first."""
+    """Return the ``k`` largest values of ``column`` with their logs, largest first."""
     vals = [(x, _label(r)) for r in rows if (x := _num(r.get(column))) is not None]
     return sorted(vals, key=lambda v: -v[0])[:k]
 

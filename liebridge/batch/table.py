@@ -31,7 +31,7 @@ Progress = Callable[[int, int, int, float, "float | None"], None]
 
 
 def job_key(func: Callable[..., Any], job: dict[str, Any]) -> str:
-    """A stable 16-hex-digit id of one call: the function's name and its arguments."""
+    """Return a stable 16-hex-digit id of one call: the function's name and its arguments."""
     text = json.dumps([func.__name__, job], sort_keys=True, default=str)
     return hashlib.sha1(text.encode("utf-8")).hexdigest()[:16]
 
@@ -174,7 +174,7 @@ def run(
     total = len(unique)
     failed = 0
     t0 = time.perf_counter()
-    fh = open(journal, "a", encoding="utf-8") if journal is not None else None  # noqa: SIM115
+    fh = open(journal, "a", encoding="utf-8") if journal is not None else None
     try:
         for n, (k, row) in enumerate(
             map_jobs(
