@@ -174,7 +174,13 @@ def run(
     total = len(unique)
     failed = 0
     t0 = time.perf_counter()
-    fh = open(journal, "a", encoding="utf-8") if journal is not None else None
+    fh = None
+    if journal is not None:
+        fh = open(journal, "a+b")
+        if fh.tell() > 0:  # a line cut short by a kill stays alone on its line
+            fh.seek(-1, os.SEEK_END)
+            if fh.read(1) != b"\n":
+                fh.write(b"\n")
     try:
         for n, (k, row) in enumerate(
             map_jobs(
@@ -191,7 +197,7 @@ def run(
             done[key] = row
             failed += row.get("status") == "error"
             if fh is not None:
-                fh.write(json.dumps(row, allow_nan=True) + "\n")
+                fh.write((json.dumps(row, allow_nan=True) + "\n").encode("utf-8"))
                 fh.flush()
             if progress is not None:
                 dt = time.perf_counter() - t0

@@ -160,12 +160,7 @@ def _duration(s: float) -> str:
 def _run(args: argparse.Namespace, func: Any, jobs: list[dict[str, Any]], prog: str) -> int:
     from ..batch import plot_summary, run, summary_lines
 
-    if args.engine != "dask" and args.scheduler:
-        raise CLIError(f"--scheduler: only the dask engine has one (--engine is {args.engine})")
-    summary = None
-    if not args.no_summary:
-        summary = args.summary or str(Path(args.out).with_suffix(".png"))
-        check_output_path(summary, "--summary", (".png", ".pdf", ".svg"))
+    summary = _check_args(args)
     reporter = _Reporter(prog, args.quiet)
     try:
         result = run(
@@ -200,6 +195,18 @@ def _run(args: argparse.Namespace, func: Any, jobs: list[dict[str, Any]], prog: 
     return 1 if result.failed else 0
 
 
+def _check_args(args: argparse.Namespace) -> str | None:
+    """Usage errors before any file is read; return the summary plot's path (None: no plot)."""
+    check_output_path(args.out, "--out", (".csv",))
+    if args.engine != "dask" and args.scheduler:
+        raise CLIError(f"--scheduler: only the dask engine has one (--engine is {args.engine})")
+    if args.no_summary:
+        return None
+    summary = str(args.summary or Path(args.out).with_suffix(".png"))
+    check_output_path(summary, "--summary", (".png", ".pdf", ".svg"))
+    return summary
+
+
 def _options_from_args(args: argparse.Namespace, defaults: dict[str, Any]) -> dict[str, Any]:
     return {k: getattr(args, k) for k in defaults if getattr(args, k, None) is not None}
 
@@ -208,7 +215,7 @@ def _evaluate(args: argparse.Namespace) -> int:
     from ..batch import EVALUATE_OPTIONS, evaluate
 
     prog = "liebridge batch evaluate"
-    check_output_path(args.out, "--out", (".csv",))
+    _check_args(args)
     try:
         metrics = _parse_metrics(args.metrics)
     except ValueError as exc:
@@ -258,7 +265,7 @@ def _convert(args: argparse.Namespace) -> int:
     from ..batch import CONVERT_OPTIONS, convert
 
     prog = "liebridge batch convert"
-    check_output_path(args.out, "--out", (".csv",))
+    _check_args(args)
     dst = Path(args.dst_dir)
     if not dst.is_dir():
         raise CLIError(f"--dst-dir: {args.dst_dir} is not a directory")
