@@ -1,4 +1,4 @@
-"""A synthetic fleet for the batch tests: (REF, EST) TUM pairs, some with covariances, some broken."""
+"""A synthetic fleet for the batch tests: (REF, EST) TUM pairs, some with covariances or broken."""
 
 from __future__ import annotations
 
@@ -74,8 +74,7 @@ def make_fleet(
     pair index to a kind of :data:`BROKEN`. Returns the manifest rows."""
     broken = broken or {}
     return [
-        make_pair(root, k, n, cov=(k % cov_every == 0), broken=broken.get(k))
-        for k in range(pairs)
+        make_pair(root, k, n, cov=(k % cov_every == 0), broken=broken.get(k)) for k in range(pairs)
     ]
 
 

@@ -14,7 +14,6 @@ import math
 import pickle
 import socket
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -96,8 +95,19 @@ def test_evaluate_options_reach_the_metrics(fleet):
         r["ref"], r["est"], metrics="rpe", pose_relation="angle_deg", delta=5.0, all_pairs=True
     )
     rc, out, err = _cli(
-        ["traj", "rpe", r["ref"], r["est"], "-r", "angle_deg", "--delta", "5", "--all-pairs",
-         "--format", "json"]  # fmt: skip
+        [
+            "traj",
+            "rpe",
+            r["ref"],
+            r["est"],
+            "-r",
+            "angle_deg",
+            "--delta",
+            "5",
+            "--all-pairs",
+            "--format",
+            "json",
+        ]
     )
     assert rc == 0, err
     ref = json.loads(out)
@@ -128,7 +138,7 @@ def test_nees_without_covariances_is_skipped_with_a_note(fleet):
 
 def test_the_callers_mistakes_raise(fleet):
     _, rows = fleet
-    with pytest.raises(TypeError, match="unknown option.*algin"):
+    with pytest.raises(TypeError, match=r"unknown option.*algin"):
         batch.evaluate(rows[0]["ref"], rows[0]["est"], algin="se3")
     with pytest.raises(ValueError, match="metrics"):
         batch.evaluate(rows[0]["ref"], rows[0]["est"], metrics=("ape", "ate"))
@@ -162,16 +172,36 @@ def test_evaluate_reads_a_bag_topic_and_its_covariances(tmp_path):
     # the bag's covariances, as stored (ROS order), give the command's NEES with them ...
     np.save(tmp_path / "cov_ros.npy", ros.read_messages(bag, "/est/pose").cov)
     rc, out, err = _cli(
-        ["traj", "nees", str(tmp_path / "ref.txt"), str(tmp_path / "est.txt"), "--cov",
-         str(tmp_path / "cov_ros.npy"), "--convention", "ros", "--format", "json"]  # fmt: skip
+        [
+            "traj",
+            "nees",
+            str(tmp_path / "ref.txt"),
+            str(tmp_path / "est.txt"),
+            "--cov",
+            str(tmp_path / "cov_ros.npy"),
+            "--convention",
+            "ros",
+            "--format",
+            "json",
+        ]
     )
     assert rc == 0, err
     assert math.isclose(row["nees_anees"], json.loads(out)["anees"], rel_tol=1e-9)
     # ... and agree to first order with the same covariances given in GTSAM's order; read in
     # the wrong order (rotation and translation variances swapped) they would be 100x off
     rc, out, _ = _cli(
-        ["traj", "nees", str(tmp_path / "ref.txt"), str(tmp_path / "est.txt"), "--cov",
-         str(tmp_path / "cov_gtsam.npy"), "--convention", "gtsam", "--format", "json"]  # fmt: skip
+        [
+            "traj",
+            "nees",
+            str(tmp_path / "ref.txt"),
+            str(tmp_path / "est.txt"),
+            "--cov",
+            str(tmp_path / "cov_gtsam.npy"),
+            "--convention",
+            "gtsam",
+            "--format",
+            "json",
+        ]
     )
     assert math.isclose(row["nees_anees"], json.loads(out)["anees"], rel_tol=0.05)
 
@@ -182,8 +212,7 @@ def test_evaluate_reads_a_bag_topic_and_its_covariances(tmp_path):
 @pytest.mark.parametrize("to", ["tum", "euroc", "kitti"])
 def test_convert_writes_a_file_that_reads_back(fleet, tmp_path, to):
     _, rows = fleet
-    row = batch.convert(rows[0]["est"], tmp_path, to=to, cov=rows[0]["est_cov"],
-                        convention="gtsam")  # fmt: skip
+    row = batch.convert(rows[0]["est"], tmp_path, to=to, cov=rows[0]["est_cov"], convention="gtsam")
     assert row["status"] == "ok", row["error"]
     t0, T0 = trajfile.read_trajectory(rows[0]["est"])
     t1, T1 = trajfile.read_trajectory(row["dst"], to)
@@ -221,8 +250,9 @@ def test_engines_give_identical_tables(fleet, tmp_path):
         ) as cluster,
         distributed.Client(cluster) as client,
     ):
-        dask = batch.run(batch.evaluate, jobs, tmp_path / "dask.csv", engine="dask",
-                         scheduler=client)  # fmt: skip
+        dask = batch.run(
+            batch.evaluate, jobs, tmp_path / "dask.csv", engine="dask", scheduler=client
+        )
     _same_rows(serial.rows, procs.rows)
     _same_rows(serial.rows, dask.rows)
     assert [r["ref"] for r in serial.rows] == [j["ref"] for j in jobs]  # job order
@@ -328,7 +358,7 @@ def test_a_scheduler_that_does_not_answer_fails_fast():
 
 
 def test_cli_manifest_with_missing_files_runs_the_rest(fleet, tmp_path):
-    d, rows = fleet
+    d, _ = fleet
     out = tmp_path / "r.csv"
     rc, stdout, err = _cli(["batch", "evaluate", str(d / "manifest.csv"), "--out", str(out)])
     assert rc == 1  # some logs failed
@@ -348,8 +378,19 @@ def test_cli_equals_the_api_with_per_row_options(fleet, tmp_path):
         f"{rows[3]['ref']},{rows[3]['est']},se3,2,ape;rpe\n"
         f"{rows[6]['ref']},{rows[6]['est']},,,\n"
     )
-    rc, _, err = _cli(["batch", "evaluate", str(m), "--out", str(tmp_path / "r.csv"),
-                       "--align", "sim3", "--no-summary", "--quiet"])  # fmt: skip
+    rc, _, err = _cli(
+        [
+            "batch",
+            "evaluate",
+            str(m),
+            "--out",
+            str(tmp_path / "r.csv"),
+            "--align",
+            "sim3",
+            "--no-summary",
+            "--quiet",
+        ]
+    )
     assert rc == 0, err
     table = list(csv.DictReader(open(tmp_path / "r.csv", newline="")))
     a = batch.evaluate(rows[3]["ref"], rows[3]["est"], metrics="ape,rpe", align="se3", delta=2.0)
@@ -360,17 +401,45 @@ def test_cli_equals_the_api_with_per_row_options(fleet, tmp_path):
 
 def test_cli_directory_pairing_and_convert(fleet, tmp_path):
     d, _ = fleet
-    rc, out, err = _cli(["batch", "evaluate", str(d), "--out", str(tmp_path / "r.csv"),
-                         "--cov-glob", "*_est.cov.npy", "--convention", "gtsam",
-                         "--engine", "processes", "--jobs", "2", "--no-summary"])  # fmt: skip
+    rc, out, err = _cli(
+        [
+            "batch",
+            "evaluate",
+            str(d),
+            "--out",
+            str(tmp_path / "r.csv"),
+            "--cov-glob",
+            "*_est.cov.npy",
+            "--convention",
+            "gtsam",
+            "--engine",
+            "processes",
+            "--jobs",
+            "2",
+            "--no-summary",
+        ]
+    )
     assert rc == 1
     assert "left out" in err  # run0002 has no EST
     assert out.startswith("9 logs: 6 ok, 3 failed")
     assert "nees_anees" in out
     dst = tmp_path / "kitti"
     dst.mkdir()
-    rc, out, err = _cli(["batch", "convert", str(d), "--glob", "*_ref.txt", "--dst-dir", str(dst),
-                         "--to", "kitti", "--out", str(tmp_path / "c.csv")])  # fmt: skip
+    rc, out, err = _cli(
+        [
+            "batch",
+            "convert",
+            str(d),
+            "--glob",
+            "*_ref.txt",
+            "--dst-dir",
+            str(dst),
+            "--to",
+            "kitti",
+            "--out",
+            str(tmp_path / "c.csv"),
+        ]
+    )
     assert rc == 1 and out.startswith("10 logs: 9 ok, 1 failed")  # the NaN reference
     assert len(list(dst.glob("*_ref.txt"))) == 9
 
@@ -393,7 +462,7 @@ def test_cli_usage_errors_are_one_line(fleet, tmp_path, args, message):
     (d / "bad_header.csv").write_text(f"ref,est,algin\n{rows[0]['ref']},{rows[0]['est']},se3\n")
     (d / "bad_cell.csv").write_text(f"ref,est,max_diff\n{rows[0]['ref']},{rows[0]['est']},soon\n")
     argv = ["batch", *[a.format(d=d) for a in args], "--out", str(tmp_path / "r.csv")]
-    rc, out, err = _cli(argv)
+    rc, _, err = _cli(argv)
     assert rc == 2
     assert message in err and len(err.strip().splitlines()) == 1, err
     assert "Traceback" not in err
@@ -403,8 +472,18 @@ def test_cli_scheduler_that_does_not_answer(fleet, tmp_path):
     pytest.importorskip("distributed")
     d, _ = fleet
     t0 = time.perf_counter()
-    rc, _, err = _cli(["batch", "evaluate", str(d / "manifest.csv"), "--out",
-                       str(tmp_path / "r.csv"), "--engine", "dask", "--scheduler",
-                       f"tcp://127.0.0.1:{_free_port()}"])  # fmt: skip
+    rc, _, err = _cli(
+        [
+            "batch",
+            "evaluate",
+            str(d / "manifest.csv"),
+            "--out",
+            str(tmp_path / "r.csv"),
+            "--engine",
+            "dask",
+            "--scheduler",
+            f"tcp://127.0.0.1:{_free_port()}",
+        ]
+    )
     assert rc == 2 and "no Dask scheduler answered" in err.splitlines()[-1]
     assert time.perf_counter() - t0 < 30

@@ -4,8 +4,8 @@ Subcommands: ``conventions`` (the presets as a table), ``detect`` (measure an in
 convention), ``convert-cov`` (a covariance or information matrix at a pose, between conventions),
 ``optimize`` (a g2o / EDGE3 pose graph in any convention; default sphere2500.txt), ``g2o convert``
 (information between g2o's and GTSAM's semantics), ``bag`` (ROS bags: info, export,
-write-marginals), ``traj ape|rpe|nees`` (trajectory evaluation), ``batch evaluate|convert`` (many logs into
-one table, on a process pool or a Dask cluster), ``extrinsics convert`` (a
+write-marginals), ``traj ape|rpe|nees`` (trajectory evaluation), ``batch evaluate|convert``
+(many logs into one table, on a process pool or a Dask cluster), ``extrinsics convert`` (a
 camera–IMU extrinsic between Kalibr, OKVIS, ORB-SLAM3, OpenVINS, Basalt, VINS-Fusion, OpenCV)
 and ``demo``. Bad input gets one line on stderr and a non-zero exit status, never a traceback.
 """
@@ -18,7 +18,17 @@ import sys
 from collections.abc import Sequence
 
 from .. import __version__
-from . import bag_cmd, batch_cmd, convert_cov, detect, extrinsics_cmd, g2o_cmd, optimize, table, traj_cmd
+from . import (
+    bag_cmd,
+    batch_cmd,
+    convert_cov,
+    detect,
+    extrinsics_cmd,
+    g2o_cmd,
+    optimize,
+    table,
+    traj_cmd,
+)
 from ._common import CLIError, OneLineParser, one_line
 
 __all__ = ["build_parser", "main"]
