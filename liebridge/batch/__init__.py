@@ -13,7 +13,7 @@ The command line is ``liebridge batch evaluate|convert``; see ``docs/fleet.md``.
 engine needs the extra ``dask`` (``pip install "liebridge[dask]"``).
 """
 
-from .engine import CONNECT_TIMEOUT, ENGINES, map_jobs
+from .engine import CONNECT_TIMEOUT, ENGINES, local_cluster, map_jobs
 from .jobs import CONVERT_OPTIONS, EVALUATE_OPTIONS, METRICS, STAT_KEYS, convert, evaluate
 from .read import Log, read_log, split_topic
 from .summary import SUMMARY_COLUMNS, plot_summary, summary_lines, worst
@@ -32,6 +32,7 @@ __all__ = [
     "convert",
     "evaluate",
     "job_key",
+    "local_cluster",
     "map_jobs",
     "plot_summary",
     "read_journal",

@@ -11,11 +11,13 @@ tagged with their index.
 
 from __future__ import annotations
 
+import logging
 import os
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
-__all__ = ["CONNECT_TIMEOUT", "ENGINES", "map_jobs"]
+__all__ = ["CONNECT_TIMEOUT", "ENGINES", "local_cluster", "map_jobs"]
 
 #: Engines by name.
 ENGINES: tuple[str, ...] = ("serial", "processes", "dask")
@@ -117,6 +119,45 @@ def _processes(
         pool.shutdown(wait=True, cancel_futures=True)
 
 
+def _import_distributed() -> Any:
+    try:
+        import distributed
+    except ImportError:
+        raise ImportError(
+            "the dask engine needs dask.distributed, an optional extra: "
+            'pip install "liebridge[dask]"'
+        ) from None
+    return distributed
+
+
+def local_cluster(workers: int = 2, *, trim_env: bool = False, **kwargs: Any) -> Any:
+    """Start the ``distributed.LocalCluster`` the dask engine uses when no scheduler is given.
+
+    ``workers`` processes of one thread each, no dashboard, and — unless ``trim_env`` — without
+    the ``MALLOC_TRIM_THRESHOLD_=65536`` that dask puts into its workers' environment
+    (``distributed.nanny.pre-spawn-environ``): with it, this numpy work (many mid-size
+    temporary arrays) ran markedly slower (``docs/fleet.md``). Other keyword arguments go to
+    ``LocalCluster``. The caller closes the cluster.
+    """
+    _import_distributed()
+    import dask
+    from distributed import LocalCluster
+
+    opts: dict[str, Any] = {
+        "n_workers": workers,
+        "threads_per_worker": 1,
+        "processes": True,
+        "dashboard_address": None,
+        "silence_logs": logging.ERROR,
+        **kwargs,
+    }
+    env = {} if trim_env else {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}
+    with dask.config.set(env), warnings.catch_warnings():
+        # without a dashboard the scheduler still serves /health on 8787, or any free port
+        warnings.filterwarnings("ignore", message="Port 8787 is already in use")
+        return LocalCluster(**opts)
+
+
 def _connect(scheduler: Any, timeout: float) -> Any:
     from distributed import Client
 
@@ -142,26 +183,19 @@ def _dask(
     scheduler: Any,
     connect_timeout: float,
 ) -> Iterator[tuple[int, dict[str, Any]]]:
-    try:
-        import dask
-        from distributed import Client, LocalCluster, as_completed
-    except ImportError:
-        raise ImportError(
-            "the dask engine needs dask.distributed, an optional extra: "
-            'pip install "liebridge[dask]"'
-        ) from None
+    _import_distributed()
+    from distributed import Client, as_completed
+
     own_cluster = None
     own_client = None
     if scheduler is None:
-        with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
-            own_cluster = LocalCluster(
-                n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
-            )
+        own_cluster = local_cluster(workers)
         client = own_client = Client(own_cluster)
     else:
         client = _connect(scheduler, connect_timeout)
         if client is not scheduler:
             own_client = client
+    futures: list[Any] = []
     try:
         if not jobs:
             return
@@ -175,6 +209,9 @@ def _dask(
                 yield i, _lost(jobs[i], exc)
             fut.release()
     finally:
+        pending = [f for f in futures if not f.done()]
+        if pending and own_client is None:  # interrupted on a cluster that is not ours
+            client.cancel(pending)
         if own_client is not None:
             own_client.close()
         if own_cluster is not None:
