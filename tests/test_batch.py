@@ -14,6 +14,7 @@ import math
 import pickle
 import socket
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -487,3 +488,79 @@ def test_cli_scheduler_that_does_not_answer(fleet, tmp_path):
     )
     assert rc == 2 and "no Dask scheduler answered" in err.splitlines()[-1]
     assert time.perf_counter() - t0 < 30
+
+
+# --------------------------------------------------------------------------- docs, benchmark
+
+
+def test_the_fleet_page_runs(tmp_path, monkeypatch):
+    import re
+
+    page = Path(__file__).resolve().parents[1] / "docs" / "fleet.md"
+    blocks = re.findall(r"^```python\n(.*?)^```", page.read_text(encoding="utf-8"), re.M | re.S)
+    assert blocks
+    monkeypatch.chdir(tmp_path)
+    namespace: dict[str, object] = {"__name__": "fleet_page"}
+    for k, code in enumerate(blocks):
+        with contextlib.redirect_stdout(io.StringIO()):
+            exec(compile(code, f"fleet.md[block {k}]", "exec"), namespace)
+    rc, out, err = _cli(["batch", "evaluate", "fleet/manifest.csv", "--out", "cli.csv",
+                         "--align", "se3", "--engine", "processes", "--jobs", "2"])  # fmt: skip
+    assert rc == 1 and out.startswith("6 logs: 5 ok, 1 failed"), err
+
+
+def test_bench_batch_quick(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[1]
+    out = tmp_path / "batch.json"
+    proc = subprocess.run(
+        [sys.executable, str(root / "benchmarks" / "bench_batch.py"), str(out), "--quick"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=root,
+        env={
+            **os.environ,
+            "PYTHONPATH": os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")]),
+        },
+    )
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    res = json.loads(out.read_text())
+    engines = [r["engine"] for r in res["rows"]]
+    assert engines[:3] == ["hand loop", "serial", "processes"]
+    assert all(r["logs_per_s"] > 0 for r in res["rows"])
+
+
+# --------------------------------------------------------------------------- acceptance (slow)
+
+
+@pytest.mark.slow
+def test_acceptance_500_pairs_every_engine(tmp_path):
+    """500 pairs of 10⁴ poses, a few broken: serial, processes and a 2-worker LocalCluster give
+    identical tables; broken files are error rows; a rerun after interruption computes only
+    what is missing."""
+    pytest.importorskip("distributed")
+    broken = {k: BROKEN[i % len(BROKEN)] for i, k in enumerate((7, 111, 222, 333, 444, 499))}
+    rows = make_fleet(tmp_path, 500, 10_000, broken=broken, cov_every=5)
+    jobs = _jobs(rows)
+    serial = batch.run(batch.evaluate, jobs, tmp_path / "serial.csv")
+    assert sorted(int(Path(r["est"]).name[3:7]) for r in serial.failed) == sorted(broken)
+    procs = batch.run(batch.evaluate, jobs, tmp_path / "procs.csv", engine="processes", workers=2)
+    _same_rows(serial.rows, procs.rows)
+
+    def stop_after(n):
+        def progress(done, *_):
+            if done == n:
+                raise KeyboardInterrupt
+
+        return progress
+
+    with pytest.raises(KeyboardInterrupt):  # a dask run interrupted after 200 logs ...
+        batch.run(batch.evaluate, jobs, tmp_path / "dask.csv", engine="dask", workers=2,
+                  progress=stop_after(200))  # fmt: skip
+    dask = batch.run(batch.evaluate, jobs, tmp_path / "dask.csv", engine="dask", workers=2)
+    assert (dask.reused, dask.computed) == (200, 300)  # ... computes only the other 300
+    _same_rows(serial.rows, dask.rows)
