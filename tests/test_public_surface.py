@@ -45,6 +45,7 @@ TOP = (
     "gtsam_convention",
     "gtsam_glue",
     "factors",
+    "batch",
 )
 
 
@@ -126,3 +127,17 @@ def test_old_adapters_paths_reexport_the_new_modules():
 
     assert adapters.g2o is g2o and adapters.poses is poses and adapters.trajectory_io is trajectory
     assert adapters.convert_covariance is lb.convert_covariance
+
+
+def test_batch_names_and_commands():
+    from liebridge.cli import build_parser
+
+    assert callable(lb.batch.evaluate) and callable(lb.batch.convert)
+    parser = build_parser()
+    for cmd in ("evaluate", "convert"):
+        args = parser.parse_args(
+            ["batch", cmd, "SRC", "--out", "t.csv", "--engine", "dask", "--jobs", "2",
+             "--scheduler", "tcp://h:8786"]
+            + (["--dst-dir", "d"] if cmd == "convert" else [])
+        )  # fmt: skip
+        assert (args.engine, args.jobs, args.scheduler) == ("dask", 2, "tcp://h:8786")

@@ -81,6 +81,7 @@ def map_jobs(
     ConnectionError
         No scheduler answered at ``scheduler`` within ``connect_timeout``.
     """
+    engine = engine.strip().lower() if isinstance(engine, str) else engine
     if engine not in ENGINES:
         raise ValueError(f"engine: expected one of {', '.join(ENGINES)}, got {engine!r}")
     if workers is not None and (isinstance(workers, bool) or int(workers) < 1):

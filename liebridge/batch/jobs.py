@@ -371,7 +371,7 @@ def convert(
 def _convert_into(row: dict[str, Any], o: dict[str, Any]) -> None:
     from ..io import trajfile
 
-    to = row["to"]
+    to = row["to"].strip().lower() if isinstance(row["to"], str) else row["to"]
     if to not in trajfile.FORMATS:
         raise ValueError(f"to: expected one of {', '.join(trajfile.FORMATS)}, got {to!r}")
     dst_dir = Path(row["dst_dir"])

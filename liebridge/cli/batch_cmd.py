@@ -15,12 +15,13 @@ from __future__ import annotations
 
 import argparse
 import csv
+import os
 import re
 import time
 from pathlib import Path
 from typing import Any
 
-from ._common import CLIError, check_output_path, one_line, positive_int, say
+from ._common import CLIError, check_output_path, one_line, option_value, positive_int, say
 
 __all__ = ["add_parser"]
 
@@ -39,9 +40,9 @@ def _glob_regex(pattern: str, option: str) -> re.Pattern[str]:
 def _files_by_key(root: Path, pattern: str, option: str) -> dict[str, Path]:
     rx = _glob_regex(pattern, option)
     out: dict[str, Path] = {}
-    for p in sorted(root.rglob("*")):
+    for p in sorted(root.absolute().rglob("*")):
         if p.is_file() or (p.is_dir() and (p / "metadata.yaml").is_file()):  # ROS 2 bag dirs
-            m = rx.match(p.relative_to(root).as_posix())
+            m = rx.match(p.relative_to(root.absolute()).as_posix())
             if m:
                 out[m.group(1)] = p
     return out
@@ -97,7 +98,7 @@ def _read_manifest(
                 continue
             if col in _PATH_COLUMNS:
                 p = Path(cell.strip())
-                job[col] = str(p if p.is_absolute() else base / p)
+                job[col] = os.path.abspath(p if p.is_absolute() else base / p)
             elif col == "metrics":
                 job[col] = cell.strip().replace(";", ",")
             else:
@@ -278,7 +279,7 @@ def _convert(args: argparse.Namespace) -> int:
             raise CLIError(f"{src}: no files match --glob {args.glob!r}")
         jobs: list[dict[str, Any]] = []
         for p in files.values():
-            rel = p.relative_to(src)
+            rel = p.relative_to(src.absolute())
             name = rel.as_posix()
             for suffix in (".txt", ".csv", ".tum", ".kitti"):
                 if name.lower().endswith(suffix):
@@ -310,7 +311,9 @@ def _engine_args(q: argparse.ArgumentParser) -> None:
 
     q.add_argument("source", metavar="SOURCE", help="a manifest (.csv) or a directory")
     q.add_argument("--out", required=True, metavar="TABLE.csv", help="the results table")
-    q.add_argument("--engine", choices=ENGINES, default="serial", help="(default serial)")
+    q.add_argument(
+        "--engine", type=option_value, choices=ENGINES, default="serial", help="(default serial)"
+    )
     q.add_argument(
         "--jobs",
         type=positive_int,
@@ -363,18 +366,45 @@ def add_parser(sub: Any) -> None:
     e.add_argument(
         "--cov-glob", default=None, help="directory pairing: EST's covariances (.npy, N×6×6)"
     )
-    e.add_argument("--align", choices=ALIGNMENTS, default=None, help="(default none, as evo)")
+    e.add_argument(
+        "--align",
+        type=option_value,
+        choices=ALIGNMENTS,
+        default=None,
+        help="(default none, as evo)",
+    )
     e.add_argument("--max-diff", dest="max_diff", type=float, default=None, help="[s] (0.01)")
     e.add_argument("--offset", type=float, default=None, help="added to EST's stamps [s] (0)")
-    e.add_argument("--interpolate", choices=("lerp_slerp", "geodesic"), default=None)
-    e.add_argument("--pose-relation", "-r", dest="pose_relation", choices=POSE_RELATIONS,
-                   default=None, help="APE and RPE (default trans_part)")  # fmt: skip
+    e.add_argument(
+        "--interpolate", type=option_value, choices=("lerp_slerp", "geodesic"), default=None
+    )
+    e.add_argument(
+        "--pose-relation",
+        "-r",
+        dest="pose_relation",
+        type=option_value,
+        choices=POSE_RELATIONS,
+        default=None,
+        help="APE and RPE (default trans_part)",
+    )
     e.add_argument("--delta", type=float, default=None, help="RPE pair distance (1)")
-    e.add_argument("--delta-unit", dest="delta_unit", choices=("frames", "m"), default=None)
+    e.add_argument(
+        "--delta-unit", dest="delta_unit", type=option_value, choices=("frames", "m"), default=None
+    )
     e.add_argument("--all-pairs", dest="all_pairs", action="store_true", default=None)
-    e.add_argument("--ref-format", dest="ref_format", choices=("auto", "tum", "kitti", "euroc"))
-    e.add_argument("--est-format", dest="est_format", choices=("auto", "tum", "kitti", "euroc"))
-    e.add_argument("--quat-order", dest="quat_order", choices=("xyzw", "wxyz"))
+    e.add_argument(
+        "--ref-format",
+        dest="ref_format",
+        type=option_value,
+        choices=("auto", "tum", "kitti", "euroc"),
+    )
+    e.add_argument(
+        "--est-format",
+        dest="est_format",
+        type=option_value,
+        choices=("auto", "tum", "kitti", "euroc"),
+    )
+    e.add_argument("--quat-order", dest="quat_order", type=option_value, choices=("xyzw", "wxyz"))
     e.add_argument("--ref-topic", dest="ref_topic", metavar="TOPIC", help="REF files are bags")
     e.add_argument("--est-topic", dest="est_topic", metavar="TOPIC", help="EST files are bags")
     e.add_argument("--convention", help="the covariances' convention (a preset)")
@@ -388,11 +418,24 @@ def add_parser(sub: Any) -> None:
     )
     _engine_args(c)
     c.add_argument("--dst-dir", dest="dst_dir", required=True, metavar="DIR")
-    c.add_argument("--to", choices=("tum", "kitti", "euroc"), default="tum", help="(default tum)")
+    c.add_argument(
+        "--to",
+        type=option_value,
+        choices=("tum", "kitti", "euroc"),
+        default="tum",
+        help="(default tum)",
+    )
     c.add_argument("--glob", default="*.txt", help="directory: the files to convert (*.txt)")
-    c.add_argument("--src-format", dest="src_format", choices=("auto", "tum", "kitti", "euroc"))
+    c.add_argument(
+        "--src-format",
+        dest="src_format",
+        type=option_value,
+        choices=("auto", "tum", "kitti", "euroc"),
+    )
     c.add_argument("--src-topic", dest="src_topic", metavar="TOPIC", help="the files are bags")
-    c.add_argument("--quat-order", dest="quat_order", choices=("xyzw", "wxyz"))
-    c.add_argument("--out-quat-order", dest="out_quat_order", choices=("xyzw", "wxyz"))
+    c.add_argument("--quat-order", dest="quat_order", type=option_value, choices=("xyzw", "wxyz"))
+    c.add_argument(
+        "--out-quat-order", dest="out_quat_order", type=option_value, choices=("xyzw", "wxyz")
+    )
     c.add_argument("--convention", help="write covariances in this convention (a preset)")
     c.set_defaults(func=_convert)
