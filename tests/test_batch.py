@@ -564,3 +564,29 @@ def test_acceptance_500_pairs_every_engine(tmp_path):
     dask = batch.run(batch.evaluate, jobs, tmp_path / "dask.csv", engine="dask", workers=2)
     assert (dask.reused, dask.computed) == (200, 300)  # ... computes only the other 300
     _same_rows(serial.rows, dask.rows)
+
+
+def test_convert_a_bag_topic_with_its_covariances(tmp_path):
+    pytest.importorskip("rosbags")
+    from liebridge import ros
+
+    t, T = trajectory(50, 4)
+    rng = np.random.default_rng(9)
+    A = rng.normal(size=(50, 6, 6)) * 0.01
+    C = A @ A.transpose(0, 2, 1) + 1e-4 * np.eye(6)  # full covariances in GTSAM's (ω, v)
+    ros.write_messages(
+        tmp_path / "run.bag",
+        "/odom",
+        ros.from_poses(T, C, convention="gtsam", stamps=t),
+        storage="rosbag1",
+    )
+    dst = tmp_path / "out"
+    dst.mkdir()
+    rc, _, err = _cli(["batch", "convert", str(tmp_path), "--glob", "*.bag", "--src-topic",
+                       "/odom", "--dst-dir", str(dst), "--convention", "gtsam", "--out",
+                       str(tmp_path / "c.csv")])  # fmt: skip
+    assert rc == 0, err
+    t1, T1 = trajfile.read_trajectory(dst / "run_odom.txt")
+    np.testing.assert_allclose(T1, T, atol=1e-12)
+    np.testing.assert_allclose(t1, t, atol=1e-9)  # nanosecond stamps
+    np.testing.assert_allclose(np.load(dst / "run_odom.cov.npy"), C, rtol=1e-9, atol=1e-15)

@@ -264,6 +264,7 @@ def _parse_metrics(text: str) -> str:
 
 def _convert(args: argparse.Namespace) -> int:
     from ..batch import CONVERT_OPTIONS, convert
+    from ..batch.jobs import output_name
 
     prog = "liebridge batch convert"
     _check_args(args)
@@ -278,22 +279,15 @@ def _convert(args: argparse.Namespace) -> int:
         if not files:
             raise CLIError(f"{src}: no files match --glob {args.glob!r}")
         jobs: list[dict[str, Any]] = []
-        for p in files.values():
-            rel = p.relative_to(src.absolute())
-            name = rel.as_posix()
-            for suffix in (".txt", ".csv", ".tum", ".kitti"):
-                if name.lower().endswith(suffix):
-                    name = name[: -len(suffix)]
-                    break
-            jobs.append({"src": str(p), "name": name})
+        for p in files.values():  # sub-directories kept under --dst-dir
+            rel = p.relative_to(src.absolute()).parent / output_name(str(p), args.src_topic)
+            jobs.append({"src": str(p), "name": rel.as_posix()})
     elif src.is_file():
         jobs = _read_manifest(src, ("src",), CONVERT_OPTIONS)
     else:
         raise CLIError(f"SOURCE: no such file or directory: {args.source}")
     _warn_missing(jobs, ("src", "cov"), prog)
-    full = [{"dst_dir": str(dst), "to": args.to, **defaults, **j} for j in jobs]
-    from ..batch.jobs import output_name
-
+    full = [{"dst_dir": str(dst.absolute()), "to": args.to, **defaults, **j} for j in jobs]
     seen: dict[str, int] = {}
     for i, j in enumerate(full):
         name = j.get("name") or output_name(j["src"], j.get("src_topic"))
