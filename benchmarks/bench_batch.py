@@ -80,24 +80,42 @@ def hand_loop(jobs: list[dict[str, str]]) -> list[tuple[float, float]]:
     return out
 
 
+def timed_evaluate(**job: Any) -> dict[str, Any]:
+    """``batch.evaluate`` and the CPU time it took in the worker that ran it."""
+    c = time.process_time()
+    row = batch.evaluate(**job)
+    row["_cpu_s"] = time.process_time() - c
+    return row
+
+
 def timed_run(jobs: list[dict[str, Any]], out: Path, **engine: Any) -> dict[str, Any]:
     for p in (out, out.with_suffix(".jsonl"), out.with_suffix(".parquet")):
         p.unlink(missing_ok=True)
     stamps: list[float] = []
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     res = batch.run(
-        batch.evaluate, jobs, out, progress=lambda *a: stamps.append(time.perf_counter()), **engine
+        timed_evaluate, jobs, out, progress=lambda *a: stamps.append(time.perf_counter()), **engine
     )
-    wall = time.perf_counter() - t0
+    wall, cpu_main = time.perf_counter() - t0, time.process_time() - c0
     workers = int(engine.get("workers") or 1)
     k = min(2 * workers, len(stamps) - 2)
     steady = (len(stamps) - k) / (stamps[-1] - stamps[k - 1]) if k >= 1 else len(stamps) / wall
-    return {"wall_s": wall, "steady_logs_per_s": steady, "rows": res.rows}
+    cpu_job = statistics.mean(r["_cpu_s"] for r in res.rows)
+    rows = [{k: v for k, v in r.items() if k != "_cpu_s"} for r in res.rows]
+    return {
+        "wall_s": wall,
+        "steady": steady,
+        "cpu_job": cpu_job,
+        "cpu_main": cpu_main,
+        "rows": rows,
+    }
 
 
 def same(a: list[dict[str, Any]], b: list[dict[str, Any]]) -> bool:
     for x, y in zip(a, b, strict=True):
         for key in x:
+            if key == "job":  # the hash of the function's name: timed_evaluate vs evaluate
+                continue
             u, v = x[key], y[key]
             if isinstance(u, float) and isinstance(v, float):
                 if not math.isclose(u, v, rel_tol=1e-12):
@@ -124,32 +142,36 @@ def main() -> None:
     except ImportError:
         distributed = None
     W = args.workers
+    samples: dict[str, dict[str, list[float]]] = {}
+
+    def record(name: str, **values: float) -> None:
+        for key, v in values.items():
+            samples.setdefault(name, {}).setdefault(key, []).append(v)
+
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
         t0 = time.perf_counter()
         jobs = make_pairs(root, args.pairs, args.poses)
-        print(
-            f"{args.pairs} pairs of {args.poses} poses written in {time.perf_counter() - t0:.1f} s",
-            file=sys.stderr,
-        )
+        print(f"{args.pairs} pairs of {args.poses} poses written in "
+              f"{time.perf_counter() - t0:.1f} s", file=sys.stderr)  # fmt: skip
         hand_loop(jobs[:2])  # imports, page cache
-        times: dict[str, list[float]] = {}
-        walls: dict[str, list[float]] = {}
-        reference = None
-        cluster = default_cluster = None
-        client = default_client = None
+        reference = batch.run(batch.evaluate, jobs).rows
+        got = [(row["ape_rmse"], row["rpe_rmse"]) for row in reference]
+        assert np.allclose(got, hand_loop(jobs), rtol=1e-12), "batch.evaluate != hand loop"
+        batch.write_table(reference, root / "warm.csv")  # pyarrow imported outside the timing
+        clients: dict[str, Any] = {}
+        clusters = []
         if distributed is not None:
-            cluster = batch.local_cluster(W)
-            client = distributed.Client(cluster)
-            default_cluster = batch.local_cluster(W, trim_env=True)
-            default_client = distributed.Client(default_cluster)
+            for name, trim in (("warm", False), ("default env", True)):
+                clusters.append(batch.local_cluster(W, trim_env=trim))
+                clients[name] = distributed.Client(clusters[-1])
         try:
             for rep in range(args.repeat):
-                t = time.perf_counter()
-                hand = hand_loop(jobs)
-                dt = time.perf_counter() - t
-                times.setdefault("hand loop", []).append(len(jobs) / dt)
-                walls.setdefault("hand loop", []).append(dt)
+                t, c = time.perf_counter(), time.process_time()
+                hand_loop(jobs)
+                dt, dc = time.perf_counter() - t, time.process_time() - c
+                record("hand loop", steady=len(jobs) / dt, wall_s=dt, cpu_job=dc / len(jobs),
+                       load=os.getloadavg()[0])  # fmt: skip
                 runs: list[tuple[str, dict[str, Any]]] = [
                     ("serial", {"engine": "serial"}),
                     ("processes", {"engine": "processes", "workers": W}),
@@ -157,75 +179,57 @@ def main() -> None:
                 if distributed is not None:
                     runs += [
                         ("dask (new LocalCluster)", {"engine": "dask", "workers": W}),
-                        (
-                            "dask (warm cluster)",
-                            {"engine": "dask", "scheduler": client, "workers": W},
-                        ),
-                        (
-                            "dask (default env)",
-                            {"engine": "dask", "scheduler": default_client, "workers": W},
-                        ),
-                    ]
+                        ("dask (warm LocalCluster)",
+                         {"engine": "dask", "scheduler": clients["warm"]}),
+                        ("dask (default worker env)",
+                         {"engine": "dask", "scheduler": clients["default env"]}),
+                    ]  # fmt: skip
                 for name, eng in runs:
                     r = timed_run(jobs, root / "table.csv", **eng)
-                    if reference is None:
-                        reference = r["rows"]
-                        got = [(row["ape_rmse"], row["rpe_rmse"]) for row in reference]
-                        assert np.allclose(got, hand, rtol=1e-12), "serial != hand loop"
                     assert same(reference, r["rows"]), f"{name}: table differs from serial"
-                    times.setdefault(name, []).append(r["steady_logs_per_s"])
-                    walls.setdefault(name, []).append(r["wall_s"])
+                    record(name, steady=r["steady"], wall_s=r["wall_s"], cpu_job=r["cpu_job"],
+                           load=os.getloadavg()[0])  # fmt: skip
+                    if name == "serial":  # the batch layer's CPU per log, table files excluded
+                        c = time.process_time()
+                        batch.write_table(r["rows"], root / "again.csv")
+                        table_cpu = time.process_time() - c
+                        record("serial", cpu_layer=(r["cpu_main"] - table_cpu) / len(jobs))
                 print(f"repeat {rep + 1}/{args.repeat} done", file=sys.stderr)
         finally:
-            for c in (client, default_client, cluster, default_cluster):
-                if c is not None:
-                    c.close()
-    med = {k: statistics.median(v) for k, v in times.items()}
-    wall = {k: statistics.median(v) for k, v in walls.items()}
+            batch.engine.close_quietly(*clients.values(), *clusters)
+    med = {name: {k: statistics.median(v) for k, v in d.items()} for name, d in samples.items()}
     serial = med["serial"]
     rows = []
-    for name in med:
-        rows.append(
-            {
-                "engine": name,
-                "logs_per_s": med[name],
-                "wall_s": wall[name],
-                "vs_serial": med[name] / serial,
-            }
-        )
-    # per log: the steady serial rate against the hand loop's; once per batch: the rest of the
-    # serial wall time (the table written as CSV and Parquet, pyarrow imported)
-    overhead = med["hand loop"] / serial - 1
-    fixed = wall["serial"] - args.pairs / serial
+    for name, m in med.items():
+        workers = 1 if name in ("hand loop", "serial") else W
+        rows.append({
+            "engine": name,
+            "logs_per_s": m["steady"],
+            "wall_s": m["wall_s"],
+            "vs_serial": m["steady"] / serial["steady"],
+            "cpu_ms_per_log": 1e3 * m["cpu_job"],
+            "capacity_vs_serial": workers * serial["cpu_job"] / m["cpu_job"],
+            "load": m["load"],
+        })  # fmt: skip
+    overhead = serial["cpu_layer"] / med["hand loop"]["cpu_job"] - 1
     result = {
-        "config": {
-            "pairs": args.pairs,
-            "poses": args.poses,
-            "workers": W,
-            "repeat": args.repeat,
-            "quick": args.quick,
-            "metrics": METRICS,
-        },
-        "machine": {
-            "platform": platform.platform(),
-            "cpus": os.cpu_count(),
-            "python": platform.python_version(),
-            "loadavg": os.getloadavg() if hasattr(os, "getloadavg") else None,
-        },
+        "config": {"pairs": args.pairs, "poses": args.poses, "workers": W, "repeat": args.repeat,
+                   "quick": args.quick, "metrics": METRICS},
+        "machine": {"platform": platform.platform(), "cpus": os.cpu_count(),
+                    "python": platform.python_version()},
         "rows": rows,
-        "batch_overhead_per_log": overhead,
-        "batch_fixed_cost_s": fixed,
-        "samples": times,
-    }
-    print(f"{'engine':<26}{'logs/s (steady)':>16}{'wall [s]':>10}{'× serial':>10}")
+        "batch_overhead_per_log_cpu": overhead,
+        "samples": samples,
+    }  # fmt: skip
+    print(f"{'engine':<27}{'logs/s':>8}{'wall s':>8}{'× serial':>9}{'CPU ms/log':>11}"
+          f"{'capacity ×':>11}{'load':>6}")  # fmt: skip
     for r in rows:
-        print(
-            f"{r['engine']:<26}{r['logs_per_s']:>16.1f}{r['wall_s']:>10.2f}{r['vs_serial']:>10.2f}"
-        )
-    print(
-        f"batch layer per-log overhead (hand-loop rate / serial steady rate − 1): "
-        f"{100 * overhead:+.1f} %; once per batch: {fixed:.2f} s (table files)"
-    )
+        print(f"{r['engine']:<27}{r['logs_per_s']:>8.2f}{r['wall_s']:>8.1f}"
+              f"{r['vs_serial']:>9.2f}{r['cpu_ms_per_log']:>11.1f}"
+              f"{r['capacity_vs_serial']:>11.2f}{r['load']:>6.1f}")  # fmt: skip
+    print(f"batch layer per-log overhead (CPU per log, serial run without its table files / "
+          f"hand loop − 1): "
+          f"{100 * overhead:+.1f} %")  # fmt: skip
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Path(args.out).write_text(json.dumps(result, indent=2) + "\n")
 

@@ -17,7 +17,7 @@ import warnings
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
-__all__ = ["CONNECT_TIMEOUT", "ENGINES", "local_cluster", "map_jobs"]
+__all__ = ["CONNECT_TIMEOUT", "ENGINES", "close_quietly", "local_cluster", "map_jobs"]
 
 #: Engines by name.
 ENGINES: tuple[str, ...] = ("serial", "processes", "dask")
@@ -159,6 +159,28 @@ def local_cluster(workers: int = 2, *, trim_env: bool = False, **kwargs: Any) ->
         return LocalCluster(**opts)
 
 
+def close_quietly(*objects: Any) -> None:
+    """Close dask clients and clusters without the INFO lines their shutdown logs on stderr."""
+    loggers = [logging.getLogger("distributed")] + [
+        logging.getLogger(n)
+        for n in list(logging.root.manager.loggerDict)
+        if n.startswith("distributed.")
+    ]
+    saved: list[tuple[Any, int]] = []
+    for lg in loggers:
+        saved.append((lg, lg.level))
+        saved += [(h, h.level) for h in lg.handlers]
+    for obj, _ in saved:
+        obj.setLevel(logging.ERROR)
+    try:
+        for obj in objects:
+            if obj is not None:
+                obj.close()
+    finally:
+        for obj, level in saved:
+            obj.setLevel(level)
+
+
 def _connect(scheduler: Any, timeout: float) -> Any:
     from distributed import Client
 
@@ -213,7 +235,4 @@ def _dask(
         pending = [f for f in futures if not f.done()]
         if pending and own_client is None:  # interrupted on a cluster that is not ours
             client.cancel(pending)
-        if own_client is not None:
-            own_client.close()
-        if own_cluster is not None:
-            own_cluster.close()
+        close_quietly(own_client, own_cluster)
