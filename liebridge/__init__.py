@@ -30,6 +30,7 @@ __all__ = [
     "Convention",
     "ConventionGraph",
     "__version__",
+    "batch",
     "check",
     "conventions",
     "convert_covariance",
@@ -62,6 +63,7 @@ def __getattr__(name: str) -> Any:
 
     lazy = {
         "gtsam_glue": ("liebridge.gtsam.glue", None),
+        "batch": ("liebridge.batch", None),
         "factors": ("liebridge.factors", None),
         "imu": ("liebridge.imu", None),
         "gtsam": ("liebridge.gtsam", None),

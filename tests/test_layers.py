@@ -29,6 +29,7 @@ FLOORS: list[set[str]] = [
     {"gtsam"},
     {"imu"},
     {"ros"},
+    {"batch"},
     {"cli", "adapters", "factors", "interop", "__init__"},
 ]
 RANK = {unit: k for k, floor in enumerate(FLOORS) for unit in floor}

@@ -45,6 +45,7 @@ TOP = (
     "gtsam_convention",
     "gtsam_glue",
     "factors",
+    "batch",
 )
 
 
@@ -201,3 +202,17 @@ def test_registration_presets_and_factor():
     for name in ("open3d", "small_gicp", "kiss_icp", "hdl_graph_slam"):
         assert get(name).name == name
     assert callable(lb.gtsam.registration_factor)
+
+
+def test_batch_names_and_commands():
+    from liebridge.cli import build_parser
+
+    assert callable(lb.batch.evaluate) and callable(lb.batch.convert)
+    parser = build_parser()
+    for cmd in ("evaluate", "convert"):
+        args = parser.parse_args(
+            ["batch", cmd, "SRC", "--out", "t.csv", "--engine", "dask", "--jobs", "2",
+             "--scheduler", "tcp://h:8786"]
+            + (["--dst-dir", "d"] if cmd == "convert" else [])
+        )  # fmt: skip
+        assert (args.engine, args.jobs, args.scheduler) == ("dask", 2, "tcp://h:8786")

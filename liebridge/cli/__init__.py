@@ -4,7 +4,8 @@ Subcommands: ``conventions`` (the presets as a table), ``detect`` (measure an in
 convention), ``convert-cov`` (a covariance or information matrix at a pose, between conventions),
 ``optimize`` (a g2o / EDGE3 pose graph in any convention; default sphere2500.txt), ``g2o convert``
 (information between g2o's and GTSAM's semantics), ``bag`` (ROS bags: info, export,
-write-marginals), ``traj ape|rpe|nees`` (trajectory evaluation), ``extrinsics convert`` (a
+write-marginals), ``traj ape|rpe|nees`` (trajectory evaluation), ``batch evaluate|convert``
+(many logs into one table, on a process pool or a Dask cluster), ``extrinsics convert`` (a
 camera–IMU extrinsic between Kalibr, OKVIS, ORB-SLAM3, OpenVINS, Basalt, VINS-Fusion, OpenCV),
 ``doctor jacobian|traj`` (diagnose the user's own Jacobian or trajectory), ``registration info``
 (a saved ICP/GICP result's information in any convention) and ``demo``. Bad input gets one line
@@ -21,6 +22,7 @@ from collections.abc import Sequence
 from .. import __version__
 from . import (
     bag_cmd,
+    batch_cmd,
     convert_cov,
     detect,
     doctor_cmd,
@@ -68,6 +70,7 @@ def build_parser() -> argparse.ArgumentParser:
     g2o_cmd.add_parser(sub)
     bag_cmd.add_parser(sub)
     traj_cmd.add_parser(sub)
+    batch_cmd.add_parser(sub)
     extrinsics_cmd.add_parser(sub)
     doctor_cmd.add_parser(sub)
     registration_cmd.add_parser(sub)
@@ -99,6 +102,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 getattr(args, "g2o_command", None),
                 getattr(args, "bag_command", None),
                 getattr(args, "traj_command", None),
+                getattr(args, "batch_command", None),
                 getattr(args, "extrinsics_command", None),
                 getattr(args, "doctor_command", None),
                 getattr(args, "registration_command", None),
