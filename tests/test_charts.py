@@ -184,3 +184,19 @@ def test_se3_fast_implementation_equals_the_record_driven_engine(
         a = getattr(fast, op)(c, *args)
         b = getattr(RECORD_ENGINE, op)(c, *args)
         np.testing.assert_allclose(a, b, atol=1e-12, err_msg=f"{name}.{op}")
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_every_chart_pickles_for_worker_processes(name: str) -> None:
+    """A process pool or a Dask worker receives charts by pickle: equal, and they still work."""
+    import pickle
+
+    c = conventions.get(name)
+    c2 = pickle.loads(pickle.dumps(c))
+    assert c2 == c and c2._engine is c._engine
+    X = probe(c)
+    d = np.full(c.dim(X), 0.1)
+    if c.embed is not None:
+        d = np.zeros(c.dim(X))
+        d[list(c.embed.index)] = 0.1
+    np.testing.assert_allclose(c2.retract(X, d), c.retract(X, d), atol=0)

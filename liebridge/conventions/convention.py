@@ -139,6 +139,7 @@ class Convention(Chart):
     group: str = DEFAULT_GROUP  # a registered Group record is accepted and stored as its name
     embed: Embed | None = None
     _key: tuple[str, str, str, str] = field(init=False, repr=False, compare=False)
+    _eng: Engine = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         g = _resolve_group(self.name, self.group)
@@ -149,6 +150,7 @@ class Convention(Chart):
         _check_field("rotation", self.rotation, ROTATION_COORDS)
         _check_field("quat_order", self.quat_order, QUAT_ORDERS)
         eng = engine_for(g)
+        object.__setattr__(self, "_eng", eng)  # the group's engine, looked up once
         if self.rotation in EULER_COORDS and not eng.euler:
             raise ValueError(
                 f"Convention {self.name!r}: Euler-angle coordinates ({self.rotation!r}) are "
@@ -179,7 +181,17 @@ class Convention(Chart):
     # ----------------------------------------------------------------- descriptors
     @property
     def _engine(self) -> Engine:
-        return engine_for(self.group)
+        return self._eng
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = dict(self.__dict__)
+        state.pop("_eng", None)  # looked up again where it is unpickled (that process's registry)
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        for k, v in state.items():
+            object.__setattr__(self, k, v)
+        object.__setattr__(self, "_eng", engine_for(state["group"]))
 
     @property
     def fields(self) -> tuple[str, str, str, str]:
