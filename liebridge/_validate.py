@@ -642,3 +642,28 @@ def key(x: Any, name: str) -> int:
     if not 0 <= k <= MAX_KEY:
         raise ValueError(f"{name}: key {k} is outside [0, 2**64 - 2] (GTSAM keys are uint64)")
     return k
+
+
+#: Groups whose conventions act on a pose ``(…, 4, 4)`` or a rotation ``(…, 3, 3)``.
+POSE_GROUPS = ("se3", "so3")
+
+
+def pose_convention(conv: Any, name: str, X: FloatArray | None = None) -> None:
+    """Raise unless ``conv`` (a resolved convention) is one of SE(3)/SO(3) and matches ``X``.
+
+    An operation on poses that takes a convention must refuse a convention of another group
+    (``"gtsam_similarity3"``, ``"gtsam_pose2"``, a bundle) before it reads the covariance with
+    the wrong tangent size, and an SO(3) convention given a pose.
+    """
+    group = getattr(conv, "group", None)
+    label = getattr(conv, "name", repr(conv))
+    if group not in POSE_GROUPS:
+        raise ValueError(
+            f"{name}: {label!r} is a convention of {group}, but this operation takes poses "
+            "(4×4) or rotations (3×3): use an SE(3) convention such as 'gtsam' or 'ros'"
+        )
+    if group == "so3" and X is not None and X.shape[-2:] != (3, 3):
+        raise ValueError(
+            f"{name}: {label!r} is an SO(3) convention, but the element has shape "
+            f"{X.shape[-2:]}, not a rotation (3, 3)"
+        )

@@ -140,6 +140,25 @@ def _load_npy(path: Path, text: str, what: str) -> Any:
     return np.load(path, allow_pickle=False)
 
 
+def npy_argument(text: str, what: str) -> FloatArray:
+    """One real, finite array from a ``.npy`` file, its header checked before anything is read.
+
+    Complex, non-numeric, pickled or truncated files, and headers promising more data than the
+    file holds, are refused with a one-line error naming ``what`` and the file.
+    """
+    path = Path(text)
+    if not _is(path, "is_file"):
+        raise CLIError(f"{what}: no such file: {text}")
+    try:
+        arr = _load_npy(path, text, what)
+    except (OSError, ValueError, EOFError, MemoryError) as exc:
+        raise CLIError(f"{what}: cannot read {text} as .npy: {one_line(str(exc))}") from None
+    arr = np.asarray(arr, dtype=np.float64)
+    if not np.isfinite(arr).all():
+        raise CLIError(f"{what}: {text} contains NaN or Inf")
+    return arr
+
+
 def array_argument(text: str, what: str) -> tuple[FloatArray, bool]:
     """Numbers from an argument: a ``.npy`` or text file, or the numbers themselves.
 

@@ -27,6 +27,7 @@ from ._common import (
     check_output_path,
     convention_arg,
     need_matplotlib,
+    npy_argument,
     one_line,
     say,
 )
@@ -282,12 +283,7 @@ def _nees(args: argparse.Namespace) -> int:
     conv = convention_arg(args.convention, "--convention")
     if args.plot:
         check_output_path(args.plot, "--plot", (".png", ".pdf", ".svg"))
-    try:
-        cov = np.load(args.cov, allow_pickle=False)
-    except (OSError, ValueError, EOFError) as exc:
-        raise CLIError(f"--cov: cannot read {args.cov} as .npy: {one_line(str(exc))}") from None
-    if not isinstance(cov, np.ndarray) or not np.issubdtype(cov.dtype, np.number):
-        raise CLIError(f"--cov: {args.cov} does not hold one numeric array")
+    cov = npy_argument(args.cov, "--cov")
     if cov.ndim != 3 or cov.shape[1:] != (6, 6):
         raise CLIError(f"--cov: expected an array of shape (N, 6, 6), got {cov.shape}")
     p = _prepare(args, np.asarray(cov, dtype=np.float64), conv)

@@ -449,10 +449,18 @@ class _OpenCVMatrix(dict[str, Any]):
     """An ``!!opencv-matrix`` node (rows, cols, dt, data) as read."""
 
 
+#: Deepest nesting of mappings and sequences a calibration file may have (real files: < 6).
+YAML_MAX_DEPTH = 64
+#: Largest number of values that aliases (``*anchor``) may add to a file's parsed size beyond
+#: the file's own values: a few shared blocks are fine, a "billion laughs" expansion is not.
+YAML_MAX_ALIAS_EXPANSION = 100_000
+
+
 def _loader() -> Any:
     yaml = _yaml()
+    base = getattr(yaml, "CSafeLoader", None) or yaml.SafeLoader  # libyaml's parser when present
 
-    class Loader(yaml.SafeLoader):  # type: ignore[name-defined]
+    class Loader(base):  # type: ignore[misc,valid-type]
         pass
 
     def construct(loader: Any, node: Any) -> _OpenCVMatrix:
@@ -462,19 +470,78 @@ def _loader() -> Any:
     return Loader
 
 
+def _check_yaml_shape(yaml: Any, text: str, path: PathLike, loader: Any) -> None:
+    """Refuse a document nested deeper than :data:`YAML_MAX_DEPTH`, an anchor that refers to
+    itself, or aliases that expand it by more than :data:`YAML_MAX_ALIAS_EXPANSION` values.
+
+    One pass over the parser's events (iterative: no recursion, whatever the depth), before the
+    recursive composer and constructor see the document. Each collection's expanded size is
+    counted as it closes; an alias adds its anchor's size.
+    """
+    ev = yaml.events
+    sizes: dict[str, int] = {}  # anchor → expanded size, once closed
+    open_anchors: list[str | None] = []
+    counts: list[int] = [0]  # expanded size of each open collection
+    extra = 0  # values added by aliases
+    for e in yaml.parse(text, Loader=loader):
+        if isinstance(e, ev.ScalarEvent):
+            counts[-1] += 1
+            if e.anchor is not None:
+                sizes[e.anchor] = 1
+        elif isinstance(e, ev.CollectionStartEvent):
+            if len(counts) > YAML_MAX_DEPTH:
+                raise ValueError(
+                    f"{path}: nested more than {YAML_MAX_DEPTH} levels deep (at line "
+                    f"{e.start_mark.line + 1}); no calibration file is"
+                )
+            counts.append(1)
+            open_anchors.append(e.anchor)
+        elif isinstance(e, ev.CollectionEndEvent):
+            size = counts.pop()
+            anchor = open_anchors.pop()
+            counts[-1] += size
+            if anchor is not None:
+                sizes[anchor] = size
+        elif isinstance(e, ev.AliasEvent):
+            size = sizes.get(e.anchor)
+            if size is None:
+                if e.anchor in open_anchors:
+                    raise ValueError(
+                        f"{path}: the alias *{e.anchor} refers to its own anchor (a "
+                        "self-referential structure, which no calibration value is)"
+                    )
+                continue  # undefined: the composer reports it
+            counts[-1] += size
+            extra += size
+            if extra > YAML_MAX_ALIAS_EXPANSION:
+                raise ValueError(
+                    f"{path}: its aliases expand it by more than {YAML_MAX_ALIAS_EXPANSION} "
+                    f"values (at line {e.start_mark.line + 1}; an alias bomb?); refusing to "
+                    "expand it"
+                )
+
+
 def _load_text(text: str, path: PathLike) -> Any:
-    """YAML (plain or OpenCV's dialect) or JSON text → Python objects; errors name the file."""
+    """YAML (plain or OpenCV's dialect) or JSON text → Python objects; errors name the file.
+
+    The one loader of every calibration reader: a safe loader (no Python objects), with the
+    depth and alias limits of :func:`_check_yaml_shape`; JSON nested too deep is refused too.
+    """
     stripped = text.lstrip()
     if stripped.startswith("{") and '"' in stripped[:200]:
         try:
             return json.loads(text)
         except json.JSONDecodeError:
             pass  # YAML flow mappings also start with "{"
+        except RecursionError:
+            raise ValueError(f"{path}: JSON nested too deep for a calibration file") from None
     yaml = _yaml()
     # OpenCV writes "%YAML:1.0" (or "%YAML 1.2"): a directive PyYAML rejects; drop it
     text = re.sub(r"\A\s*%YAML[: ]\s*\d+\.\d+[^\n]*\n", "", text)
+    loader = _loader()
     try:
-        return yaml.load(text, Loader=_loader())  # a SafeLoader subclass
+        _check_yaml_shape(yaml, text, path, loader)
+        return yaml.load(text, Loader=loader)  # a SafeLoader subclass
     except yaml.YAMLError as exc:
         msg = " ".join(str(exc).split())
         raise ValueError(f"{path}: not valid YAML: {msg}") from None
@@ -512,13 +579,17 @@ def _matrix(value: Any, where: str, shape: tuple[int, ...]) -> FloatArray:
     return arr
 
 
-def _pose(value: Any, where: str) -> FloatArray:
-    """Read a rigid 4x4 from a file; the rotation tolerance follows the printed precision."""
+def _pose(value: Any, where: str) -> tuple[FloatArray, float]:
+    """Read a rigid 4x4 from a file and the rotation tolerance its printed precision allows.
+
+    The tolerance goes on with the matrix into the :class:`Transform` built from it, so a file
+    printed with 4 decimals is validated at its own precision once, not refused at 1e-6 later.
+    """
     T = _matrix(value, where, (4, 4))
     fields = [repr(float(x)) for x in T[:3, :3].ravel()]
     tol = pose_io.text_rotation_tol(fields)
     try:
-        return validate.pose(T, where, tol)
+        return validate.pose(T, where, tol), tol
     except ValueError as exc:
         raise ValueError(f"{exc} (a rigid transform is required)") from None
 
@@ -598,14 +669,13 @@ def read_kalibr(path: PathLike, *, imu_frame: str = "imu0") -> KalibrCamchain:
         rest = {k: val for k, val in entry.items() if k not in _KALIBR_FIELDS}
         T_ci = T_cc = None
         if "T_cam_imu" in entry:
-            T_ci = Transform(
-                _pose(entry["T_cam_imu"], f"{path}: {name}.T_cam_imu"), name, imu_frame
-            )
+            T, tol = _pose(entry["T_cam_imu"], f"{path}: {name}.T_cam_imu")
+            T_ci = Transform(T, name, imu_frame, tol=tol)
         if "T_cn_cnm1" in entry:
             if i == 0:
                 raise ValueError(f"{path}: {name}.T_cn_cnm1 on the first camera (no previous)")
-            T = _pose(entry["T_cn_cnm1"], f"{path}: {name}.T_cn_cnm1")
-            T_cc = Transform(T, name, str(names[i - 1]))
+            T, tol = _pose(entry["T_cn_cnm1"], f"{path}: {name}.T_cn_cnm1")
+            T_cc = Transform(T, name, str(names[i - 1]), tol=tol)
         shift = entry.get("timeshift_cam_imu")
         if shift is not None:
             if isinstance(shift, bool) or not isinstance(shift, (int, float)):
@@ -641,7 +711,9 @@ def write_kalibr(
     yaml = _yaml()
     data: dict[str, Any] = {}
     for c in chain.cameras:
-        entry: dict[str, Any] = {k: _plain(val) for k, val in c.fields.items()}
+        entry: dict[str, Any] = {
+            k: _plain(val, f"chain: {c.name}.{k}") for k, val in c.fields.items()
+        }
         if c.T_cam_imu is not None:
             entry["T_cam_imu"] = np.asarray(c.T_cam_imu.T).tolist()
         if c.T_cn_cnm1 is not None:
@@ -663,14 +735,59 @@ def write_kalibr(
     Path(path).write_text(text, encoding="utf-8")
 
 
-def _plain(x: Any) -> Any:
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    if isinstance(x, dict):
-        return {k: _plain(val) for k, val in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_plain(val) for val in x]
-    return x
+def _plain(x: Any, where: str) -> Any:
+    """``x`` as plain YAML data (arrays as lists), refusing what the reader would refuse.
+
+    Shared sub-objects stay shared (YAML anchors; no exponential expansion), a container that
+    holds itself and an expansion beyond :data:`YAML_MAX_ALIAS_EXPANSION` values are refused
+    with a ``ValueError`` naming the field — iteratively, so neither recursion nor time runs away.
+    """
+    memo: dict[int, tuple[Any, int]] = {}  # id → (plain copy, expanded size)
+    on_path: set[int] = set()
+    extra = 0
+
+    def children(obj: Any) -> list[Any]:
+        return list(obj.values()) if isinstance(obj, dict) else list(obj)
+
+    root = x
+    if not isinstance(root, (dict, list, tuple)):
+        return _leaf(root)
+    stack: list[tuple[Any, bool]] = [(root, False)]
+    while stack:
+        obj, done = stack.pop()
+        oid = id(obj)
+        if done:
+            on_path.discard(oid)
+            kids = children(obj)
+            plain = [memo[id(k)][0] if id(k) in memo else _leaf(k) for k in kids]
+            size = 1 + sum(memo[id(k)][1] if id(k) in memo else _leaf_size(k) for k in kids)
+            out: Any = dict(zip(obj.keys(), plain, strict=True)) if isinstance(obj, dict) else plain
+            memo[oid] = (out, size)
+            continue
+        if oid in memo:
+            extra += memo[oid][1]
+            if extra > YAML_MAX_ALIAS_EXPANSION:
+                raise ValueError(
+                    f"{where}: shared sub-objects expand it by more than "
+                    f"{YAML_MAX_ALIAS_EXPANSION} values; read_kalibr would refuse the file"
+                )
+            continue
+        if oid in on_path:
+            raise ValueError(f"{where}: a container holds itself (a self-referential structure)")
+        if len(on_path) >= YAML_MAX_DEPTH:
+            raise ValueError(f"{where}: nested more than {YAML_MAX_DEPTH} levels deep")
+        on_path.add(oid)
+        stack.append((obj, True))
+        stack.extend((k, False) for k in reversed(children(obj)) if isinstance(k, (dict, list, tuple)))
+    return memo[id(root)][0]
+
+
+def _leaf(x: Any) -> Any:
+    return x.tolist() if isinstance(x, np.ndarray) else x
+
+
+def _leaf_size(x: Any) -> int:
+    return int(x.size) + 1 if isinstance(x, np.ndarray) else 1
 
 
 # ----------------------------------------------------------------------------- other systems' files
@@ -768,25 +885,26 @@ def read_extrinsic(
         entry = need(data, camera, camera)
         where = f"{path}: {camera}.T_imu_cam"
         if "T_imu_cam" in entry:
-            T = _pose(entry["T_imu_cam"], where)
+            T, tol = _pose(entry["T_imu_cam"], where)
         else:  # OpenVINS falls back to an inverted T_cam_imu (opencv_yaml_parse.h)
-            T = U.se3_inverse(_pose(need(entry, "T_cam_imu", f"{camera}.T_imu_cam"), where))
+            T, tol = _pose(need(entry, "T_cam_imu", f"{camera}.T_imu_cam"), where)
+            T = U.se3_inverse(T)
     elif name == "okvis":
         cams = data["cameras"]
         if idx >= len(cams):
             raise ValueError(f"{path}: no camera {idx} in cameras (it has {len(cams)})")
         where = f"{path}: cameras[{idx}].T_SC"
-        T = _pose(need(cams[idx], "T_SC", f"cameras[{idx}].T_SC"), where)
+        T, tol = _pose(need(cams[idx], "T_SC", f"cameras[{idx}].T_SC"), where)
     elif name == "orbslam3":
         if idx != 0:
             raise ValueError(f"{path}: ORB-SLAM3 stores IMU.T_b_c1 for the first camera only")
         key = "IMU.T_b_c1" if "IMU.T_b_c1" in data else "Tbc"
         where = f"{path}: {key}"
-        T = _pose(data[key], where)
+        T, tol = _pose(data[key], where)
     elif name == "vins_fusion":
         key = f"body_T_cam{idx}"
         where = f"{path}: {key}"
-        T = _pose(need(data, key, key), where)
+        T, tol = _pose(need(data, key, key), where)
     else:  # basalt
         root = data.get("value0", data)
         poses = need(root, "T_imu_cam", "T_imu_cam")
@@ -802,7 +920,8 @@ def read_extrinsic(
             T = pose_io.to_matrix(x, layout="xyz_qxyzw")
         except ValueError as exc:
             raise ValueError(f"{where}: {exc}") from None
-    return Transform(T, imu_frame, camera).inverse()  # all of these hold T_imu_cam
+        tol = validate.ROTATION_TOL
+    return Transform(T, imu_frame, camera, tol=tol).inverse()  # all of these hold T_imu_cam
 
 
 def read_timeshift(

@@ -90,6 +90,7 @@ class Alignment:
         Both increments are in ``convention`` (see the module docstring), shape (..., 6, 6).
         """
         conv = get(convention)
+        validate.pose_convention(conv, "convention", np.eye(4))
         T = validate.pose(T_est, "T_est")
         D = np.diag([1.0, 1.0, 1.0, self.scale, self.scale, self.scale])
         J = cu.from_canonical(conv, self.apply(T)) @ D @ cu.to_canonical(conv, T)

@@ -130,6 +130,7 @@ def interpolate_covariances(
         In ``convention``'s tangent at ``T_query``.
     """
     conv = get(convention)
+    validate.pose_convention(conv, "convention", np.eye(4))
     Tq = interpolate_poses(t_query, t, T, method)
     _, i, tau = _bracket(t_query, t)
     Tp = validate.pose(T, "T")

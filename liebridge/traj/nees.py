@@ -121,6 +121,7 @@ def nees(
         positive definite (naming the pose index).
     """
     conv = get(convention)
+    validate.pose_convention(conv, "convention", np.eye(4))
     Tr = validate.pose(T_ref, "T_ref")
     Te = validate.pose(T_est, "T_est")
     if Tr.ndim != 3 or Tr.shape != Te.shape:
@@ -143,8 +144,17 @@ def nees(
             f"cov_est: not positive definite at pose {i} (smallest eigenvalue {lam[i]:.3g}); "
             f"the NEES needs an invertible covariance"
         ) from None
-    z = np.linalg.solve(L, e[..., None])[..., 0]
-    values = np.einsum("ni,ni->n", z, z)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # reported just below
+        z = np.linalg.solve(L, e[..., None])[..., 0]
+        values = np.einsum("ni,ni->n", z, z)
+    if not np.isfinite(values).all():
+        i = int(np.argmax(~np.isfinite(values)))
+        lam = float(np.linalg.eigvalsh(cov[i])[0])
+        raise ValueError(
+            f"cov_est: the NEES at pose {i} overflows float64 (error norm "
+            f"{float(np.linalg.norm(e[i])):.3g}, smallest covariance eigenvalue {lam:.3g}): the "
+            "covariance is too small for the error to be represented"
+        )
     n = Te.shape[0]
     return NEESResult(
         nees=np.asarray(values, dtype=np.float64),

@@ -72,7 +72,9 @@ class UncertainPose:
 
     def __init__(self, T: Any, cov: Any, convention: ConventionLike) -> None:
         conv = get(convention)
+        validate.pose_convention(conv, "convention")  # before T is read as a 3×3 rotation
         Ta = group_input(_matrix_of(T), "T")
+        validate.pose_convention(conv, "convention", Ta)
         n = 3 if Ta.shape[-1] == 3 else 6
         C = validate.covariance(cov, "cov", n)
         shape = validate.batch_shape(("T", Ta.shape[:-2]), ("cov", C.shape[:-2]))
@@ -133,6 +135,7 @@ class UncertainPose:
         unchanged (the mean shift of a nonlinear change of chart is second order and dropped).
         """
         dst = get(convention)
+        validate.pose_convention(dst, "convention", self.T)
         cov = convert_covariance(self.cov, self.T, self.convention, dst, method=method)
         return UncertainPose(self.T, cov, dst)
 
