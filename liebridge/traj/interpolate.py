@@ -61,7 +61,8 @@ def _bracket(
             f"no extrapolation"
         )
     i = np.clip(np.searchsorted(ts, tq, side="right") - 1, 0, ts.size - 2)
-    tau = (tq - ts[i]) / (ts[i + 1] - ts[i])
+    # halves first: stamps ±1e308 apart overflow a difference (exact otherwise: powers of two)
+    tau = (0.5 * tq - 0.5 * ts[i]) / (0.5 * ts[i + 1] - 0.5 * ts[i])
     return tq, i, tau
 
 
