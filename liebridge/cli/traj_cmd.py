@@ -56,6 +56,7 @@ def _read_topic(path: str, topic: str, what: str) -> tuple[FloatArray, FloatArra
         raise CLIError(f"{what}: {exc}") from None
     try:
         msgs = read_messages(path, topic)
+        msgs.trajectory_frames()  # one trajectory: frame_id alternating map/odom is not one
     except (ValueError, OSError, ImportError) as exc:
         raise CLIError(f"{what}: {one_line(str(exc))}") from None
     return np.asarray(msgs.stamps, dtype=np.float64), np.asarray(msgs.T, dtype=np.float64)

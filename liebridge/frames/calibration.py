@@ -471,9 +471,10 @@ def _loader() -> Any:
 
 
 def _check_yaml_shape(yaml: Any, text: str, path: PathLike, loader: Any) -> None:
-    """Refuse a document nested deeper than :data:`YAML_MAX_DEPTH`, an anchor that refers to
-    itself, or aliases that expand it by more than :data:`YAML_MAX_ALIAS_EXPANSION` values.
+    """Refuse a document too deep, self-referential, or expanded too much by its aliases.
 
+    The limits: :data:`YAML_MAX_DEPTH` levels of nesting; :data:`YAML_MAX_ALIAS_EXPANSION`
+    values added by aliases; no alias to an anchor still open (a structure that holds itself).
     One pass over the parser's events (iterative: no recursion, whatever the depth), before the
     recursive composer and constructor see the document. Each collection's expanded size is
     counted as it closes; an alias adds its anchor's size.
@@ -503,16 +504,16 @@ def _check_yaml_shape(yaml: Any, text: str, path: PathLike, loader: Any) -> None
             if anchor is not None:
                 sizes[anchor] = size
         elif isinstance(e, ev.AliasEvent):
-            size = sizes.get(e.anchor)
-            if size is None:
+            alias_size = sizes.get(e.anchor)
+            if alias_size is None:
                 if e.anchor in open_anchors:
                     raise ValueError(
                         f"{path}: the alias *{e.anchor} refers to its own anchor (a "
                         "self-referential structure, which no calibration value is)"
                     )
                 continue  # undefined: the composer reports it
-            counts[-1] += size
-            extra += size
+            counts[-1] += alias_size
+            extra += alias_size
             if extra > YAML_MAX_ALIAS_EXPANSION:
                 raise ValueError(
                     f"{path}: its aliases expand it by more than {YAML_MAX_ALIAS_EXPANSION} "
@@ -778,7 +779,8 @@ def _plain(x: Any, where: str) -> Any:
             raise ValueError(f"{where}: nested more than {YAML_MAX_DEPTH} levels deep")
         on_path.add(oid)
         stack.append((obj, True))
-        stack.extend((k, False) for k in reversed(children(obj)) if isinstance(k, (dict, list, tuple)))
+        kids = [k for k in reversed(children(obj)) if isinstance(k, (dict, list, tuple))]
+        stack.extend((k, False) for k in kids)
     return memo[id(root)][0]
 
 

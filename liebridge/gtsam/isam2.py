@@ -299,7 +299,7 @@ class ISAM2:
 
     # ------------------------------------------------------------------ internals
     def _save(self) -> tuple[Any, ...]:
-        """The mirror's state before an update (arrays reassigned, not mutated, except θ)."""
+        """Return the mirror's state before an update (arrays reassigned, not mutated, but θ)."""
         return (
             self._count,
             self._var_keys,

@@ -12,6 +12,7 @@ into place when complete: a failure leaves no half-written bag.
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import tempfile
 from collections.abc import Callable, Iterator
@@ -31,6 +32,7 @@ __all__ = [
     "TopicSummary",
     "atomic_output",
     "bag_info",
+    "check_topic",
     "read_messages",
     "require_rosbags",
     "write_messages",
@@ -510,6 +512,29 @@ def _storage_for(path: Path, storage: str | None, msgs: RosMessages) -> str:
     return storage
 
 
+#: A ROS graph resource name as ROS 1 and ROS 2 accept it for a topic: optional leading ``/``
+#: or ``~``, tokens of letters, digits and underscores (not starting with a digit) separated by
+#: single slashes, substitutions ``{…}`` allowed; no trailing slash (ROS 2 ``rcl``
+#: ``validate_topic_name``; ROS 1 ``ros::names::validate``).
+_TOPIC = re.compile(r"[/~]?(?:[A-Za-z_{][A-Za-z0-9_{}]*)(?:/[A-Za-z_{][A-Za-z0-9_{}]*)*")
+
+
+def check_topic(topic: Any, name: str = "topic") -> str:
+    """Return ``topic`` if it is a valid ROS topic name; else a ``ValueError`` naming it.
+
+    An empty name (``--out-topic ''``) is written by rosbags without complaint and gives a bag
+    that no reader opens; a name with spaces, ``//`` or a trailing ``/`` is refused by ROS.
+    """
+    if not isinstance(topic, str):
+        raise TypeError(f"{name}: expected a topic name (str), got {type(topic).__name__}")
+    if not _TOPIC.fullmatch(topic):
+        raise ValueError(
+            f"{name}: {topic!r} is not a ROS topic name (expected e.g. '/liebridge/poses': "
+            "letters, digits, '_' in '/'-separated tokens, not starting with a digit)"
+        )
+    return topic
+
+
 def write_messages(
     bag: PathLike,
     topic: str,
@@ -542,6 +567,7 @@ def write_messages(
     """
     if not isinstance(msgs, RosMessages):
         raise TypeError(f"msgs: expected RosMessages, got {type(msgs).__name__}")
+    check_topic(topic)
     rb = require_rosbags()
     path = Path(bag)
     kind = _storage_for(path, storage, msgs)
@@ -604,8 +630,8 @@ def write_tum(path: PathLike, msgs: RosMessages) -> None:
     """
     if not isinstance(msgs, RosMessages):
         raise TypeError(f"msgs: expected RosMessages, got {type(msgs).__name__}")
-    parent = msgs.frame_id[0] if len(msgs) else ""
-    child = msgs.child_frame_id[0] if msgs.child_frame_id and len(msgs) else "body"
+    parent, child_id = msgs.trajectory_frames()  # one trajectory: one pair of frames
+    child = child_id or "body"
     lines = [
         f"# timestamp tx ty tz qx qy qz qw  (T_{parent or 'parent'}_{child}; topic {msgs.topic})\n"
     ]

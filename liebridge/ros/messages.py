@@ -357,6 +357,35 @@ class RosMessages:
                     f"{self._where(k)}: {exc} — cannot convert it to {self.convention.name!r}"
                 ) from None
 
+    def trajectory_frames(self) -> tuple[str, str | None]:
+        """``(frame_id, child_frame_id)`` shared by every message: the frames of one trajectory.
+
+        Chaining, exporting or comparing the poses as one trajectory ``T_parent_child(t)`` needs
+        one parent and one child frame; a topic whose ``frame_id`` alternates (map, odom, map…)
+        holds several trajectories interleaved.
+
+        Raises
+        ------
+        ValueError
+            Naming the first message whose ``frame_id`` (or ``child_frame_id``) differs from the
+            first message's, and both names.
+        """
+        if len(self) == 0:
+            return "", None
+        for name in ("frame_id", "child_frame_id"):
+            ids = getattr(self, name)
+            if ids is None:
+                continue
+            first = ids[0]
+            for k, f in enumerate(ids):
+                if f != first:
+                    raise ValueError(
+                        f"{self._where(k)}: {name} {f!r} differs from the first message's "
+                        f"{first!r}; the topic holds poses in several frames, not one trajectory "
+                        "(select the messages of one frame first, e.g. with select())"
+                    )
+        return self.frame_id[0], None if self.child_frame_id is None else self.child_frame_id[0]
+
     def with_convention(self, convention: ConventionLike) -> RosMessages:
         """Return the same messages with ``cov``/``twist``/``twist_cov`` in ``convention``.
 
@@ -394,12 +423,27 @@ class RosMessages:
         return replace(self, message_index=new_mi, log_time_ns=self.log_time_ns[uniq], **kw)
 
 
+#: Seconds a ROS time can hold: ROS 2 ``builtin_interfaces/Time.sec`` is int32, ROS 1's
+#: ``time.secs`` uint32; a stamp outside both cannot be written (and beyond ≈ 9.2e9 s its
+#: nanoseconds overflow int64).
+STAMP_MIN = -(2**31)
+STAMP_MAX = 2**32 - 1
+
+
 def _stamps_split(stamps: Any, n: int) -> tuple[IntArray, IntArray]:
     """Seconds → (sec, nanosec), rounded to the nearest nanosecond."""
     t = validate.as_float_array(stamps, "stamps")
     if t.shape != (n,):
         raise ValueError(f"stamps: expected shape ({n},), got {t.shape}")
     validate.check_finite(t, "stamps")
+    out = (t < STAMP_MIN) | (t > STAMP_MAX)
+    if out.any():
+        k = int(np.flatnonzero(out)[0])
+        raise ValueError(
+            f"stamps: stamp {k} ({float(t[k])!r} s) is outside the seconds a ROS time holds "
+            f"([{STAMP_MIN}, {STAMP_MAX}]: ROS 2's int32, ROS 1's uint32 seconds); "
+            f"{int(out.sum())} such stamps"
+        )
     ns = np.round(t * 1e9).astype(np.int64)
     return ns // 1_000_000_000, ns % 1_000_000_000
 

@@ -149,10 +149,10 @@ def nees(
         values = np.einsum("ni,ni->n", z, z)
     if not np.isfinite(values).all():
         i = int(np.argmax(~np.isfinite(values)))
-        lam = float(np.linalg.eigvalsh(cov[i])[0])
+        lam_i = float(np.linalg.eigvalsh(cov[i])[0])
         raise ValueError(
             f"cov_est: the NEES at pose {i} overflows float64 (error norm "
-            f"{float(np.linalg.norm(e[i])):.3g}, smallest covariance eigenvalue {lam:.3g}): the "
+            f"{float(np.linalg.norm(e[i])):.3g}, smallest covariance eigenvalue {lam_i:.3g}): the "
             "covariance is too small for the error to be represented"
         )
     n = Te.shape[0]
