@@ -591,15 +591,19 @@ def similarity(x: Any, name: str, tol: float = ROTATION_TOL) -> FloatArray:
         )
     _check_bottom(arr, name, _SIM3_BOTTOM, "Sim(3)", hint)
     A = arr[..., :3, :3]
-    with np.errstate(over="ignore", invalid="ignore"):
-        det = np.linalg.det(A)
+    check_finite(arr, name, core_ndim=2)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        # det(sR) = s³ under/overflows for s < 1e-103 or > 1e102: scale by a power of two first
+        big = np.max(np.abs(A), axis=(-1, -2))
+        m = np.ldexp(1.0, np.frexp(np.where(big > 0, big, 1.0))[1])
+        det = np.linalg.det(A / m[..., None, None])
     if (det <= 0).any():
         i = batch_index(np.asarray(det <= 0))
         raise ValueError(
-            f"{name}: Sim(3) scale s = cbrt(det(sR)) = {float(np.cbrt(det[i])):.3g} ≤ 0 at batch "
-            f"index {i} (the scale must be positive)"
+            f"{name}: Sim(3) scale s = cbrt(det(sR)) = {float(m[i] * np.cbrt(det[i])):.3g} ≤ 0 "
+            f"at batch index {i} (the scale must be positive)"
         )
-    s = np.cbrt(det)
+    s = m * np.cbrt(det)
     _check_orthonormal(A / s[..., None, None], name, tol, "its linear block divided by its scale")
     return arr
 
