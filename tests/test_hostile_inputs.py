@@ -106,8 +106,16 @@ def test_traj_nees_cov_npy_complex_or_huge_header_refused(
     (tmp_path / "a.tum").write_text(tum)
     np.save(tmp_path / "c.npy", np.stack([np.eye(6)] * 5) * (1 + 1j))
     rc, _, err = _cli(
-        ["traj", "nees", str(tmp_path / "a.tum"), str(tmp_path / "a.tum"), "--cov",
-         str(tmp_path / "c.npy"), "--convention", "gtsam"],
+        [
+            "traj",
+            "nees",
+            str(tmp_path / "a.tum"),
+            str(tmp_path / "a.tum"),
+            "--cov",
+            str(tmp_path / "c.npy"),
+            "--convention",
+            "gtsam",
+        ],
         capsys,
     )
     assert rc == 2 and "complex" in err
@@ -118,8 +126,16 @@ def test_traj_nees_cov_npy_complex_or_huge_header_refused(
         )
         fh.write(b"\0" * 64)
     rc, _, err = _cli(
-        ["traj", "nees", str(tmp_path / "a.tum"), str(tmp_path / "a.tum"), "--cov", str(huge),
-         "--convention", "gtsam"],
+        [
+            "traj",
+            "nees",
+            str(tmp_path / "a.tum"),
+            str(tmp_path / "a.tum"),
+            "--cov",
+            str(huge),
+            "--convention",
+            "gtsam",
+        ],
         capsys,
     )
     assert rc == 2 and "header promises shape (100000000000, 6, 6)" in err
@@ -316,8 +332,15 @@ def test_from_poses_stamps_a_ros_time_cannot_hold_refused(stamp: float) -> None:
 
 @pytest.mark.parametrize(
     ("option", "value"),
-    [("--prior-sigma", "0"), ("--prior-sigma", "nan"), ("--prior-sigma", "inf"),
-     ("--period", "-1"), ("--period", "nan"), ("--period", "inf"), ("--period", "1e300")],
+    [
+        ("--prior-sigma", "0"),
+        ("--prior-sigma", "nan"),
+        ("--prior-sigma", "inf"),
+        ("--period", "-1"),
+        ("--period", "nan"),
+        ("--period", "inf"),
+        ("--period", "1e300"),
+    ],
 )
 def test_write_marginals_bad_sigma_or_period_is_one_clear_line(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], option: str, value: str
@@ -327,8 +350,9 @@ def test_write_marginals_bad_sigma_or_period_is_one_clear_line(
         "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nVERTEX_SE3:QUAT 1 1 0 0 0 0 0 1\n"
         "EDGE_SE3:QUAT 0 1 1 0 0 0 0 0 1 1 0 0 0 0 0 1 0 0 0 0 1 0 0 0 1 0 0 1 0 1\n"
     )
-    rc, _, err = _cli(["bag", "write-marginals", str(g), str(tmp_path / "o.bag"), option, value],
-                      capsys)
+    rc, _, err = _cli(
+        ["bag", "write-marginals", str(g), str(tmp_path / "o.bag"), option, value], capsys
+    )
     assert rc == 2 and option in err and len(err.strip().splitlines()) == 1
 
 
@@ -401,10 +425,17 @@ def _bomb(levels: int) -> str:
     ("text", "match"),
     [
         (_bomb(9), "aliases expand it by more than"),
-        ("cam0: &c\n  T_cam_imu: [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]\n  me: *c\n",
-         "refers to its own anchor"),
-        ("cam0:\n" + "".join("  " * (k + 1) + f"k{k}:\n" for k in range(100)) + "  " * 101 + "1\n",
-         "nested more than 64 levels"),
+        (
+            "cam0: &c\n  T_cam_imu: [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]\n  me: *c\n",
+            "refers to its own anchor",
+        ),
+        (
+            "cam0:\n"
+            + "".join("  " * (k + 1) + f"k{k}:\n" for k in range(100))
+            + "  " * 101
+            + "1\n",
+            "nested more than 64 levels",
+        ),
         ("[" * 100_000 + "]" * 100_000, "not valid YAML|nested"),
         ('{"a": ' + "[" * 100_000 + "]" * 100_000 + "}", "JSON nested too deep"),
     ],
@@ -415,8 +446,12 @@ def test_calibration_yaml_alias_bomb_and_depth_refused_quickly(
 ) -> None:
     f = tmp_path / "camchain.yaml"
     f.write_text(text)
-    for read in (calib.read_kalibr, calib.read_extrinsic, calib.read_timeshift,
-                 calib.detect_file_system):
+    for read in (
+        calib.read_kalibr,
+        calib.read_extrinsic,
+        calib.read_timeshift,
+        calib.detect_file_system,
+    ):
         t0 = time.perf_counter()
         with pytest.raises(ValueError, match=match):
             read(f)
@@ -427,8 +462,7 @@ def test_calibration_yaml_shared_anchor_still_read(tmp_path: Path) -> None:
     """A few aliases (a shared block) are fine: only an expansion beyond the limit is refused."""
     f = tmp_path / "camchain.yaml"
     f.write_text(
-        "cam0:\n  T_cam_imu: &T [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]\n"
-        "cam1:\n  T_cam_imu: *T\n"
+        "cam0:\n  T_cam_imu: &T [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]\ncam1:\n  T_cam_imu: *T\n"
     )
     chain = calib.read_kalibr(f)
     np.testing.assert_array_equal(chain.camera("cam1").T_cam_imu.T, np.eye(4))
@@ -497,7 +531,7 @@ def test_fuse_with_a_zero_covariance_returns_that_estimate() -> None:
 
 
 # ========================================================== finite output, or an error saying why
-MAGNITUDE = st.sampled_from([0.0, 1e-300, 1e-12, 1.0, 1e12, 1e150, 1e200, 1e300, 1.7e308])
+MAGNITUDE = st.sampled_from([0.0, 1e-316, 1e-300, 1e-12, 1.0, 1e12, 1e150, 1e200, 1e300, 1.7e308])
 
 
 @given(MAGNITUDE, MAGNITUDE, st.sampled_from(["trans_part", "full", "angle_deg", "rot_part"]))
@@ -545,12 +579,117 @@ def test_sim3_round_trip_finite_or_say_why(s: float) -> None:
     assert np.isfinite(Y).all()
 
 
-def test_hostile_cli_json_output_is_one_object(tmp_path: Path, capsys: Any) -> None:
+def test_extrinsics_convert_of_a_4_decimal_kalibr_file_is_one_json_object(
+    tmp_path: Path, capsys: Any
+) -> None:
     """extrinsics convert --format json stays one JSON object with a 4-decimal Kalibr file."""
     f = tmp_path / "camchain-imucam.yaml"
     R = so3.exp(np.array([0.3, -0.2, 0.1]))
-    f.write_text("cam0:\n  T_cam_imu:\n" + "".join(
-        "  - [" + ", ".join(f"{x:.4f}" for x in [*R[i], 0.1]) + "]\n" for i in range(3)
-    ) + "  - [0, 0, 0, 1]\n")
-    rc, out, _ = _cli(["extrinsics", "convert", str(f), "--to", "okvis", "--format", "json"], capsys)
+    f.write_text(
+        "cam0:\n  T_cam_imu:\n"
+        + "".join("  - [" + ", ".join(f"{x:.4f}" for x in [*R[i], 0.1]) + "]\n" for i in range(3))
+        + "  - [0, 0, 0, 1]\n"
+    )
+    rc, out, _ = _cli(
+        ["extrinsics", "convert", str(f), "--to", "okvis", "--format", "json"], capsys
+    )
     assert rc == 0 and json.loads(out)["system"] == "okvis"
+
+
+# ======================================================== tracebacks and unclear errors, as lines
+def _kalibr(tmp_path: Path, shift: str) -> Path:
+    f = tmp_path / "camchain-imucam.yaml"
+    f.write_text(
+        "cam0:\n  T_cam_imu: [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]\n"
+        f"  timeshift_cam_imu: {shift}\n"
+    )
+    return f
+
+
+@pytest.mark.parametrize(
+    ("shift", "match"),
+    [("1" + "0" * 400, "is beyond float64"), ("1.0e+300", "beyond ±9.2e\\+09 s")],
+    ids=["one_and_400_zeros", "1e300"],
+)
+def test_kalibr_timeshift_beyond_float64_or_int64_ns_is_named(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], shift: str, match: str
+) -> None:
+    f = _kalibr(tmp_path, shift)
+    with pytest.raises(ValueError, match=f"cam0.timeshift_cam_imu: .*{match}"):
+        calib.read_kalibr(f)
+    with pytest.raises(ValueError, match=match):
+        calib.read_timeshift(f)
+    rc, _, err = _cli(["extrinsics", "convert", str(f), "--to", "basalt"], capsys)
+    assert rc == 2 and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("system", ["okvis", "orbslam3"])
+def test_extrinsics_convert_from_the_wrong_system_names_the_missing_key(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], system: str
+) -> None:
+    f = _kalibr(tmp_path, "0.01")
+    rc, _, err = _cli(["extrinsics", "convert", str(f), "--from", system, "--to", "kalibr"], capsys)
+    assert rc == 2 and f"expected in a {system} file" in err and "KeyError" not in err
+
+
+def test_optimize_none_graph_is_a_type_error_naming_it() -> None:
+    with pytest.raises(TypeError, match="graph: expected gtsam.NonlinearFactorGraph, got NoneType"):
+        F.optimize(None, gtsam.Values())
+    with pytest.raises(TypeError, match="values: expected gtsam.Values, got list"):
+        F.optimize(gtsam.NonlinearFactorGraph(), [])
+
+
+def test_axes_with_a_list_field_is_a_type_error_naming_it() -> None:
+    from liebridge.frames import Axes
+
+    with pytest.raises(TypeError, match=r"Axes.x: expected a str, got list"):
+        Axes("enu", "world", ["east"], "north", "up")  # type: ignore[arg-type]
+
+
+def test_kitti_segments_non_integer_step_refused() -> None:
+    T = se3.exp(np.c_[np.zeros((30, 3)), np.arange(30.0)[:, None] * [10.0, 0.0, 0.0]])
+    with pytest.raises(ValueError, match="step: expected an integer ≥ 1, got 2.5"):
+        traj.kitti_segment_errors(T, T, step=2.5)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("ratio", [float("nan"), 0.5, float("inf")])
+def test_twist_frame_check_ratio_outside_its_range_refused(tmp_path: Path, ratio: float) -> None:
+    n = 4
+    T = se3.exp(np.c_[np.zeros((n, 3)), np.arange(n)[:, None] * [1.0, 0.0, 0.0]])
+    m = ros.from_poses(T, stamps=np.arange(n) + 1.0, msgtype="nav_msgs/msg/Odometry")
+    with pytest.raises(ValueError, match="ratio: expected a finite number ≥ 1"):
+        ros.twist_frame_check(m, ratio=ratio)
+
+
+@pytest.mark.parametrize("align", ["se3", "sim3", "4dof", "none"])
+@pytest.mark.parametrize("order", ["big_ref", "big_est"])
+def test_traj_cli_on_1e300_poses_is_one_line_without_numpy_warnings(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], align: str, order: str
+) -> None:
+    rng = np.random.default_rng(3)
+    big, small = tmp_path / "big.tum", tmp_path / "small.tum"
+    big.write_text(
+        "".join(f"{k} {' '.join(map(repr, 1e300 * rng.random(3)))} 0 0 0 1\n" for k in range(1, 8))
+    )
+    small.write_text(
+        "".join(f"{k} {' '.join(map(repr, rng.random(3)))} 0 0 0 1\n" for k in range(1, 8))
+    )
+    ref, est = (big, small) if order == "big_ref" else (small, big)
+    with np.errstate(all="warn"), _no_warning():
+        rc, _, err = _cli(["traj", "ape", str(ref), str(est), "--align", align], capsys)
+    assert len(err.strip().splitlines()) <= 1, err
+    assert rc in (0, 2) and ("RuntimeWarning" not in err)
+
+
+class _no_warning:
+    """Fail on any warning raised inside the block (numpy's RuntimeWarning included)."""
+
+    def __enter__(self) -> None:
+        import warnings
+
+        self._ctx = warnings.catch_warnings()
+        self._ctx.__enter__()
+        warnings.simplefilter("error")
+
+    def __exit__(self, *exc: object) -> None:
+        self._ctx.__exit__(*exc)

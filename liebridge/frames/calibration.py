@@ -331,13 +331,38 @@ def export_extrinsic(
     elif fmt.system == "basalt":
         extra = {"pose": _basalt_pose(tf.T)}
     if timeshift_cam_imu is not None:
-        shift = float(timeshift_cam_imu)
-        if not np.isfinite(shift):
-            raise ValueError(f"timeshift_cam_imu: not finite ({shift!r})")
+        shift = _time_offset(timeshift_cam_imu, "timeshift_cam_imu")
         if fmt.system in TIME_OFFSETS:
             key, scale, _ = TIME_OFFSETS[fmt.system]
             extra[key] = round(shift * scale) if scale != 1.0 else shift
     return SystemExtrinsic(fmt.system, fmt.parameter, tf, direction, extra)
+
+
+#: Largest camera–IMU time offset accepted, seconds: it must fit in int64 nanoseconds (Basalt's
+#: ``cam_time_offset_ns``); a real offset is milliseconds.
+MAX_TIME_OFFSET = 9.2e9
+
+
+def _time_offset(value: Any, where: str, scale: float = 1.0) -> float:
+    """Return a time offset read from a file (in units of ``1/scale`` s) as finite seconds.
+
+    A ``ValueError`` names ``where`` for a value that is not a number, beyond float64 (``1``
+    and 400 zeros), or beyond :data:`MAX_TIME_OFFSET`.
+    """
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise ValueError(f"{where}: expected a number, got {value!r}")
+    try:
+        seconds = float(value) / scale
+    except OverflowError:
+        raise ValueError(f"{where}: {str(value)[:20]}… is beyond float64") from None
+    if not np.isfinite(seconds):
+        raise ValueError(f"{where}: expected a finite number, got {value!r}")
+    if abs(seconds) > MAX_TIME_OFFSET:
+        raise ValueError(
+            f"{where}: a time offset of {seconds:.6g} s is beyond ±{MAX_TIME_OFFSET:g} s "
+            "(int64 nanoseconds); a camera–IMU offset is a fraction of a second"
+        )
+    return seconds
 
 
 def _basalt_pose(T: FloatArray) -> dict[str, float]:
@@ -679,13 +704,7 @@ def read_kalibr(path: PathLike, *, imu_frame: str = "imu0") -> KalibrCamchain:
             T_cc = Transform(T, name, str(names[i - 1]), tol=tol)
         shift = entry.get("timeshift_cam_imu")
         if shift is not None:
-            if isinstance(shift, bool) or not isinstance(shift, (int, float)):
-                raise ValueError(
-                    f"{path}: {name}.timeshift_cam_imu: expected a number, got {shift!r}"
-                )
-            shift = float(shift)
-            if not np.isfinite(shift):
-                raise ValueError(f"{path}: {name}.timeshift_cam_imu is not finite")
+            shift = _time_offset(shift, f"{path}: {name}.timeshift_cam_imu")
         cams.append(KalibrCamera(name, T_ci, T_cc, shift, rest))
     return KalibrCamchain(tuple(cams), imu_frame)
 
@@ -892,7 +911,9 @@ def read_extrinsic(
             T, tol = _pose(need(entry, "T_cam_imu", f"{camera}.T_imu_cam"), where)
             T = U.se3_inverse(T)
     elif name == "okvis":
-        cams = data["cameras"]
+        cams = need(data, "cameras", "cameras")
+        if not isinstance(cams, list):
+            raise ValueError(f"{path}: cameras: expected a list of cameras")
         if idx >= len(cams):
             raise ValueError(f"{path}: no camera {idx} in cameras (it has {len(cams)})")
         where = f"{path}: cameras[{idx}].T_SC"
@@ -902,7 +923,7 @@ def read_extrinsic(
             raise ValueError(f"{path}: ORB-SLAM3 stores IMU.T_b_c1 for the first camera only")
         key = "IMU.T_b_c1" if "IMU.T_b_c1" in data else "Tbc"
         where = f"{path}: {key}"
-        T, tol = _pose(data[key], where)
+        T, tol = _pose(need(data, key, "IMU.T_b_c1"), where)
     elif name == "vins_fusion":
         key = f"body_T_cam{idx}"
         where = f"{path}: {key}"
@@ -951,9 +972,7 @@ def read_timeshift(
         value, where = data.get(key), f"{path}: {key}"
     if value is None:
         return None
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
-        raise ValueError(f"{where}: expected a finite number, got {value!r}")
-    return float(value) / scale
+    return _time_offset(value, where, scale)
 
 
 def _num(x: float) -> str:

@@ -192,7 +192,6 @@ def exp(xi: Any) -> FloatArray:
     return validate.finite_output(_exp(x), "sim3.exp")
 
 
-
 def log(X: Any) -> FloatArray:
     """Sim(3) logarithm → ``(ω, u, λ)``, ``‖ω‖ ∈ [0, π]``. GTSAM ``Similarity3.Logmap``."""
     return validate.finite_output(_log(validate.similarity(X, "X")), "sim3.log")

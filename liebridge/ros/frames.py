@@ -133,6 +133,10 @@ def twist_frame_check(msgs: RosMessages, *, ratio: float = 3.0) -> TwistFrameChe
     -------
     TwistFrameCheck
     """
+    if isinstance(ratio, bool) or not isinstance(ratio, int | float | np.integer | np.floating):
+        raise TypeError(f"ratio: expected a number ≥ 1, got {type(ratio).__name__}")
+    if not (np.isfinite(ratio) and ratio >= 1.0):  # NaN decided nothing and said so nowhere
+        raise ValueError(f"ratio: expected a finite number ≥ 1, got {ratio!r}")
     if msgs.msgtype != "nav_msgs/msg/Odometry" or msgs.twist_linear_angular is None:
         raise ValueError(f"msgs: expected nav_msgs/Odometry, got {msgs.msgtype}")
     if len(msgs) < 2:

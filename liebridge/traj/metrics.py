@@ -372,7 +372,7 @@ def kitti_segment_errors(
     Ls = validate.as_float_array(lengths, "lengths").reshape(-1)
     if Ls.size == 0 or not (np.isfinite(Ls).all() and (Ls > 0).all()):
         raise ValueError(f"lengths: expected positive segment lengths, got {Ls.tolist()}")
-    if step < 1:
+    if isinstance(step, bool) or not isinstance(step, int | np.integer) or step < 1:
         raise ValueError(f"step: expected an integer ≥ 1, got {step!r}")
     steps = np.linalg.norm(np.diff(Q[:, :3, 3], axis=0), axis=-1)
     dist = np.concatenate([[0.0], np.cumsum(steps)])
