@@ -87,7 +87,7 @@ def test_statistics_of_huge_errors_is_finite_or_says_why() -> None:
     s = traj.statistics([1e150, 2e150, 3e150])
     assert s.rmse == pytest.approx(np.sqrt(14.0 / 3.0) * 1e150, rel=1e-14)
     assert s.mean == pytest.approx(2e150, rel=1e-15) and np.isfinite(s.std)
-    with pytest.raises(ValueError, match="sum of squares .* overflows float64 .*1e\\+200"):
+    with pytest.raises(ValueError, match=r"sum of squares .* overflows float64 .*1e\+200"):
         traj.statistics([1e200, 1e200])
 
 
@@ -194,7 +194,7 @@ def _chain(with_prior: bool) -> tuple[Any, Any]:
 def test_isam2_failed_update_can_be_retried_and_gtsam_state_is_rebuilt() -> None:
     """A failed update (no prior) left the wrapper refusing the retry and GTSAM's ISAM2 off."""
     isam = F.ISAM2()
-    with pytest.raises(RuntimeError, match="Indeterminant|Indeterminate"):
+    with pytest.raises(RuntimeError, match=r"Indeterminant|Indeterminate"):
         isam.update(*_chain(with_prior=False))
     isam.update(*_chain(with_prior=True))
     ref = F.ISAM2()
@@ -222,7 +222,7 @@ def test_prior_with_subnormal_covariance_refused() -> None:
 def test_transform_tolerance_outside_its_range_refused(tol: float) -> None:
     A = np.eye(4)
     A[:3, :3] *= 1.4  # ‖RᵀR − I‖ = 0.96: accepted by tol = -1 before
-    with pytest.raises(ValueError, match="tol .*expected a rotation tolerance in"):
+    with pytest.raises(ValueError, match=r"tol .*expected a rotation tolerance in"):
         Transform(A, "a", "b", tol=tol)
 
 
@@ -326,7 +326,7 @@ def test_topic_whose_frame_id_alternates_is_not_one_trajectory(
 
 @pytest.mark.parametrize("stamp", [1e300, 9.3e9, -3e9])
 def test_from_poses_stamps_a_ros_time_cannot_hold_refused(stamp: float) -> None:
-    with pytest.raises(ValueError, match="stamps: stamp 1 .* outside the seconds a ROS time"):
+    with pytest.raises(ValueError, match=r"stamps: stamp 1 .* outside the seconds a ROS time"):
         ros.from_poses(np.stack([np.eye(4)] * 2), stamps=[0.0, stamp])
 
 
@@ -633,9 +633,11 @@ def test_extrinsics_convert_from_the_wrong_system_names_the_missing_key(
 
 
 def test_optimize_none_graph_is_a_type_error_naming_it() -> None:
-    with pytest.raises(TypeError, match="graph: expected gtsam.NonlinearFactorGraph, got NoneType"):
+    with pytest.raises(
+        TypeError, match=r"graph: expected gtsam.NonlinearFactorGraph, got NoneType"
+    ):
         F.optimize(None, gtsam.Values())
-    with pytest.raises(TypeError, match="values: expected gtsam.Values, got list"):
+    with pytest.raises(TypeError, match=r"values: expected gtsam.Values, got list"):
         F.optimize(gtsam.NonlinearFactorGraph(), [])
 
 
@@ -648,7 +650,7 @@ def test_axes_with_a_list_field_is_a_type_error_naming_it() -> None:
 
 def test_kitti_segments_non_integer_step_refused() -> None:
     T = se3.exp(np.c_[np.zeros((30, 3)), np.arange(30.0)[:, None] * [10.0, 0.0, 0.0]])
-    with pytest.raises(ValueError, match="step: expected an integer ≥ 1, got 2.5"):
+    with pytest.raises(ValueError, match=r"step: expected an integer ≥ 1, got 2.5"):
         traj.kitti_segment_errors(T, T, step=2.5)  # type: ignore[arg-type]
 
 
