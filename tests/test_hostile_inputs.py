@@ -695,3 +695,48 @@ class _no_warning:
 
     def __exit__(self, *exc: object) -> None:
         self._ctx.__exit__(*exc)
+
+
+# ===================================================================================== scale
+@pytest.mark.parametrize("op", ["compose", "relative", "inverse", "transform", "act"])
+def test_unscented_uncertain_ops_chunked_equal_unchunked(
+    monkeypatch: pytest.MonkeyPatch, op: str
+) -> None:
+    """The unscented compose (and its siblings) runs in chunks; the results do not change."""
+    from liebridge.uncertain import ops
+
+    rng = np.random.default_rng(5)
+    A = UncertainPose(se3.exp(rng.normal(size=(7, 6)) * 0.3), C6, "ros")
+    B = UncertainPose(se3.exp(rng.normal(size=(7, 6)) * 0.3), C6 * 2.0, "ros")
+    run = {
+        "compose": lambda: ops.compose(A, B, method="unscented"),
+        "relative": lambda: ops.relative(A, B, method="unscented"),
+        "inverse": lambda: ops.inverse(A, method="unscented"),
+        "transform": lambda: ops.transform(A, B.T, "right", method="unscented"),
+        "act": lambda: ops.act(A, np.ones(3), 0.01 * np.eye(3), method="unscented"),
+    }[op]
+    whole = run()
+    monkeypatch.setattr(ops, "UNSCENTED_BYTES", 1)  # one element per pass
+    parts = run()
+    np.testing.assert_allclose(parts.cov, whole.cov, rtol=1e-12, atol=1e-15)
+
+
+def test_unscented_compose_memory_does_not_grow_with_the_batch() -> None:
+    import tracemalloc
+
+    from liebridge.uncertain import ops
+
+    peaks = []
+    for n in (400, 1600):
+        X = se3.exp(np.random.default_rng(n).normal(size=(n, 6)) * 0.3)
+        A, B = UncertainPose(X, C6, "gtsam"), UncertainPose(X, C6, "gtsam")
+        chunk_bytes, ops.UNSCENTED_BYTES = ops.UNSCENTED_BYTES, 2**20
+        try:
+            tracemalloc.start()
+            ops.compose(A, B, method="unscented")
+            peaks.append(tracemalloc.get_traced_memory()[1])
+        finally:
+            tracemalloc.stop()
+            ops.UNSCENTED_BYTES = chunk_bytes
+    per_element_io = 2000 * 8  # inputs, output and their copies: O(batch), ≈ 1 kB each
+    assert peaks[1] < peaks[0] + 1200 * per_element_io  # not 4× the sigma points
