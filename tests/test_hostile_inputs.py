@@ -740,3 +740,26 @@ def test_unscented_compose_memory_does_not_grow_with_the_batch() -> None:
             ops.UNSCENTED_BYTES = chunk_bytes
     per_element_io = 2000 * 8  # inputs, output and their copies: O(batch), ≈ 1 kB each
     assert peaks[1] < peaks[0] + 1200 * per_element_io  # not 4× the sigma points
+
+
+def test_extrinsics_convert_parses_a_large_kalibr_file_once(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``extrinsics convert`` parsed FILE four times (detect, extrinsic, Kalibr chain, shift)."""
+    f = _kalibr(tmp_path, "0.01")
+    f.write_text(f.read_text() + "  lut:\n" + "  - [0.5, 0.25]\n" * 2000)
+    calls: list[str] = []
+    real = calib._load_text
+    monkeypatch.setattr(
+        calib, "_load_text", lambda text, path: calls.append(str(path)) or real(text, path)
+    )
+    rc, out, _ = _cli(["extrinsics", "convert", str(f), "--to", "okvis"], capsys)
+    assert rc == 0 and "time offset: t_imu = t_cam + 0.01 s" in out
+    assert calls == [str(f)]
+    parsed = calib.CalibrationFile.read(f)
+    assert len(calls) == 2 and parsed.system == "kalibr"
+    np.testing.assert_array_equal(calib.read_extrinsic(parsed).T, np.eye(4))
+    assert (
+        calib.read_timeshift(parsed) == 0.01 and calib.read_kalibr(parsed).cameras[0].name == "cam0"
+    )
+    assert len(calls) == 2

@@ -78,6 +78,7 @@ from .tree import TransformTree
 __all__ = [
     "SYSTEMS",
     "TIME_OFFSETS",
+    "CalibrationFile",
     "ExtrinsicFormat",
     "KalibrCamchain",
     "KalibrCamera",
@@ -573,13 +574,49 @@ def _load_text(text: str, path: PathLike) -> Any:
         raise ValueError(f"{path}: not valid YAML: {msg}") from None
 
 
-def _read(path: PathLike) -> Any:
+def _read(path: PathLike | CalibrationFile) -> Any:
+    if isinstance(path, CalibrationFile):
+        return path.data
     p = Path(path)
     try:
         text = p.read_text(encoding="utf-8")
     except UnicodeDecodeError:
         raise ValueError(f"{path}: not a text file (UTF-8)") from None
     return _load_text(text, path)
+
+
+@dataclass(frozen=True, eq=False)
+class CalibrationFile:
+    """A calibration file parsed once, to hand to several readers without parsing it again.
+
+    :func:`read_kalibr`, :func:`read_extrinsic`, :func:`read_timeshift` and
+    :func:`detect_file_system` take it in place of a path (a 20 MB file costs one parse, not
+    one per reader). Build it with :meth:`read`; treat :attr:`data` as read-only.
+
+    Attributes
+    ----------
+    path : Path
+        The file, named in every error.
+    data : object
+        The parsed YAML/JSON (dicts, lists, numbers, strings), through the one loader of this
+        module (safe, with depth and alias limits).
+    """
+
+    path: Path
+    data: Any
+
+    @classmethod
+    def read(cls, path: PathLike) -> CalibrationFile:
+        """Parse ``path`` (YAML, OpenCV's YAML dialect or JSON) once."""
+        return cls(Path(path), _read(path))
+
+    def __str__(self) -> str:
+        return str(self.path)
+
+    @property
+    def system(self) -> str | None:
+        """:func:`detect_system` of the data (None if no system's keys are found)."""
+        return detect_system(self.data)
 
 
 def _matrix(value: Any, where: str, shape: tuple[int, ...]) -> FloatArray:
@@ -674,7 +711,7 @@ class KalibrCamchain:
         return tree
 
 
-def read_kalibr(path: PathLike, *, imu_frame: str = "imu0") -> KalibrCamchain:
+def read_kalibr(path: PathLike | CalibrationFile, *, imu_frame: str = "imu0") -> KalibrCamchain:
     """Read a Kalibr camchain(-imucam) YAML file.
 
     Every ``T_cam_imu`` / ``T_cn_cnm1`` must be a rigid 4×4 (rotation orthonormal within the
@@ -838,13 +875,13 @@ def detect_system(data: Any) -> str | None:
     return None
 
 
-def detect_file_system(path: PathLike) -> str | None:
+def detect_file_system(path: PathLike | CalibrationFile) -> str | None:
     """:func:`detect_system` of a file (None if no system's keys are found)."""
     return detect_system(_read(path))
 
 
 def read_extrinsic(
-    path: PathLike,
+    path: PathLike | CalibrationFile,
     *,
     system: str | None = None,
     camera: str = "cam0",
@@ -854,7 +891,7 @@ def read_extrinsic(
 
     Parameters
     ----------
-    path : str or Path
+    path : str, Path or CalibrationFile
         A Kalibr camchain-imucam.yaml, an OpenVINS kalibr_imucam_chain.yaml, an OKVIS config, an
         ORB-SLAM3 or VINS-Fusion settings file, a Basalt calibration JSON, or a YAML/JSON with
         ``rvec`` and ``tvec`` (OpenCV).
@@ -883,8 +920,9 @@ def read_extrinsic(
             f"IMU.T_b_c1, body_T_camN, rvec/tvec found); give the system explicitly"
         )
     fmt = SYSTEMS[name]
-    if name == "kalibr":
-        chain = read_kalibr(path, imu_frame=imu_frame)
+    if name == "kalibr":  # the data parsed above, not the file again
+        parsed = path if isinstance(path, CalibrationFile) else CalibrationFile(Path(path), data)
+        chain = read_kalibr(parsed, imu_frame=imu_frame)
         cam = chain.camera(camera)
         if cam.T_cam_imu is None:
             raise ValueError(f"{path}: {camera} has no T_cam_imu (a camchain without the IMU?)")
@@ -948,7 +986,7 @@ def read_extrinsic(
 
 
 def read_timeshift(
-    path: PathLike, *, system: str | None = None, camera: str = "cam0"
+    path: PathLike | CalibrationFile, *, system: str | None = None, camera: str = "cam0"
 ) -> float | None:
     """Kalibr's ``timeshift_cam_imu`` (seconds, ``t_imu = t_cam + shift``) from a system's file.
 
