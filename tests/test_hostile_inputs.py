@@ -763,3 +763,82 @@ def test_extrinsics_convert_parses_a_large_kalibr_file_once(
         calib.read_timeshift(parsed) == 0.01 and calib.read_kalibr(parsed).cameras[0].name == "cam0"
     )
     assert len(calls) == 2
+
+
+def _odometry_bag(tmp_path: Path, n: int, frames: list[str] | None = None) -> Path:
+    rng = np.random.default_rng(n)
+    T = se3.exp(rng.normal(size=(n, 6)))
+    A = rng.normal(size=(n, 6, 6)) * 0.1
+    m = ros.from_poses(
+        T,
+        A @ np.swapaxes(A, -1, -2) + 0.01 * np.eye(6),
+        stamps=np.arange(n) * 0.1 + 1.0,
+        msgtype="nav_msgs/msg/Odometry",
+        frame_id=frames or "odom",
+        twist=rng.normal(size=(n, 6)),
+    )
+    return ros.write_messages(tmp_path / "od.bag", "/odom", m)
+
+
+@pytest.mark.parametrize("batch", [1, 3, 7, 100])
+def test_streamed_bag_batches_equal_the_whole_read(tmp_path: Path, batch: int) -> None:
+    bag = _odometry_bag(tmp_path, 10)
+    whole = ros.read_messages(bag, "/odom")
+    parts = list(ros.iter_messages(bag, "/odom", batch=batch))
+    assert [len(p) for p in parts] == [min(batch, 10 - k) for k in range(0, 10, batch)]
+    for name in ("stamps", "position", "orientation_xyzw", "pose_covariance", "twist_covariance"):
+        np.testing.assert_array_equal(
+            np.concatenate([getattr(p, name) for p in parts]), getattr(whole, name)
+        )
+    assert sum((p.frame_id for p in parts), ()) == whole.frame_id
+
+
+def test_read_messages_in_batches_equals_one_batch(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from liebridge.ros import bag as bag_module
+
+    bag = _odometry_bag(tmp_path, 10)
+    one = ros.read_messages(bag, "/odom")
+    monkeypatch.setattr(bag_module, "BATCH_MESSAGES", 3)
+    many = ros.read_messages(bag, "/odom")
+    for name in (
+        "stamp_sec",
+        "stamp_nanosec",
+        "message_index",
+        "log_time_ns",
+        "pose_covariance",
+        "twist_linear_angular",
+        "twist_covariance",
+        "position",
+        "orientation_xyzw",
+    ):
+        np.testing.assert_array_equal(getattr(many, name), getattr(one, name))
+    assert many.frame_id == one.frame_id and many.child_frame_id == one.child_frame_id
+
+
+def test_bag_export_tum_streams_and_checks_frames_across_batches(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from liebridge.ros import bag as bag_module
+
+    monkeypatch.setattr(bag_module, "BATCH_MESSAGES", 4)
+    bag = _odometry_bag(tmp_path, 10)
+    out = tmp_path / "o.tum"
+    rc, stdout, _ = _cli(
+        ["bag", "export", str(bag), "--topic", "/odom", "--to", "tum", str(out)], capsys
+    )
+    assert rc == 0 and "10 poses T_odom_base_link" in stdout
+    ros.write_tum(tmp_path / "ref.tum", ros.read_messages(bag, "/odom"))
+    assert out.read_text() == (tmp_path / "ref.tum").read_text()
+    (tmp_path / "two").mkdir()
+    bag2 = _odometry_bag(tmp_path / "two", 10, ["odom"] * 5 + ["map"] * 5)
+    out2 = tmp_path / "o2.tum"
+    rc, _, err = _cli(
+        ["bag", "export", str(bag2), "--topic", "/odom", "--to", "tum", str(out2)], capsys
+    )
+    assert rc == 2 and "not one trajectory" in err and not out2.exists()
+    tum = tmp_path / "r.tum"
+    tum.write_text("\n".join(f"{1.0 + 0.1 * k} {k} 0 0 0 0 0 1" for k in range(10)) + "\n")
+    rc, _, err = _cli(["traj", "ape", str(bag2), str(tum), "--ref-topic", "/odom"], capsys)
+    assert rc == 2 and "not one trajectory" in err

@@ -71,15 +71,25 @@ def _export(args: argparse.Namespace) -> int:
     conv = convention_arg(args.convention, "--convention")
     suffixes = {"tum": None, "g2o": (".g2o", ".txt"), "npz": (".npz",)}[args.to]
     out = check_output_path(args.out, "OUT", suffixes)
-    m = _read(ros, args.bag, args.topic, conv)
-    if args.to == "tum":
-        ros.write_tum(out, m)
+    if args.to == "tum":  # streamed: memory is one batch of messages, whatever the bag's size
+        seen: list[Any] = []
+
+        def batches() -> Any:
+            for m in ros.iter_messages(
+                args.bag, args.topic, convention=conv, progress=_progress(f"read {args.topic}")
+            ):
+                seen.append((len(m), m.trajectory_frames() if len(m) else None))
+                yield m
+
+        ros.write_tum(out, batches())
+        n = sum(k for k, _ in seen)
+        frames = next((f for _, f in seen if f is not None), ("", None))
         print(
-            f"wrote {out}: {len(m)} poses T_{m.frame_id[0] if len(m) else ''}_"
-            f"{(m.child_frame_id or ['body'])[0] if len(m) else ''} "
-            "(TUM, exact stamps, repr floats)"
+            f"wrote {out}: {n} poses T_{frames[0] if n else ''}_"
+            f"{(frames[1] or 'body') if n else ''} (TUM, exact stamps, repr floats)"
         )
         return 0
+    m = _read(ros, args.bag, args.topic, conv)
     if args.to == "g2o":
         from ..io import g2o as g2o_io
 

@@ -51,15 +51,26 @@ class _Prepared:
 def _read_topic(path: str, topic: str, what: str) -> tuple[FloatArray, FloatArray]:
     """Stamps and poses of a bag topic (PoseWithCovarianceStamped, Odometry, TF...)."""
     try:
-        from ..ros import read_messages
+        from ..ros import iter_messages
     except ImportError as exc:  # the 'ros' extra
         raise CLIError(f"{what}: {exc}") from None
-    try:
-        msgs = read_messages(path, topic)
-        msgs.trajectory_frames()  # one trajectory: frame_id alternating map/odom is not one
+    stamps: list[FloatArray] = []
+    poses: list[FloatArray] = []
+    frames = None
+    try:  # streamed: only stamps and poses are kept (136 B a message), not whole messages
+        for msgs in iter_messages(path, topic):
+            here = msgs.trajectory_frames()  # frame_id alternating map/odom is not one
+            if len(msgs) and frames is not None and here != frames:
+                raise ValueError(
+                    f"topic {topic}: frames {here} differ from the first message's {frames}; "
+                    "the topic holds poses in several frames, not one trajectory"
+                )
+            frames = frames or (here if len(msgs) else None)
+            stamps.append(np.asarray(msgs.stamps, dtype=np.float64))
+            poses.append(np.asarray(msgs.T, dtype=np.float64))
     except (ValueError, OSError, ImportError) as exc:
         raise CLIError(f"{what}: {one_line(str(exc))}") from None
-    return np.asarray(msgs.stamps, dtype=np.float64), np.asarray(msgs.T, dtype=np.float64)
+    return np.concatenate(stamps), np.concatenate(poses)
 
 
 def _read(
