@@ -320,8 +320,8 @@ def read_messages(
     else:
         log_times = np.concatenate([b[3] for b in batches])
         cols = {}
-        for name in batches[0][2]:
-            parts = [b[2][name] for b in batches]
+        for name in list(batches[0][2]):  # column by column, each batch's part freed at once
+            parts = [b[2].pop(name) for b in batches]
             if isinstance(parts[0], tuple):
                 cols[name] = tuple(x for part in parts for x in part)
             else:
@@ -334,7 +334,7 @@ def read_messages(
 
 #: Messages read into Python objects before their fields become arrays (bounds the memory of
 #: :func:`read_messages` and :func:`iter_messages` beyond their arrays: ≈ 6 kB a message).
-BATCH_MESSAGES = 20_000
+BATCH_MESSAGES = 5_000
 
 
 def iter_messages(
