@@ -842,3 +842,11 @@ def test_bag_export_tum_streams_and_checks_frames_across_batches(
     tum.write_text("\n".join(f"{1.0 + 0.1 * k} {k} 0 0 0 0 0 1" for k in range(10)) + "\n")
     rc, _, err = _cli(["traj", "ape", str(bag2), str(tum), "--ref-topic", "/odom"], capsys)
     assert rc == 2 and "not one trajectory" in err
+
+
+def test_transform_with_more_covariances_than_poses_is_named() -> None:
+    """Three covariances for one pose: numpy's axis text before; a sentence naming both now."""
+    with pytest.raises(ValueError, match=r"batch shape \(3,\) has more covariances than T's"):
+        Transform(np.eye(4), "a", "b", np.stack([C6] * 3))
+    tf = Transform(np.stack([np.eye(4)] * 3), "a", "b", C6)  # one for three broadcasts
+    assert tf.cov is not None and tf.cov.shape == (3, 6, 6)
