@@ -335,16 +335,16 @@ class RosMessages:
                     raise
             else:
                 cov = cov_ros
-            cov = _readonly(cov)
+            if cov is not cov_ros:  # in ROS's own convention: a view of the read-only raw field
+                cov = _readonly(cov)
         self._set("cov", cov)
         tw = twc = None
         if self.twist_linear_angular is not None:
             assert self.twist_covariance is not None
             tw = self.twist_linear_angular
             twc = self.twist_covariance.reshape(n, 6, 6)
-            if rot_first:
-                tw, twc = _swap_halves(tw), _swap_halves(twc)
-            tw, twc = _readonly(tw), _readonly(twc)
+            if rot_first:  # else views of the read-only raw fields (no copy: 336 B a message)
+                tw, twc = _readonly(_swap_halves(tw)), _readonly(_swap_halves(twc))
         self._set("twist", tw)
         self._set("twist_cov", twc)
 
