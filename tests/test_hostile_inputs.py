@@ -853,3 +853,11 @@ def test_transform_with_more_covariances_than_poses_is_named() -> None:
         Transform(np.eye(4), "a", "b", np.stack([C6] * 3))
     tf = Transform(np.stack([np.eye(4)] * 3), "a", "b", C6)  # one for three broadcasts
     assert tf.cov is not None and tf.cov.shape == (3, 6, 6)
+
+
+def test_iter_messages_refuses_bad_arguments_at_the_call(tmp_path: Path) -> None:
+    bag = _odometry_bag(tmp_path, 3)
+    with pytest.raises(ValueError, match="batch: expected a positive int, got 0"):
+        ros.iter_messages(bag, "/odom", batch=0)
+    with pytest.raises(ValueError, match="convention"):
+        ros.iter_messages(bag, "/odom", convention="no_such_convention")

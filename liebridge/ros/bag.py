@@ -295,7 +295,7 @@ def read_messages(
         Called every 2000 messages and at the end (the command line prints it on stderr).
 
     The bag is read in batches of :data:`BATCH_MESSAGES` messages whose fields go into arrays
-    at once: memory is the returned arrays (≈ 0.7 kB an ``Odometry`` message) plus one batch,
+    at once: memory is the returned arrays (≈ 0.9 kB an ``Odometry`` message) plus one batch,
     not a Python object per field. :func:`iter_messages` streams the batches instead.
 
     Returns
@@ -313,6 +313,7 @@ def read_messages(
         A quaternion off the unit sphere or a covariance that cannot be converted, naming the
         topic and message index.
     """
+    get(convention)  # a bad convention is refused before the bag is read
     batches = list(_column_batches(bag, topic, progress))
     mt, storage = batches[0][0], batches[0][1]
     if len(batches) == 1:
@@ -356,8 +357,19 @@ def iter_messages(
     batch = BATCH_MESSAGES if batch is None else batch
     if isinstance(batch, bool) or not isinstance(batch, int) or batch < 1:
         raise ValueError(f"batch: expected a positive int, got {batch!r}")
-    path = Path(bag)
-    for mt, storage, cols, log_times, first in _column_batches(bag, topic, progress, batch):
+    get(convention)  # refused at the call, not at the first batch
+    return _iter_messages(Path(bag), topic, convention, quaternion_tol, progress, batch)
+
+
+def _iter_messages(
+    path: Path,
+    topic: str,
+    convention: ConventionLike,
+    quaternion_tol: float | None,
+    progress: Progress | None,
+    batch: int,
+) -> Iterator[RosMessages]:
+    for mt, storage, cols, log_times, first in _column_batches(path, topic, progress, batch):
         try:
             yield _messages(path, topic, mt, storage, cols, log_times, convention, quaternion_tol)
         except ValueError as exc:  # "message j" of the batch → of the topic
