@@ -236,6 +236,15 @@ class ISAM2:
         -------
         gtsam.ISAM2Result
             GTSAM's result of the one ``ISAM2.update`` call this makes.
+
+        Notes
+        -----
+        An update that fails (GTSAM raises, e.g. an underdetermined system without a prior)
+        changes nothing: the mirrored state is restored and the wrapped ``gtsam.ISAM2`` — which
+        GTSAM leaves holding the failed update's variables and factors — is rebuilt by replaying
+        the successful updates, whose inputs are kept for that (as many factor references as
+        GTSAM's own graph holds, plus the refreshed containers). A retry then gives native
+        iSAM2's result.
         """
         graph = gtsam.NonlinearFactorGraph() if graph is None else graph
         values = gtsam.Values() if values is None else values
