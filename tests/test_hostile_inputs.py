@@ -861,3 +861,40 @@ def test_iter_messages_refuses_bad_arguments_at_the_call(tmp_path: Path) -> None
         ros.iter_messages(bag, "/odom", batch=0)
     with pytest.raises(ValueError, match="convention"):
         ros.iter_messages(bag, "/odom", convention="no_such_convention")
+
+
+@pytest.mark.parametrize("op", ["compose", "inverse", "relative", "act"])
+def test_uncertain_op_overflow_names_the_operation_not_the_input(op: str) -> None:
+    """Translations 1e200: "cov contains NaN or Inf" (as if the input were bad) and warnings."""
+    import warnings
+
+    from liebridge.uncertain import ops
+
+    X = np.eye(4)
+    X[:3, 3] = 1e200
+    A = UncertainPose(X, np.eye(6), "ros")
+    run = {
+        "compose": lambda: ops.compose(A, A),
+        "inverse": lambda: ops.inverse(A, method="unscented"),
+        "relative": lambda: ops.relative(A, UncertainPose(-X + 2 * np.eye(4), np.eye(6), "ros")),
+        "act": lambda: ops.act(A, np.full(3, 1e200)),
+    }[op]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(ValueError, match=rf"^{op}: .*overflows float64"):
+            run()
+
+
+def test_nees_of_poses_too_far_apart_names_them() -> None:
+    X = np.tile(np.eye(4), (2, 1, 1))
+    Y = X.copy()
+    X[:, :3, 3], Y[:, :3, 3] = 1e300, -1e300
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(ValueError, match=r"the NEES at pose 0 overflows .*component 2e\+300"):
+            traj.nees(X, Y, np.stack([np.eye(6)] * 2), "gtsam")
+        X[:, :3, 3], Y[:, :3, 3] = 1.7e308, -1.7e308
+        with pytest.raises(ValueError, match=r"T_ref, T_est: the error .* at pose 0 overflows"):
+            traj.nees(X, Y, np.stack([np.eye(6)] * 2), "gtsam")

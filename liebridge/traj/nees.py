@@ -134,7 +134,14 @@ def nees(
             f"cov_est: {cov.shape[0]} covariances for {Te.shape[0]} poses of the estimate"
         )
     cov = validate.covariance(cov, "cov_est", 6)
-    e = cu.local(conv, Te, Tr)
+    with np.errstate(over="ignore", invalid="ignore"):  # reported just below, by pose
+        e = cu.local(conv, Te, Tr)
+    if not np.isfinite(e).all():
+        i = int(np.argmax(~np.isfinite(e).all(axis=-1)))
+        raise ValueError(
+            f"T_ref, T_est: the error {conv.name}.local(T_est, T_ref) at pose {i} overflows "
+            "float64 (the poses are too far apart to be compared in float64)"
+        )
     try:
         L = np.linalg.cholesky(cov)
     except np.linalg.LinAlgError:
@@ -151,9 +158,9 @@ def nees(
         i = int(np.argmax(~np.isfinite(values)))
         lam_i = float(np.linalg.eigvalsh(cov[i])[0])
         raise ValueError(
-            f"cov_est: the NEES at pose {i} overflows float64 (error norm "
-            f"{float(np.linalg.norm(e[i])):.3g}, smallest covariance eigenvalue {lam_i:.3g}): the "
-            "covariance is too small for the error to be represented"
+            f"cov_est: the NEES at pose {i} overflows float64 (largest error component "
+            f"{float(np.abs(e[i]).max()):.3g}, smallest covariance eigenvalue {lam_i:.3g}): the "
+            "error is too large for this covariance to be represented"
         )
     n = Te.shape[0]
     return NEESResult(

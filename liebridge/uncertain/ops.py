@@ -38,10 +38,11 @@ one's orientation).
 
 from __future__ import annotations
 
+import functools
 import math
 import re
 from collections.abc import Callable
-from typing import Any, Literal
+from typing import Any, Literal, TypeVar, cast
 
 import numpy as np
 
@@ -192,6 +193,33 @@ def _rebase(msg: str, offset: int, shape: tuple[int, ...]) -> str:
     return msg[: m.start()] + f"batch index {i}" + msg[m.end() :]
 
 
+_F = TypeVar("_F", bound=Callable[..., Any])
+
+
+def _finite_result(op: str) -> Callable[[_F], _F]:
+    """Run an operation without numpy's overflow warnings; name it in an overflow's error.
+
+    Finite input can overflow (translations of 1e200 squared in a covariance): the result is
+    checked (``validate.finite_output``) and the error says which operation overflowed, not
+    that "cov contains NaN or Inf" as if the caller's covariance did.
+    """
+
+    def wrap(f: _F) -> _F:
+        @functools.wraps(f)
+        def run(*args: Any, **kwargs: Any) -> Any:
+            with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+                try:
+                    return f(*args, **kwargs)
+                except ValueError as exc:
+                    if "the result overflows float64" in str(exc):
+                        raise ValueError(f"{op}: {exc}") from None
+                    raise
+
+        return cast(_F, run)
+
+    return wrap
+
+
 def _check_method(method: str) -> None:
     if method not in ("linear", "unscented"):
         raise ValueError(f"method: expected 'linear' or 'unscented', got {method!r}")
@@ -218,6 +246,7 @@ def _bshape(X: FloatArray, shape: tuple[int, ...]) -> FloatArray:
 
 
 # --------------------------------------------------------------------------- operations
+@_finite_result("compose")
 def compose(
     A: UncertainPose, B: UncertainPose, cross: Any = None, method: Method = "linear"
 ) -> UncertainPose:
@@ -265,9 +294,10 @@ def compose(
             TB,
             TC,
         )
-    return UncertainPose(TC, cov, c)
+    return UncertainPose(validate.finite_output(TC, "T"), validate.finite_output(cov, "cov"), c)
 
 
+@_finite_result("inverse")
 def inverse(A: UncertainPose, method: Method = "linear") -> UncertainPose:
     """Uncertain inverse ``C = A⁻¹`` (``T_body_world`` from ``T_world_body``).
 
@@ -287,9 +317,10 @@ def inverse(A: UncertainPose, method: Method = "linear") -> UncertainPose:
         cov = _sandwich(J, A.cov)
     else:
         cov = _unscented(A.cov, lambda d, TA, TC: _read(c, TC, _inv(_sample(c, TA, d))), TA, TC)
-    return UncertainPose(TC, cov, c)
+    return UncertainPose(validate.finite_output(TC, "T"), validate.finite_output(cov, "cov"), c)
 
 
+@_finite_result("relative")
 def relative(
     A: UncertainPose, B: UncertainPose, cross: Any = None, method: Method = "linear"
 ) -> UncertainPose:
@@ -323,9 +354,10 @@ def relative(
             TB,
             TC,
         )
-    return UncertainPose(TC, cov, c)
+    return UncertainPose(validate.finite_output(TC, "T"), validate.finite_output(cov, "cov"), c)
 
 
+@_finite_result("transform")
 def transform(
     A: UncertainPose,
     T_fixed: Any,
@@ -394,9 +426,10 @@ def transform(
             TA,
             TC,
         )
-    return UncertainPose(TC, cov, c)
+    return UncertainPose(validate.finite_output(TC, "T"), validate.finite_output(cov, "cov"), c)
 
 
+@_finite_result("act")
 def act(A: UncertainPose, p: Any, cov_p: Any = None, method: Method = "linear") -> UncertainPoint:
     """Map an uncertain point through an uncertain pose: ``q = T·p`` (``R p + t``; ``R p``).
 
@@ -450,4 +483,4 @@ def act(A: UncertainPose, p: Any, cov_p: Any = None, method: Method = "linear") 
             return out + X[..., :3, 3] if n == 6 else out
 
         cov = _unscented(joint, f, TA, pa)
-    return UncertainPoint(q, cov)
+    return UncertainPoint(validate.finite_output(q, "p"), validate.finite_output(cov, "cov"))
