@@ -278,6 +278,10 @@ def read_messages(
 ) -> RosMessages:
     """All messages of ``topic`` in ``bag`` as one :class:`RosMessages` batch.
 
+    The bag is read in batches of :data:`BATCH_MESSAGES` messages whose fields go into arrays
+    at once: memory is the returned arrays (≈ 0.9 kB an ``Odometry`` message) plus one batch,
+    not a Python object per field. :func:`iter_messages` streams the batches instead.
+
     Parameters
     ----------
     bag : str or os.PathLike
@@ -293,10 +297,6 @@ def read_messages(
         :data:`liebridge._validate.QUATERNION_TOL`, 1e-6).
     progress : callable(done, total), optional
         Called every 2000 messages and at the end (the command line prints it on stderr).
-
-    The bag is read in batches of :data:`BATCH_MESSAGES` messages whose fields go into arrays
-    at once: memory is the returned arrays (≈ 0.9 kB an ``Odometry`` message) plus one batch,
-    not a Python object per field. :func:`iter_messages` streams the batches instead.
 
     Returns
     -------
