@@ -456,7 +456,8 @@ def _messages(
     kw: dict[str, Any] = {}
     for name, width in _FLOAT_WIDTH.items():
         if name in cols:
-            kw[name] = cols[name].reshape(n, width)
+            arr = cols[name]
+            kw[name] = arr if arr.shape == (n, width) else arr.reshape(n, width)
     if "child_frame_id" in cols or mt in ("tf2_msgs/msg/TFMessage",):
         kw["child_frame_id"] = tuple(cols.get("child_frame_id", []))
     if mt == "sensor_msgs/msg/Imu" or n == 0:
@@ -474,14 +475,14 @@ def _messages(
     if quaternion_tol is not None:
         kw["quaternion_tol"] = float(quaternion_tol)
     try:
-        return RosMessages(
+        return RosMessages._adopt(  # the arrays are this reader's: frozen, not copied
             msgtype=mt,
-            stamp_sec=np.array(cols.get("stamp_sec", []), dtype=np.int64),
-            stamp_nanosec=np.array(cols.get("stamp_nanosec", []), dtype=np.int64),
+            stamp_sec=np.asarray(cols.get("stamp_sec", []), dtype=np.int64),
+            stamp_nanosec=np.asarray(cols.get("stamp_nanosec", []), dtype=np.int64),
             frame_id=tuple(cols.get("frame_id", [])),
-            seq=np.array(cols.get("seq", []), dtype=np.int64),
-            message_index=np.array(cols.get("message_index", []), dtype=np.int64),
-            log_time_ns=np.array(log_times, dtype=np.int64),
+            seq=np.asarray(cols.get("seq", []), dtype=np.int64),
+            message_index=np.asarray(cols.get("message_index", []), dtype=np.int64),
+            log_time_ns=np.asarray(log_times, dtype=np.int64),
             topic=topic,
             storage=storage,
             convention=conv,

@@ -37,7 +37,7 @@ noetic ``common_msgs``, ROS 2 ``common_interfaces``), as shipped in the ``rosbag
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import MISSING, dataclass, field, fields, replace
 from typing import Any
 
 import numpy as np
@@ -92,6 +92,12 @@ def normalize_msgtype(msgtype: str) -> str:
 
 def _readonly(a: npt.NDArray[Any]) -> npt.NDArray[Any]:
     a = np.array(a)
+    a.flags.writeable = False
+    return a
+
+
+def _frozen(a: npt.NDArray[Any]) -> npt.NDArray[Any]:
+    """Return ``a`` itself, read-only (arrays handed over by their maker, never a caller's)."""
     a.flags.writeable = False
     return a
 
@@ -201,7 +207,33 @@ class RosMessages:
         t = f"topic {self.topic}, " if self.topic else ""
         return f"{t}message {int(self.message_index[row])}"
 
+    @classmethod
+    def _adopt(cls, **kw: Any) -> RosMessages:
+        """Build from arrays the bag reader has just made: the same checks, no copies.
+
+        The arrays are made read-only in place instead of copied (the reader hands them over),
+        so :func:`~liebridge.ros.read_messages` peaks at its arrays, not twice them.
+        """
+        obj = object.__new__(cls)
+        for f in fields(cls):
+            if not f.init:
+                continue
+            if f.name in kw:
+                value = kw.pop(f.name)
+            elif f.default is not MISSING:
+                value = f.default
+            else:
+                assert f.default_factory is not MISSING, f.name
+                value = f.default_factory()
+            object.__setattr__(obj, f.name, value)
+        if kw:
+            raise TypeError(f"RosMessages: unknown fields {sorted(kw)}")
+        obj.__dict__["_adopted"] = True
+        obj.__post_init__()
+        return obj
+
     def __post_init__(self) -> None:
+        adopted = bool(self.__dict__.pop("_adopted", False))
         mt = normalize_msgtype(self.msgtype)
         if mt not in MESSAGE_TYPES:
             raise ValueError(
@@ -218,6 +250,8 @@ class RosMessages:
             a = np.asarray(value)
             if a.shape != (length,) or (a.size and not np.issubdtype(a.dtype, np.integer)):
                 raise ValueError(f"{name}: expected {length} integers, got shape {a.shape}")
+            if adopted and a.dtype == np.int64:
+                return _frozen(a)
             return _readonly(a.astype(np.int64))
 
         def floats(name: str, value: Any, width: int, required: bool) -> FloatArray | None:
@@ -230,7 +264,7 @@ class RosMessages:
                 k = next((i for i in range(min(n, len(a))) if np.shape(a[i]) != (width,)), None)
                 at = f" (message row {k})" if k is not None else ""
                 raise ValueError(f"{name}: expected shape ({n}, {width}), got {a.shape}{at}")
-            return _readonly(a)
+            return _frozen(a) if adopted and a.base is None else _readonly(a)
 
         def strings(name: str, value: Any) -> tuple[str, ...]:
             s = tuple(str(x) for x in value)
