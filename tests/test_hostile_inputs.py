@@ -898,3 +898,23 @@ def test_nees_of_poses_too_far_apart_names_them() -> None:
         X[:, :3, 3], Y[:, :3, 3] = 1.7e308, -1.7e308
         with pytest.raises(ValueError, match=r"T_ref, T_est: the error .* at pose 0 overflows"):
             traj.nees(X, Y, np.stack([np.eye(6)] * 2), "gtsam")
+
+
+def test_ros_messages_keeps_copying_the_callers_arrays(tmp_path: Path) -> None:
+    """The reader's no-copy path is its own: a caller's arrays are copied, never frozen."""
+    n = 3
+    pos, q = np.zeros((n, 3)), np.tile([0.0, 0.0, 0.0, 1.0], (n, 1))
+    m = ros.RosMessages(
+        msgtype="geometry_msgs/msg/PoseWithCovarianceStamped",
+        stamp_sec=np.arange(n),
+        stamp_nanosec=np.zeros(n, dtype=np.int64),
+        frame_id=("map",) * n,
+        position=pos,
+        orientation_xyzw=q,
+        pose_covariance=np.tile(np.eye(6).ravel(), (n, 1)),
+    )
+    assert pos.flags.writeable and q.flags.writeable and m.position is not pos
+    pos[0, 0] = 5.0
+    assert m.position[0, 0] == 0.0
+    read = ros.read_messages(_odometry_bag(tmp_path, 4), "/odom")
+    assert not read.position.flags.writeable and not read.cov.flags.writeable
