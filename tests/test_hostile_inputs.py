@@ -918,3 +918,38 @@ def test_ros_messages_keeps_copying_the_callers_arrays(tmp_path: Path) -> None:
     assert m.position[0, 0] == 0.0
     read = ros.read_messages(_odometry_bag(tmp_path, 4), "/odom")
     assert not read.position.flags.writeable and not read.cov.flags.writeable
+
+
+@given(
+    MAGNITUDE,
+    st.sampled_from([1e-12, 1.0, 1e6]),
+    st.sampled_from(["gtsam", "ros", "barfoot", "sophus"]),
+    st.sampled_from(
+        ["compose", "inverse", "relative", "act", "convert_linear", "convert_unscented"]
+    ),
+)
+def test_covariance_operations_finite_or_say_why(t: float, s: float, conv: str, op: str) -> None:
+    """Finite input: a finite result or a ValueError, never inf/NaN and never a numpy warning."""
+    import warnings
+
+    from liebridge.uncertain import ops
+
+    X = se3.exp(np.array([0.3, -0.2, 0.1, 0.0, 0.0, 0.0]))
+    X[:3, 3] = [t, -t, 0.5 * t]
+    C = np.diag([1e-2, 2e-2, 3e-2, 1.0, 2.0, 3.0]) * s
+    A = UncertainPose(X, C, conv)
+    run = {
+        "compose": lambda: ops.compose(A, A).cov,
+        "inverse": lambda: ops.inverse(A).cov,
+        "relative": lambda: ops.relative(A, A).cov,
+        "act": lambda: ops.act(A, np.array([t, 1.0, -t])).cov,
+        "convert_linear": lambda: lb.convert_covariance(C, X, conv, "gtsam"),
+        "convert_unscented": lambda: lb.convert_covariance(C, X, conv, "gtsam", method="unscented"),
+    }[op]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        try:
+            out = run()
+        except ValueError:
+            return
+    assert np.isfinite(out).all()
