@@ -14,7 +14,8 @@ Tolerances (module constants, each check takes its own ``tol`` too):
 * covariance / information: relative asymmetry ``max|A − Aᵀ| / max|A| ≤`` :data:`COVARIANCE_TOL`
   and smallest eigenvalue ``≥ −COVARIANCE_TOL · max|A|`` (positive semi-definite up to rounding);
 * a factor's covariance (:func:`positive_definite`): as above, and ``λ_min > SINGULAR_RTOL · dim ·
-  λ_max`` — a singular one is a hard constraint, which a Gaussian noise model cannot hold;
+  λ_max`` and ``λ_min ≥ SINGULAR_ATOL`` (1e-200) — a singular one is a hard constraint, which a
+  Gaussian noise model cannot hold;
 * a GTSAM key (:func:`key`): an integer in ``[0, MAX_KEY]`` (uint64; ``2**64 − 1`` is reserved).
 
 Speed: the checks run first as a cheap *certificate* that can only accept valid input (one pose or
@@ -48,6 +49,10 @@ QUATERNION_TOL = 1e-6
 COVARIANCE_TOL = 1e-9
 #: A covariance with ``λ_min ≤ SINGULAR_RTOL · dim · λ_max`` is singular for a factor's noise model.
 SINGULAR_RTOL = float(np.finfo(np.float64).eps)
+#: A factor's covariance needs ``λ_min ≥ SINGULAR_ATOL`` too (absolute): below it the information
+#: ``Σ⁻¹`` (≥ 1e200) leaves no room for a squared residual in float64, and a subnormal ``λ_min``
+#: (a covariance of 1e-310) passes every relative test while GTSAM inverts it to Inf.
+SINGULAR_ATOL = 1e-200
 #: GTSAM keys are unsigned 64-bit integers; this is the largest one liebridge accepts (the
 #: largest, ``2**64 − 1``, is reserved by :mod:`liebridge.gtsam.custom`).
 MAX_KEY = 2**64 - 2
@@ -586,15 +591,19 @@ def similarity(x: Any, name: str, tol: float = ROTATION_TOL) -> FloatArray:
         )
     _check_bottom(arr, name, _SIM3_BOTTOM, "Sim(3)", hint)
     A = arr[..., :3, :3]
-    with np.errstate(over="ignore", invalid="ignore"):
-        det = np.linalg.det(A)
+    check_finite(arr, name, core_ndim=2)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        # det(sR) = s³ under/overflows for s < 1e-103 or > 1e102: scale by a power of two first
+        big = np.max(np.abs(A), axis=(-1, -2))
+        m = np.ldexp(1.0, np.frexp(np.where(big > 0, big, 1.0))[1])
+        det = np.linalg.det(A / m[..., None, None])
     if (det <= 0).any():
         i = batch_index(np.asarray(det <= 0))
         raise ValueError(
-            f"{name}: Sim(3) scale s = cbrt(det(sR)) = {float(np.cbrt(det[i])):.3g} ≤ 0 at batch "
-            f"index {i} (the scale must be positive)"
+            f"{name}: Sim(3) scale s = cbrt(det(sR)) = {float(m[i] * np.cbrt(det[i])):.3g} ≤ 0 "
+            f"at batch index {i} (the scale must be positive)"
         )
-    s = np.cbrt(det)
+    s = m * np.cbrt(det)
     _check_orthonormal(A / s[..., None, None], name, tol, "its linear block divided by its scale")
     return arr
 
@@ -614,7 +623,9 @@ def positive_definite(x: Any, name: str, dim: int, tol: float = COVARIANCE_TOL) 
     """Validate a batch of covariances that a noise model can invert, shape ``(..., dim, dim)``.
 
     As :func:`covariance`, and the smallest eigenvalue must exceed
-    ``SINGULAR_RTOL · dim · λ_max``: a zero or singular covariance is a hard constraint, which
+    ``SINGULAR_RTOL · dim · λ_max`` and be at least :data:`SINGULAR_ATOL` (an absolute floor: a
+    covariance of 1e-310·I is relatively perfect but its inverse overflows): a zero or singular
+    covariance is a hard constraint, which
     needs a constrained noise model, not a Gaussian one (GTSAM's ``Gaussian.Covariance`` would
     give NaN errors or an information matrix with no correct digit).
     """
@@ -623,13 +634,14 @@ def positive_definite(x: Any, name: str, dim: int, tol: float = COVARIANCE_TOL) 
         return arr
     lam = np.linalg.eigvalsh(0.5 * arr + 0.5 * np.swapaxes(arr, -1, -2))
     lo, hi = lam[..., 0], lam[..., -1]
-    bad = ~(lo > SINGULAR_RTOL * dim * hi)
+    bad = ~((lo > SINGULAR_RTOL * dim * hi) & (lo >= SINGULAR_ATOL))
     if bad.any():
         i = batch_index(np.asarray(bad))
         raise ValueError(
             f"{name}: singular covariance at batch index {i}: smallest eigenvalue "
-            f"{float(lo[i]):.3g} (largest {float(hi[i]):.3g}); a hard constraint needs "
-            "gtsam.noiseModel.Constrained, not a covariance"
+            f"{float(lo[i]):.3g} (largest {float(hi[i]):.3g}; needed above "
+            f"{SINGULAR_RTOL * dim:.2g} × largest and at least {SINGULAR_ATOL:g}); a hard "
+            "constraint needs gtsam.noiseModel.Constrained, not a covariance"
         )
     return arr
 

@@ -122,6 +122,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (ValueError, TypeError, OSError) as exc:  # the library's input validation
         print(f"{prog}: error: {one_line(str(exc))}", file=sys.stderr)
         return 2
+    except MemoryError:
+        print(
+            f"{prog}: error: out of memory (the input is too large for this machine)",
+            file=sys.stderr,
+        )
+        return 1
+    except (RecursionError, OverflowError) as exc:  # numbers or nesting beyond what is handled
+        print(
+            f"{prog}: error: input too large or too deeply nested: {one_line(str(exc))}",
+            file=sys.stderr,
+        )
+        return 2
     except KeyboardInterrupt:
         print(f"{prog}: interrupted", file=sys.stderr)
         return 130

@@ -140,6 +140,52 @@ def _load_npy(path: Path, text: str, what: str) -> Any:
     return np.load(path, allow_pickle=False)
 
 
+def check_connected(ids: list[int], edges: list[list[int]], gauge: list[int]) -> None:
+    """Refuse a pose graph with a vertex that no path of edges ties to a gauge vertex.
+
+    Such a vertex's pose and marginal are undetermined; GTSAM would fail deep inside (3-D) or
+    return the initial value unchanged (2-D), so the command says which vertices, first.
+    """
+    neighbours: dict[int, list[int]] = {k: [] for k in ids}
+    for i, j in edges:
+        neighbours[i].append(j)
+        neighbours[j].append(i)
+    seen = set(gauge)
+    stack = list(seen)
+    while stack:
+        for m in neighbours[stack.pop()]:
+            if m not in seen:
+                seen.add(m)
+                stack.append(m)
+    loose = [k for k in ids if k not in seen]
+    if loose:
+        shown = ", ".join(str(k) for k in loose[:5]) + (", ..." if len(loose) > 5 else "")
+        raise CLIError(
+            f"the graph is not connected: {len(loose)} vertices ({shown}) have no path of edges "
+            f"to the gauge vertex {', '.join(str(k) for k in gauge)}; their poses and "
+            "marginals are undetermined (add edges, or FIX one vertex of each part)"
+        )
+
+
+def npy_argument(text: str, what: str) -> FloatArray:
+    """One real, finite array from a ``.npy`` file, its header checked before anything is read.
+
+    Complex, non-numeric, pickled or truncated files, and headers promising more data than the
+    file holds, are refused with a one-line error naming ``what`` and the file.
+    """
+    path = Path(text)
+    if not _is(path, "is_file"):
+        raise CLIError(f"{what}: no such file: {text}")
+    try:
+        arr = _load_npy(path, text, what)
+    except (OSError, ValueError, EOFError, MemoryError) as exc:
+        raise CLIError(f"{what}: cannot read {text} as .npy: {one_line(str(exc))}") from None
+    arr = np.asarray(arr, dtype=np.float64)
+    if not np.isfinite(arr).all():
+        raise CLIError(f"{what}: {text} contains NaN or Inf")
+    return arr
+
+
 def array_argument(text: str, what: str) -> tuple[FloatArray, bool]:
     """Numbers from an argument: a ``.npy`` or text file, or the numbers themselves.
 

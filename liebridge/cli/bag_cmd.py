@@ -12,12 +12,15 @@ to ROS's ``PoseWithCovariance`` convention, as messages into a new bag. Bad inpu
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ._common import CLIError, check_output_path, convention_arg, say
+from .._validate import SINGULAR_ATOL, SINGULAR_RTOL
+from ..frames.transform import frame_name
+from ._common import CLIError, check_connected, check_output_path, convention_arg, say
 
 __all__ = ["add_parser"]
 
@@ -68,19 +71,39 @@ def _export(args: argparse.Namespace) -> int:
     conv = convention_arg(args.convention, "--convention")
     suffixes = {"tum": None, "g2o": (".g2o", ".txt"), "npz": (".npz",)}[args.to]
     out = check_output_path(args.out, "OUT", suffixes)
-    m = _read(ros, args.bag, args.topic, conv)
-    if args.to == "tum":
-        ros.write_tum(out, m)
+    if args.to == "tum":  # streamed: memory is one batch of messages, whatever the bag's size
+        seen: list[Any] = []
+
+        def batches() -> Any:
+            for m in ros.iter_messages(
+                args.bag, args.topic, convention=conv, progress=_progress(f"read {args.topic}")
+            ):
+                seen.append((len(m), m.trajectory_frames() if len(m) else None))
+                yield m
+
+        ros.write_tum(out, batches())
+        n = sum(k for k, _ in seen)
+        frames = next((f for _, f in seen if f is not None), ("", None))
         print(
-            f"wrote {out}: {len(m)} poses T_{m.frame_id[0] if len(m) else ''}_"
-            f"{(m.child_frame_id or ['body'])[0] if len(m) else ''} "
-            "(TUM, exact stamps, repr floats)"
+            f"wrote {out}: {n} poses T_{frames[0] if n else ''}_"
+            f"{(frames[1] or 'body') if n else ''} (TUM, exact stamps, repr floats)"
         )
         return 0
+    m = _read(ros, args.bag, args.topic, conv)
     if args.to == "g2o":
         from ..io import g2o as g2o_io
 
         Z, cz = ros.increment_covariances(m, args.increment)
+        lam = np.linalg.eigvalsh(cz)
+        bad = ~(lam[:, 0] > SINGULAR_RTOL * 6 * lam[:, -1]) | ~(lam[:, 0] >= SINGULAR_ATOL)
+        if bad.any():
+            k = int(np.argmax(bad))
+            raise CLIError(
+                f"{args.topic}: the covariance of the increment from message {k} to {k + 1} is "
+                f"singular (eigenvalues {lam[k, 0]:.3g} … {lam[k, -1]:.3g}; all-zero message "
+                f"covariances?): a g2o edge needs its inverse (try --increment "
+                f"{'twist' if args.increment == 'difference' else 'difference'}, or --to tum)"
+            )
         info = np.linalg.inv(cz)
         info = 0.5 * (info + np.swapaxes(info, -1, -2))
         n = len(m)
@@ -120,20 +143,36 @@ def _write_marginals(args: argparse.Namespace) -> int:
     inp = Path(args.input)
     is_g2o = inp.is_file() and inp.suffix.lower() in (".g2o", ".txt")
     out = check_output_path(args.output, "OUT")
+    ros.check_topic(args.out_topic, "--out-topic")  # before the optimization, not after
+    if not (math.isfinite(args.prior_sigma) and args.prior_sigma > 0.0):
+        raise CLIError(f"--prior-sigma: expected a finite number > 0, got {args.prior_sigma!r}")
+    if not (math.isfinite(args.period) and args.period > 0.0):
+        raise CLIError(f"--period: expected a finite number of seconds > 0, got {args.period!r}")
     if is_g2o:
         from ..io import g2o as g2o_io
 
         g = g2o_io.read(inp)
-        graph, initial = g.to_gtsam()
+        if g.vertex_ids.shape[0] == 0:
+            raise CLIError(f"{inp}: no 3D pose graph in it (no VERTEX_SE3:QUAT line)")
         keys = [int(k) for k in g.vertex_ids]
         k0 = keys[0] if not g.fixed else int(g.fixed[0])
+        if k0 not in set(keys):
+            raise CLIError(f"{inp}: FIX {k0} names no vertex of the graph")
+        check_connected(keys, g.edges.tolist(), [k0])
+        last = (len(keys) - 1) * args.period
+        if last > ros.messages.STAMP_MAX:
+            raise CLIError(
+                f"--period: {len(keys)} vertices {args.period!r} s apart end at {last!r} s, "
+                f"beyond the {ros.messages.STAMP_MAX} s a ROS time holds"
+            )
+        graph, initial = g.to_gtsam()
         graph.add(
             gtsam.PriorFactorPose3(
                 k0, initial.atPose3(k0), gtsam.noiseModel.Isotropic.Sigma(6, args.prior_sigma)
             )
         )
         stamps = np.arange(len(keys), dtype=np.float64) * args.period
-        frame = args.frame_id or "map"
+        frame = "map" if args.frame_id is None else frame_name(args.frame_id, "--frame-id")
         say(
             f"read {inp}: {len(keys)} poses, {g.edges.shape[0]} edges; prior sigma "
             f"{args.prior_sigma} on pose {k0}"
@@ -150,7 +189,8 @@ def _write_marginals(args: argparse.Namespace) -> int:
         for k in keys:
             initial.insert(k, gtsam.Pose3(m.T[k]))
         stamps = m.stamps
-        frame = args.frame_id or (m.frame_id[0] if len(m) else "map")
+        frame = args.frame_id or (m.trajectory_frames()[0] or "map")
+        frame = frame_name(frame, "--frame-id")
         say(f"read {args.input} {args.topic}: {len(m)} poses as an odometry chain")
     params = gtsam.LevenbergMarquardtParams()
     result = gtsam.LevenbergMarquardtOptimizer(graph, initial, params).optimize()

@@ -35,15 +35,18 @@ def _convert(args: argparse.Namespace) -> int:
     if not path.is_file():
         raise CLIError(f"FILE: no such file: {args.file}")
     try:
+        parsed = C.CalibrationFile.read(path)  # parsed once for every reader below
         if src is None:
-            src = C.detect_file_system(path)
+            src = parsed.system
             if src is None:
                 raise CLIError(
                     f"{path}: cannot tell which system wrote it (no T_cam_imu, T_imu_cam, T_SC, "
                     "IMU.T_b_c1, body_T_camN or rvec/tvec found); give --from SYSTEM"
                 )
-        T_cam_imu = C.read_extrinsic(path, system=src, camera=args.camera, imu_frame=args.imu_frame)
-        shift = C.read_timeshift(path, system=src, camera=args.camera)
+        T_cam_imu = C.read_extrinsic(
+            parsed, system=src, camera=args.camera, imu_frame=args.imu_frame
+        )
+        shift = C.read_timeshift(parsed, system=src, camera=args.camera)
     except ImportError as exc:
         raise CLIError(str(exc)) from None
     ext = C.export_extrinsic(T_cam_imu, to.system, timeshift_cam_imu=shift)

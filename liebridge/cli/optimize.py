@@ -24,7 +24,15 @@ import numpy as np
 
 from .._validate import FloatArray
 from ..lie import se3
-from ._common import CLIError, check_output_path, convention_arg, need_matplotlib, option_value, say
+from ._common import (
+    CLIError,
+    check_connected,
+    check_output_path,
+    convention_arg,
+    need_matplotlib,
+    option_value,
+    say,
+)
 
 __all__ = [
     "DEFAULT_DATASET",
@@ -104,26 +112,7 @@ def _gauge_keys(g: Any) -> list[int]:
 
 def _check_connected(g: Any) -> None:
     """Fail clearly (before GTSAM does, deep inside) if some vertex is not tied to the gauge."""
-    ids = g.vertex_ids.tolist()
-    neighbours: dict[int, list[int]] = {k: [] for k in ids}
-    for i, j in g.edges.tolist():
-        neighbours[i].append(j)
-        neighbours[j].append(i)
-    seen = set(_gauge_keys(g))
-    stack = list(seen)
-    while stack:
-        for m in neighbours[stack.pop()]:
-            if m not in seen:
-                seen.add(m)
-                stack.append(m)
-    loose = [k for k in ids if k not in seen]
-    if loose:
-        shown = ", ".join(str(k) for k in loose[:5]) + (", ..." if len(loose) > 5 else "")
-        raise CLIError(
-            f"the graph is not connected: {len(loose)} vertices ({shown}) have no path of edges "
-            f"to the gauge vertex {', '.join(str(k) for k in _gauge_keys(g))}; their poses and "
-            "marginals are undetermined (add edges, or FIX one vertex of each part)"
-        )
+    check_connected(g.vertex_ids.tolist(), g.edges.tolist(), _gauge_keys(g))
 
 
 def _gtsam_error(exc: RuntimeError, during: str) -> CLIError:

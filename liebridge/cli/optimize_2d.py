@@ -24,7 +24,7 @@ import numpy as np
 
 from .._validate import FloatArray
 from ..lie import se2
-from ._common import CLIError, need_matplotlib, say
+from ._common import CLIError, check_connected, need_matplotlib, say
 
 #: σ of the gauge prior on the first vertex, in each of (vx, vy, ω).
 PRIOR_SIGMA = 1e-4
@@ -175,6 +175,7 @@ def run(args: argparse.Namespace, path: Path, params: Any, plt: Any, t_start: fl
         f"readings (they agree to first order at zero error){order}"
     )
     print(f"convention: {conv.name} — {factor_kind_2d(conv)}; marginals in its tangent")
+    check_connected(g.vertex_ids.tolist(), g.edges.tolist(), [int(g.vertex_ids[0])])
     print(f"gauge: prior on vertex {int(g.vertex_ids[0])} (σ = {PRIOR_SIGMA:g})")
     if args.dry_run:
         print("dry run: nothing optimized")

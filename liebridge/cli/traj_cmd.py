@@ -27,6 +27,7 @@ from ._common import (
     check_output_path,
     convention_arg,
     need_matplotlib,
+    npy_argument,
     one_line,
     say,
 )
@@ -50,14 +51,26 @@ class _Prepared:
 def _read_topic(path: str, topic: str, what: str) -> tuple[FloatArray, FloatArray]:
     """Stamps and poses of a bag topic (PoseWithCovarianceStamped, Odometry, TF...)."""
     try:
-        from ..ros import read_messages
+        from ..ros import iter_messages
     except ImportError as exc:  # the 'ros' extra
         raise CLIError(f"{what}: {exc}") from None
-    try:
-        msgs = read_messages(path, topic)
+    stamps: list[FloatArray] = []
+    poses: list[FloatArray] = []
+    frames = None
+    try:  # streamed: only stamps and poses are kept (136 B a message), not whole messages
+        for msgs in iter_messages(path, topic):
+            here = msgs.trajectory_frames()  # frame_id alternating map/odom is not one
+            if len(msgs) and frames is not None and here != frames:
+                raise ValueError(
+                    f"topic {topic}: frames {here} differ from the first message's {frames}; "
+                    "the topic holds poses in several frames, not one trajectory"
+                )
+            frames = frames or (here if len(msgs) else None)
+            stamps.append(np.asarray(msgs.stamps, dtype=np.float64))
+            poses.append(np.asarray(msgs.T, dtype=np.float64))
     except (ValueError, OSError, ImportError) as exc:
         raise CLIError(f"{what}: {one_line(str(exc))}") from None
-    return np.asarray(msgs.stamps, dtype=np.float64), np.asarray(msgs.T, dtype=np.float64)
+    return np.concatenate(stamps), np.concatenate(poses)
 
 
 def _read(
@@ -282,12 +295,7 @@ def _nees(args: argparse.Namespace) -> int:
     conv = convention_arg(args.convention, "--convention")
     if args.plot:
         check_output_path(args.plot, "--plot", (".png", ".pdf", ".svg"))
-    try:
-        cov = np.load(args.cov, allow_pickle=False)
-    except (OSError, ValueError, EOFError) as exc:
-        raise CLIError(f"--cov: cannot read {args.cov} as .npy: {one_line(str(exc))}") from None
-    if not isinstance(cov, np.ndarray) or not np.issubdtype(cov.dtype, np.number):
-        raise CLIError(f"--cov: {args.cov} does not hold one numeric array")
+    cov = npy_argument(args.cov, "--cov")
     if cov.ndim != 3 or cov.shape[1:] != (6, 6):
         raise CLIError(f"--cov: expected an array of shape (N, 6, 6), got {cov.shape}")
     p = _prepare(args, np.asarray(cov, dtype=np.float64), conv)

@@ -68,7 +68,15 @@ from .presets import (
     StorageLayout,
 )
 from .registration_presets import REGISTRATION_PRESETS
-from .registry import ConventionLike, get, matching_presets, names, register, single_group
+from .registry import (
+    ConventionLike,
+    get,
+    matching_presets,
+    names,
+    pose_convention,
+    register,
+    single_group,
+)
 from .sphere import Sphere
 from .state_presets import (
     BASALT,
@@ -168,6 +176,7 @@ __all__ = [
     "matching_presets",
     "names",
     "nav_state",
+    "pose_convention",
     "register",
     "single_group",
     "tangent_map",

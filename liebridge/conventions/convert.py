@@ -19,6 +19,7 @@ for a large covariance there :func:`convert_covariance` offers ``method="unscent
 from __future__ import annotations
 
 import functools
+import math
 import re
 import types
 from typing import Any, Literal
@@ -263,8 +264,9 @@ def convert_covariance(
     so3 = Xa.shape[-1] == 3
     n = a.dim(Xa)
     cov = validate.covariance(cov, "cov", n)
-    if cov.shape[:-2] != Xa.shape[:-2]:
-        validate.batch_shape(("cov", cov.shape[:-2]), ("X", Xa.shape[:-2]))
+    batch = Xa.shape[:-2]
+    if cov.shape[:-2] != batch:
+        batch = validate.batch_shape(("cov", cov.shape[:-2]), ("X", Xa.shape[:-2]))
     if method == "linear":
         M = unchecked_map(Xa, a, b)
         # a batch: numpy multiplies stacks of small matrices fast only when they are contiguous
@@ -275,18 +277,23 @@ def convert_covariance(
     if method != "unscented":
         raise ValueError(f"method: expected 'linear' or 'unscented', got {method!r}")
     chunk = _chunk_size(chunk_size)
-    batch = Xa.shape[:-2]
-    Xf = Xa.reshape((-1, *Xa.shape[-2:]))
-    cf = cov.reshape((-1, n, n))
+    # X and cov broadcast against each other first (one covariance at many poses, many at one);
+    # each chunk gathers its elements from the broadcast views, so nothing is copied whole.
+    Xv = np.broadcast_to(Xa, (*batch, *Xa.shape[-2:]))
+    cv = np.broadcast_to(cov, (*batch, n, n))
+    total = math.prod(batch)
     out: FloatArray | None = None  # dst's dimension (an embedding may differ from n)
-    for lo in range(0, max(Xf.shape[0], 1), chunk):  # bounded memory: ≈ 20 kB per element in flight
-        hi = min(lo + chunk, Xf.shape[0])
+    for lo in range(0, max(total, 1), chunk):  # bounded memory: ≈ 20 kB per element in flight
+        hi = min(lo + chunk, total)
+        where = np.unravel_index(np.arange(lo, hi), batch) if batch else ()
+        Xc = Xv[where].reshape((-1, *Xa.shape[-2:]))
+        cc = cv[where].reshape((-1, n, n))
         try:
-            part = _unscented(cf[lo:hi], Xf[lo:hi], a, b, n, so3)
+            part = _unscented(cc, Xc, a, b, n, so3)
         except ValueError as e:  # name the index in the caller's batch, not in the chunk
             raise ValueError(_rebase_index(str(e), lo, batch)) from None
         if out is None:
-            out = np.empty((Xf.shape[0], *part.shape[1:]))
+            out = np.empty((total, *part.shape[1:]))
         out[lo:hi] = part
     assert out is not None  # the loop runs at least once (an empty batch: one empty pass)
     return validate.finite_output(out.reshape((*batch, *out.shape[1:])), "convert_covariance")
@@ -326,12 +333,14 @@ def _unscented(
     deltas = np.einsum("...ij,kj->...ki", S, pts)  # (..., K, n)
     a._increment(deltas, so3, "cov (its sigma points)")  # increments the kernel can evaluate
     Xb = Xa[..., None, :, :]
-    y = b._local(Xb, a._retract(Xb, deltas))
-    mean = np.einsum("k,...ki->...i", w, y)
-    dy = y - mean[..., None, :]
-    out = np.einsum("k,...ki,...kj->...ij", w, dy, dy)
-    return np.asarray(0.5 * (out + np.swapaxes(out, -1, -2)), dtype=np.float64)
-    return validate.finite_output(out, "convert_covariance")
+    # an element near float64's limit overflows in the sigma points' products: said below
+    with np.errstate(over="ignore", invalid="ignore"):
+        y = b._local(Xb, a._retract(Xb, deltas))
+        mean = np.einsum("k,...ki->...i", w, y)
+        dy = y - mean[..., None, :]
+        out = np.einsum("k,...ki,...kj->...ij", w, dy, dy)
+    out = np.asarray(0.5 * (out + np.swapaxes(out, -1, -2)), dtype=np.float64)
+    return validate.finite_output(out, "convert_covariance (unscented: the sigma points at X)")
 
 
 def convert_information(info: Any, X: Any, src: ConventionLike, dst: ConventionLike) -> FloatArray:

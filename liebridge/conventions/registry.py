@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import difflib
+from typing import Any
 
+from .._validate import FloatArray
 from .chart import Chart
 from .convention import Convention
 from .presets import ALL_PRESETS
@@ -61,6 +63,29 @@ def single_group(chart: Chart, what: str = "convention") -> Convention:
         raise ValueError(
             f"{what}: {chart.name!r} is a whole-state chart ({type(chart).__name__}); this needs "
             "a convention of one group ('liebridge conventions' lists them)"
+        )
+    return chart
+
+
+def pose_convention(chart: Any, name: str, X: FloatArray | None = None) -> Convention:
+    """Return ``chart`` if it is an SE(3)/SO(3) convention matching ``X``, else raise.
+
+    An operation on poses that takes a convention must refuse a convention of another group
+    (``"gtsam_similarity3"``, ``"gtsam_pose2"``, a bundle) before it reads the covariance with
+    the wrong tangent size, and an SO(3) convention given a pose. Read from the group record:
+    the conventions whose engine acts on poses and 3-D rotations.
+    """
+    label = getattr(chart, "name", repr(chart))
+    if not isinstance(chart, Convention) or not chart._engine.rotations_3d:
+        group = getattr(chart, "group", None)
+        raise ValueError(
+            f"{name}: {label!r} is a convention of {group}, but this operation takes poses "
+            "(4×4) or rotations (3×3): use an SE(3) convention such as 'gtsam' or 'ros'"
+        )
+    if not chart.record.cols and X is not None and X.shape[-2:] != (3, 3):
+        raise ValueError(
+            f"{name}: {label!r} is an SO(3) convention, but the element has shape "
+            f"{X.shape[-2:]}, not a rotation (3, 3)"
         )
     return chart
 

@@ -17,6 +17,7 @@ from . import axes, calibration
 from .axes import Axes, axes_transform
 from .calibration import (
     SYSTEMS,
+    CalibrationFile,
     KalibrCamchain,
     KalibrCamera,
     SystemExtrinsic,
@@ -38,6 +39,7 @@ from .tree import FrameLookupError, StampedTransform, TransformTree
 __all__ = [
     "SYSTEMS",
     "Axes",
+    "CalibrationFile",
     "FrameLookupError",
     "FrameMismatchError",
     "KalibrCamchain",

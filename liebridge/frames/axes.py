@@ -93,6 +93,12 @@ class Axes:
     used_by: str = ""
 
     def __post_init__(self) -> None:
+        for field_name in ("name", "kind", "x", "y", "z", "used_by"):
+            value = getattr(self, field_name)
+            if not isinstance(value, str):
+                raise TypeError(
+                    f"Axes.{field_name}: expected a str, got {type(value).__name__} ({value!r})"
+                )
         table = _WORLD if self.kind == "world" else _BODY if self.kind == "body" else None
         if table is None:
             raise ValueError(f"Axes {self.name!r}: kind must be 'world' or 'body'")

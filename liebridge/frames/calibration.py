@@ -78,6 +78,7 @@ from .tree import TransformTree
 __all__ = [
     "SYSTEMS",
     "TIME_OFFSETS",
+    "CalibrationFile",
     "ExtrinsicFormat",
     "KalibrCamchain",
     "KalibrCamera",
@@ -331,13 +332,38 @@ def export_extrinsic(
     elif fmt.system == "basalt":
         extra = {"pose": _basalt_pose(tf.T)}
     if timeshift_cam_imu is not None:
-        shift = float(timeshift_cam_imu)
-        if not np.isfinite(shift):
-            raise ValueError(f"timeshift_cam_imu: not finite ({shift!r})")
+        shift = _time_offset(timeshift_cam_imu, "timeshift_cam_imu")
         if fmt.system in TIME_OFFSETS:
             key, scale, _ = TIME_OFFSETS[fmt.system]
             extra[key] = round(shift * scale) if scale != 1.0 else shift
     return SystemExtrinsic(fmt.system, fmt.parameter, tf, direction, extra)
+
+
+#: Largest camera–IMU time offset accepted, seconds: it must fit in int64 nanoseconds (Basalt's
+#: ``cam_time_offset_ns``); a real offset is milliseconds.
+MAX_TIME_OFFSET = 9.2e9
+
+
+def _time_offset(value: Any, where: str, scale: float = 1.0) -> float:
+    """Return a time offset read from a file (in units of ``1/scale`` s) as finite seconds.
+
+    A ``ValueError`` names ``where`` for a value that is not a number, beyond float64 (``1``
+    and 400 zeros), or beyond :data:`MAX_TIME_OFFSET`.
+    """
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise ValueError(f"{where}: expected a number, got {value!r}")
+    try:
+        seconds = float(value) / scale
+    except OverflowError:
+        raise ValueError(f"{where}: {str(value)[:20]}… is beyond float64") from None
+    if not np.isfinite(seconds):
+        raise ValueError(f"{where}: expected a finite number, got {value!r}")
+    if abs(seconds) > MAX_TIME_OFFSET:
+        raise ValueError(
+            f"{where}: a time offset of {seconds:.6g} s is beyond ±{MAX_TIME_OFFSET:g} s "
+            "(int64 nanoseconds); a camera–IMU offset is a fraction of a second"
+        )
+    return seconds
 
 
 def _basalt_pose(T: FloatArray) -> dict[str, float]:
@@ -449,10 +475,18 @@ class _OpenCVMatrix(dict[str, Any]):
     """An ``!!opencv-matrix`` node (rows, cols, dt, data) as read."""
 
 
+#: Deepest nesting of mappings and sequences a calibration file may have (real files: < 6).
+YAML_MAX_DEPTH = 64
+#: Largest number of values that aliases (``*anchor``) may add to a file's parsed size beyond
+#: the file's own values: a few shared blocks are fine, a "billion laughs" expansion is not.
+YAML_MAX_ALIAS_EXPANSION = 100_000
+
+
 def _loader() -> Any:
     yaml = _yaml()
+    base = getattr(yaml, "CSafeLoader", None) or yaml.SafeLoader  # libyaml's parser when present
 
-    class Loader(yaml.SafeLoader):  # type: ignore[name-defined]
+    class Loader(base):  # type: ignore[misc,valid-type]
         pass
 
     def construct(loader: Any, node: Any) -> _OpenCVMatrix:
@@ -462,31 +496,127 @@ def _loader() -> Any:
     return Loader
 
 
+def _check_yaml_shape(yaml: Any, text: str, path: PathLike, loader: Any) -> None:
+    """Refuse a document too deep, self-referential, or expanded too much by its aliases.
+
+    The limits: :data:`YAML_MAX_DEPTH` levels of nesting; :data:`YAML_MAX_ALIAS_EXPANSION`
+    values added by aliases; no alias to an anchor still open (a structure that holds itself).
+    One pass over the parser's events (iterative: no recursion, whatever the depth), before the
+    recursive composer and constructor see the document. Each collection's expanded size is
+    counted as it closes; an alias adds its anchor's size.
+    """
+    ev = yaml.events
+    sizes: dict[str, int] = {}  # anchor → expanded size, once closed
+    open_anchors: list[str | None] = []
+    counts: list[int] = [0]  # expanded size of each open collection
+    extra = 0  # values added by aliases
+    for e in yaml.parse(text, Loader=loader):
+        if isinstance(e, ev.ScalarEvent):
+            counts[-1] += 1
+            if e.anchor is not None:
+                sizes[e.anchor] = 1
+        elif isinstance(e, ev.CollectionStartEvent):
+            if len(counts) > YAML_MAX_DEPTH:
+                raise ValueError(
+                    f"{path}: nested more than {YAML_MAX_DEPTH} levels deep (at line "
+                    f"{e.start_mark.line + 1}); no calibration file is"
+                )
+            counts.append(1)
+            open_anchors.append(e.anchor)
+        elif isinstance(e, ev.CollectionEndEvent):
+            size = counts.pop()
+            anchor = open_anchors.pop()
+            counts[-1] += size
+            if anchor is not None:
+                sizes[anchor] = size
+        elif isinstance(e, ev.AliasEvent):
+            alias_size = sizes.get(e.anchor)
+            if alias_size is None:
+                if e.anchor in open_anchors:
+                    raise ValueError(
+                        f"{path}: the alias *{e.anchor} refers to its own anchor (a "
+                        "self-referential structure, which no calibration value is)"
+                    )
+                continue  # undefined: the composer reports it
+            counts[-1] += alias_size
+            extra += alias_size
+            if extra > YAML_MAX_ALIAS_EXPANSION:
+                raise ValueError(
+                    f"{path}: its aliases expand it by more than {YAML_MAX_ALIAS_EXPANSION} "
+                    f"values (at line {e.start_mark.line + 1}; an alias bomb?); refusing to "
+                    "expand it"
+                )
+
+
 def _load_text(text: str, path: PathLike) -> Any:
-    """YAML (plain or OpenCV's dialect) or JSON text → Python objects; errors name the file."""
+    """YAML (plain or OpenCV's dialect) or JSON text → Python objects; errors name the file.
+
+    The one loader of every calibration reader: a safe loader (no Python objects), with the
+    depth and alias limits of :func:`_check_yaml_shape`; JSON nested too deep is refused too.
+    """
     stripped = text.lstrip()
     if stripped.startswith("{") and '"' in stripped[:200]:
         try:
             return json.loads(text)
         except json.JSONDecodeError:
             pass  # YAML flow mappings also start with "{"
+        except RecursionError:
+            raise ValueError(f"{path}: JSON nested too deep for a calibration file") from None
     yaml = _yaml()
     # OpenCV writes "%YAML:1.0" (or "%YAML 1.2"): a directive PyYAML rejects; drop it
     text = re.sub(r"\A\s*%YAML[: ]\s*\d+\.\d+[^\n]*\n", "", text)
+    loader = _loader()
     try:
-        return yaml.load(text, Loader=_loader())  # a SafeLoader subclass
+        _check_yaml_shape(yaml, text, path, loader)
+        return yaml.load(text, Loader=loader)  # a SafeLoader subclass
     except yaml.YAMLError as exc:
         msg = " ".join(str(exc).split())
         raise ValueError(f"{path}: not valid YAML: {msg}") from None
 
 
-def _read(path: PathLike) -> Any:
+def _read(path: PathLike | CalibrationFile) -> Any:
+    if isinstance(path, CalibrationFile):
+        return path.data
     p = Path(path)
     try:
         text = p.read_text(encoding="utf-8")
     except UnicodeDecodeError:
         raise ValueError(f"{path}: not a text file (UTF-8)") from None
     return _load_text(text, path)
+
+
+@dataclass(frozen=True, eq=False)
+class CalibrationFile:
+    """A calibration file parsed once, to hand to several readers without parsing it again.
+
+    :func:`read_kalibr`, :func:`read_extrinsic`, :func:`read_timeshift` and
+    :func:`detect_file_system` take it in place of a path (a 20 MB file costs one parse, not
+    one per reader). Build it with :meth:`read`; treat :attr:`data` as read-only.
+
+    Attributes
+    ----------
+    path : Path
+        The file, named in every error.
+    data : object
+        The parsed YAML/JSON (dicts, lists, numbers, strings), through the one loader of this
+        module (safe, with depth and alias limits).
+    """
+
+    path: Path
+    data: Any
+
+    @classmethod
+    def read(cls, path: PathLike) -> CalibrationFile:
+        """Parse ``path`` (YAML, OpenCV's YAML dialect or JSON) once."""
+        return cls(Path(path), _read(path))
+
+    def __str__(self) -> str:
+        return str(self.path)
+
+    @property
+    def system(self) -> str | None:
+        """:func:`detect_system` of the data (None if no system's keys are found)."""
+        return detect_system(self.data)
 
 
 def _matrix(value: Any, where: str, shape: tuple[int, ...]) -> FloatArray:
@@ -512,13 +642,17 @@ def _matrix(value: Any, where: str, shape: tuple[int, ...]) -> FloatArray:
     return arr
 
 
-def _pose(value: Any, where: str) -> FloatArray:
-    """Read a rigid 4x4 from a file; the rotation tolerance follows the printed precision."""
+def _pose(value: Any, where: str) -> tuple[FloatArray, float]:
+    """Read a rigid 4x4 from a file and the rotation tolerance its printed precision allows.
+
+    The tolerance goes on with the matrix into the :class:`Transform` built from it, so a file
+    printed with 4 decimals is validated at its own precision once, not refused at 1e-6 later.
+    """
     T = _matrix(value, where, (4, 4))
     fields = [repr(float(x)) for x in T[:3, :3].ravel()]
     tol = pose_io.text_rotation_tol(fields)
     try:
-        return validate.pose(T, where, tol)
+        return validate.pose(T, where, tol), tol
     except ValueError as exc:
         raise ValueError(f"{exc} (a rigid transform is required)") from None
 
@@ -577,7 +711,7 @@ class KalibrCamchain:
         return tree
 
 
-def read_kalibr(path: PathLike, *, imu_frame: str = "imu0") -> KalibrCamchain:
+def read_kalibr(path: PathLike | CalibrationFile, *, imu_frame: str = "imu0") -> KalibrCamchain:
     """Read a Kalibr camchain(-imucam) YAML file.
 
     Every ``T_cam_imu`` / ``T_cn_cnm1`` must be a rigid 4×4 (rotation orthonormal within the
@@ -598,23 +732,16 @@ def read_kalibr(path: PathLike, *, imu_frame: str = "imu0") -> KalibrCamchain:
         rest = {k: val for k, val in entry.items() if k not in _KALIBR_FIELDS}
         T_ci = T_cc = None
         if "T_cam_imu" in entry:
-            T_ci = Transform(
-                _pose(entry["T_cam_imu"], f"{path}: {name}.T_cam_imu"), name, imu_frame
-            )
+            T, tol = _pose(entry["T_cam_imu"], f"{path}: {name}.T_cam_imu")
+            T_ci = Transform(T, name, imu_frame, tol=tol)
         if "T_cn_cnm1" in entry:
             if i == 0:
                 raise ValueError(f"{path}: {name}.T_cn_cnm1 on the first camera (no previous)")
-            T = _pose(entry["T_cn_cnm1"], f"{path}: {name}.T_cn_cnm1")
-            T_cc = Transform(T, name, str(names[i - 1]))
+            T, tol = _pose(entry["T_cn_cnm1"], f"{path}: {name}.T_cn_cnm1")
+            T_cc = Transform(T, name, str(names[i - 1]), tol=tol)
         shift = entry.get("timeshift_cam_imu")
         if shift is not None:
-            if isinstance(shift, bool) or not isinstance(shift, (int, float)):
-                raise ValueError(
-                    f"{path}: {name}.timeshift_cam_imu: expected a number, got {shift!r}"
-                )
-            shift = float(shift)
-            if not np.isfinite(shift):
-                raise ValueError(f"{path}: {name}.timeshift_cam_imu is not finite")
+            shift = _time_offset(shift, f"{path}: {name}.timeshift_cam_imu")
         cams.append(KalibrCamera(name, T_ci, T_cc, shift, rest))
     return KalibrCamchain(tuple(cams), imu_frame)
 
@@ -641,7 +768,9 @@ def write_kalibr(
     yaml = _yaml()
     data: dict[str, Any] = {}
     for c in chain.cameras:
-        entry: dict[str, Any] = {k: _plain(val) for k, val in c.fields.items()}
+        entry: dict[str, Any] = {
+            k: _plain(val, f"chain: {c.name}.{k}") for k, val in c.fields.items()
+        }
         if c.T_cam_imu is not None:
             entry["T_cam_imu"] = np.asarray(c.T_cam_imu.T).tolist()
         if c.T_cn_cnm1 is not None:
@@ -663,14 +792,60 @@ def write_kalibr(
     Path(path).write_text(text, encoding="utf-8")
 
 
-def _plain(x: Any) -> Any:
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    if isinstance(x, dict):
-        return {k: _plain(val) for k, val in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_plain(val) for val in x]
-    return x
+def _plain(x: Any, where: str) -> Any:
+    """``x`` as plain YAML data (arrays as lists), refusing what the reader would refuse.
+
+    Shared sub-objects stay shared (YAML anchors; no exponential expansion), a container that
+    holds itself and an expansion beyond :data:`YAML_MAX_ALIAS_EXPANSION` values are refused
+    with a ``ValueError`` naming the field — iteratively, so neither recursion nor time runs away.
+    """
+    memo: dict[int, tuple[Any, int]] = {}  # id → (plain copy, expanded size)
+    on_path: set[int] = set()
+    extra = 0
+
+    def children(obj: Any) -> list[Any]:
+        return list(obj.values()) if isinstance(obj, dict) else list(obj)
+
+    root = x
+    if not isinstance(root, (dict, list, tuple)):
+        return _leaf(root)
+    stack: list[tuple[Any, bool]] = [(root, False)]
+    while stack:
+        obj, done = stack.pop()
+        oid = id(obj)
+        if done:
+            on_path.discard(oid)
+            kids = children(obj)
+            plain = [memo[id(k)][0] if id(k) in memo else _leaf(k) for k in kids]
+            size = 1 + sum(memo[id(k)][1] if id(k) in memo else _leaf_size(k) for k in kids)
+            out: Any = dict(zip(obj.keys(), plain, strict=True)) if isinstance(obj, dict) else plain
+            memo[oid] = (out, size)
+            continue
+        if oid in memo:
+            extra += memo[oid][1]
+            if extra > YAML_MAX_ALIAS_EXPANSION:
+                raise ValueError(
+                    f"{where}: shared sub-objects expand it by more than "
+                    f"{YAML_MAX_ALIAS_EXPANSION} values; read_kalibr would refuse the file"
+                )
+            continue
+        if oid in on_path:
+            raise ValueError(f"{where}: a container holds itself (a self-referential structure)")
+        if len(on_path) >= YAML_MAX_DEPTH:
+            raise ValueError(f"{where}: nested more than {YAML_MAX_DEPTH} levels deep")
+        on_path.add(oid)
+        stack.append((obj, True))
+        kids = [k for k in reversed(children(obj)) if isinstance(k, (dict, list, tuple))]
+        stack.extend((k, False) for k in kids)
+    return memo[id(root)][0]
+
+
+def _leaf(x: Any) -> Any:
+    return x.tolist() if isinstance(x, np.ndarray) else x
+
+
+def _leaf_size(x: Any) -> int:
+    return int(x.size) + 1 if isinstance(x, np.ndarray) else 1
 
 
 # ----------------------------------------------------------------------------- other systems' files
@@ -700,13 +875,13 @@ def detect_system(data: Any) -> str | None:
     return None
 
 
-def detect_file_system(path: PathLike) -> str | None:
+def detect_file_system(path: PathLike | CalibrationFile) -> str | None:
     """:func:`detect_system` of a file (None if no system's keys are found)."""
     return detect_system(_read(path))
 
 
 def read_extrinsic(
-    path: PathLike,
+    path: PathLike | CalibrationFile,
     *,
     system: str | None = None,
     camera: str = "cam0",
@@ -716,7 +891,7 @@ def read_extrinsic(
 
     Parameters
     ----------
-    path : str or Path
+    path : str, Path or CalibrationFile
         A Kalibr camchain-imucam.yaml, an OpenVINS kalibr_imucam_chain.yaml, an OKVIS config, an
         ORB-SLAM3 or VINS-Fusion settings file, a Basalt calibration JSON, or a YAML/JSON with
         ``rvec`` and ``tvec`` (OpenCV).
@@ -745,8 +920,9 @@ def read_extrinsic(
             f"IMU.T_b_c1, body_T_camN, rvec/tvec found); give the system explicitly"
         )
     fmt = SYSTEMS[name]
-    if name == "kalibr":
-        chain = read_kalibr(path, imu_frame=imu_frame)
+    if name == "kalibr":  # the data parsed above, not the file again
+        parsed = path if isinstance(path, CalibrationFile) else CalibrationFile(Path(path), data)
+        chain = read_kalibr(parsed, imu_frame=imu_frame)
         cam = chain.camera(camera)
         if cam.T_cam_imu is None:
             raise ValueError(f"{path}: {camera} has no T_cam_imu (a camchain without the IMU?)")
@@ -768,25 +944,28 @@ def read_extrinsic(
         entry = need(data, camera, camera)
         where = f"{path}: {camera}.T_imu_cam"
         if "T_imu_cam" in entry:
-            T = _pose(entry["T_imu_cam"], where)
+            T, tol = _pose(entry["T_imu_cam"], where)
         else:  # OpenVINS falls back to an inverted T_cam_imu (opencv_yaml_parse.h)
-            T = U.se3_inverse(_pose(need(entry, "T_cam_imu", f"{camera}.T_imu_cam"), where))
+            T, tol = _pose(need(entry, "T_cam_imu", f"{camera}.T_imu_cam"), where)
+            T = U.se3_inverse(T)
     elif name == "okvis":
-        cams = data["cameras"]
+        cams = need(data, "cameras", "cameras")
+        if not isinstance(cams, list):
+            raise ValueError(f"{path}: cameras: expected a list of cameras")
         if idx >= len(cams):
             raise ValueError(f"{path}: no camera {idx} in cameras (it has {len(cams)})")
         where = f"{path}: cameras[{idx}].T_SC"
-        T = _pose(need(cams[idx], "T_SC", f"cameras[{idx}].T_SC"), where)
+        T, tol = _pose(need(cams[idx], "T_SC", f"cameras[{idx}].T_SC"), where)
     elif name == "orbslam3":
         if idx != 0:
             raise ValueError(f"{path}: ORB-SLAM3 stores IMU.T_b_c1 for the first camera only")
         key = "IMU.T_b_c1" if "IMU.T_b_c1" in data else "Tbc"
         where = f"{path}: {key}"
-        T = _pose(data[key], where)
+        T, tol = _pose(need(data, key, "IMU.T_b_c1"), where)
     elif name == "vins_fusion":
         key = f"body_T_cam{idx}"
         where = f"{path}: {key}"
-        T = _pose(need(data, key, key), where)
+        T, tol = _pose(need(data, key, key), where)
     else:  # basalt
         root = data.get("value0", data)
         poses = need(root, "T_imu_cam", "T_imu_cam")
@@ -802,11 +981,12 @@ def read_extrinsic(
             T = pose_io.to_matrix(x, layout="xyz_qxyzw")
         except ValueError as exc:
             raise ValueError(f"{where}: {exc}") from None
-    return Transform(T, imu_frame, camera).inverse()  # all of these hold T_imu_cam
+        tol = validate.ROTATION_TOL
+    return Transform(T, imu_frame, camera, tol=tol).inverse()  # all of these hold T_imu_cam
 
 
 def read_timeshift(
-    path: PathLike, *, system: str | None = None, camera: str = "cam0"
+    path: PathLike | CalibrationFile, *, system: str | None = None, camera: str = "cam0"
 ) -> float | None:
     """Kalibr's ``timeshift_cam_imu`` (seconds, ``t_imu = t_cam + shift``) from a system's file.
 
@@ -830,9 +1010,7 @@ def read_timeshift(
         value, where = data.get(key), f"{path}: {key}"
     if value is None:
         return None
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
-        raise ValueError(f"{where}: expected a finite number, got {value!r}")
-    return float(value) / scale
+    return _time_offset(value, where, scale)
 
 
 def _num(x: float) -> str:

@@ -33,11 +33,16 @@ from ..conventions import (
     ConventionLike,
     convert_covariance,
     get,
+    pose_convention,
     single_group,
 )
 from ..lie import unchecked as U
 
 __all__ = ["FrameMismatchError", "Transform", "frame_name"]
+
+#: Largest rotation tolerance ``max|RᵀR − I|`` a :class:`Transform` accepts (beyond it a matrix
+#: is not a rotation in any useful sense; project it with :func:`liebridge.lie.so3.project`).
+MAX_TOL = 1e-2
 
 _FRAME = re.compile(r"^[^\s]+$")
 
@@ -78,7 +83,8 @@ class Transform:
     convention : Convention or str
         Tangent convention of ``cov`` (default: canonical GTSAM, right ``T·Exp(ξ)``, ``(ω, v)``).
     tol : float
-        Rotation tolerance ``max|RᵀR − I|`` (default :data:`liebridge._validate.ROTATION_TOL`).
+        Rotation tolerance ``max|RᵀR − I|`` (default :data:`liebridge._validate.ROTATION_TOL`),
+        in ``(0, MAX_TOL]`` (:data:`MAX_TOL` = 1e-2).
 
     Examples
     --------
@@ -100,12 +106,27 @@ class Transform:
     def __post_init__(self) -> None:
         frame_name(self.target_frame, "target_frame")
         frame_name(self.source_frame, "source_frame")
-        T = validate.pose(self.T, f"T ({self.name})", self.tol)
+        tol = self.tol
+        if isinstance(tol, bool) or not isinstance(tol, int | float | np.floating | np.integer):
+            raise TypeError(f"tol: expected a number, got {type(tol).__name__}")
+        if not 0.0 < float(tol) <= MAX_TOL:  # NaN fails too
+            raise ValueError(
+                f"tol ({self.name}): expected a rotation tolerance in (0, {MAX_TOL:g}], got {tol!r}"
+            )
+        T = validate.pose(self.T, f"T ({self.name})", float(tol))
         object.__setattr__(self, "T", _readonly(T))
-        object.__setattr__(self, "convention", get(self.convention))
+        conv = get(self.convention)
+        pose_convention(conv, f"convention ({self.name})", T)
+        object.__setattr__(self, "convention", conv)
         if self.cov is not None:
             cov = validate.covariance(self.cov, f"cov ({self.name})", 6)
             if cov.shape[:-2] != T.shape[:-2]:
+                shape = validate.batch_shape(("cov", cov.shape[:-2]), ("T", T.shape[:-2]))
+                if shape != T.shape[:-2]:
+                    raise ValueError(
+                        f"cov ({self.name}): batch shape {cov.shape[:-2]} has more covariances "
+                        f"than T's batch shape {T.shape[:-2]} has poses"
+                    )
                 cov = np.broadcast_to(cov, (*T.shape[:-2], 6, 6))
             object.__setattr__(self, "cov", _readonly(cov))
 

@@ -67,7 +67,7 @@ class StampedTransform:
                 f"stamps ({tf.name}): expected shape (N,) matching the transforms' batch "
                 f"{tf.batch_shape}, got {s.shape}"
             )
-        bad = np.flatnonzero(np.diff(s) <= 0)
+        bad = np.flatnonzero(s[1:] <= s[:-1])  # not np.diff: ±1e308 apart overflows
         if bad.size:
             i = int(bad[0])
             raise ValueError(
@@ -97,7 +97,8 @@ def _interpolate(edge: StampedTransform, t: FloatArray, how: str) -> FloatArray:
         return np.broadcast_to(T[0], (*t.shape, 4, 4)).copy()
     i1 = np.clip(np.searchsorted(s, t, side="right"), 1, s.size - 1)
     i0 = i1 - 1
-    tau = (t - s[i0]) / (s[i1] - s[i0])
+    # halves first: stamps ±1e308 apart overflow a difference (exact otherwise: powers of two)
+    tau = (0.5 * t - 0.5 * s[i0]) / (0.5 * s[i1] - 0.5 * s[i0])
     T0, T1 = T[i0], T[i1]
     if how == "geodesic":
         xi = U.se3_log(U.se3_inverse(T0) @ T1) * tau[..., None]

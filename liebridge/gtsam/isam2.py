@@ -72,6 +72,32 @@ def _printed_threshold(params: Any) -> float:
     return float(m.group(1))
 
 
+def _check_params(p: Any) -> None:
+    """Refuse iSAM2 parameters GTSAM would crash or misbehave on, before GTSAM sees them.
+
+    ``relinearizeSkip < 1`` makes GTSAM's ``ISAM2::update`` divide by zero (``update % skip``:
+    SIGFPE, the process dies); a NaN or negative ``relinearizeThreshold`` or
+    ``wildfireThreshold`` makes every comparison false. ``gtsam.ISAM2`` itself does not check.
+    """
+    skip = int(p.relinearizeSkip)
+    if skip < 1:
+        raise ValueError(
+            f"params.relinearizeSkip: expected an integer ≥ 1 (relinearize every n-th update), "
+            f"got {skip}; GTSAM divides by it"
+        )
+    printed = repr(p)
+    for name in ("relinearizeThreshold", "wildfireThreshold"):
+        m = re.search(rf"{name}:\s*(\S+)", printed)
+        if m is None or m.group(1) == "{mapped}":
+            continue
+        try:
+            value = float(m.group(1))
+        except ValueError:
+            continue
+        if not (np.isfinite(value) and value >= 0.0):
+            raise ValueError(f"params.{name}: expected a finite number ≥ 0, got {m.group(1)}")
+
+
 def _relinearizes(params: Any, delta: float) -> bool:
     """Return whether iSAM2 with ``params`` relinearizes a variable whose ``Δ`` is ``delta``.
 
@@ -155,6 +181,10 @@ class ISAM2:
                 "params: enablePartialRelinearizationCheck=True is not supported (the variables "
                 "GTSAM relinearizes could not be predicted); set it to False"
             )
+        _check_params(p)
+        self._params = p
+        # every successful gtsam.ISAM2.update call, to rebuild GTSAM's object after a failure
+        self._log: list[tuple[Any, Any, list[int], Any]] = []
         self._threshold = _relinearize_threshold(p)
         self._relinearize = bool(p.enableRelinearization)
         self._skip = max(int(p.relinearizeSkip), 1)
@@ -207,6 +237,15 @@ class ISAM2:
         -------
         gtsam.ISAM2Result
             GTSAM's result of the one ``ISAM2.update`` call this makes.
+
+        Notes
+        -----
+        An update that fails (GTSAM raises, e.g. an underdetermined system without a prior)
+        changes nothing: the mirrored state is restored and the wrapped ``gtsam.ISAM2`` — which
+        GTSAM leaves holding the failed update's variables and factors — is rebuilt by replaying
+        the successful updates, whose inputs are kept for that (as many factor references as
+        GTSAM's own graph holds, plus the refreshed containers). A retry then gives native
+        iSAM2's result.
         """
         graph = gtsam.NonlinearFactorGraph() if graph is None else graph
         values = gtsam.Values() if values is None else values
@@ -230,6 +269,14 @@ class ISAM2:
                 rest.add(f)
         self._check_keys(values, new_specs)
 
+        saved = self._save()
+        try:
+            return self._update(rest, values, new_specs)
+        except BaseException:
+            self._restore(saved, values)
+            raise
+
+    def _update(self, rest: Any, values: Any, new_specs: list[PoseFactorSpec]) -> Any:
         # What GTSAM's update is about to relinearize, and θ after it (ISAM2::update steps 4–6).
         self._count += 1
         stale = np.zeros(len(self._specs), dtype=bool)
@@ -246,6 +293,7 @@ class ISAM2:
         rest.push_back(self._linearize(todo))
         removed = [int(s) for s in self._slot[stale_idx]]
         result = self._isam.update(rest, values, removed, constrained)
+        self._log.append((rest, gtsam.Values(values), removed, constrained))
 
         slots = np.asarray(list(result.getNewFactorsIndices()), dtype=np.int64)[n_native:]
         self._slot[stale_idx] = slots[: len(stale_idx)]
@@ -260,6 +308,50 @@ class ISAM2:
         return result
 
     # ------------------------------------------------------------------ internals
+    def _save(self) -> tuple[Any, ...]:
+        """Return the mirror's state before an update (arrays reassigned, not mutated, but θ)."""
+        return (
+            self._count,
+            self._var_keys,
+            self._var_dims,
+            self._pose_keys,
+            self._theta.copy(),
+            self._point,
+            len(self._specs),
+            self._fi,
+            self._fj,
+            self._slot.copy(),
+        )
+
+    def _restore(self, saved: tuple[Any, ...], values: Any) -> None:
+        """Undo a failed update: the mirror as before, and GTSAM's ISAM2 rebuilt.
+
+        GTSAM's ``ISAM2::update`` adds the new variables and factors before it eliminates, so an
+        update that fails (an underdetermined system: no prior) leaves GTSAM's object holding
+        them, and later estimates wrong. It is rebuilt from the parameters by replaying every
+        successful update (the same inputs, so the same state).
+        """
+        (
+            self._count,
+            self._var_keys,
+            self._var_dims,
+            self._pose_keys,
+            self._theta,
+            self._point,
+            n_specs,
+            self._fi,
+            self._fj,
+            self._slot,
+        ) = saved
+        del self._specs[n_specs:]
+        for k in values.keys():  # _add_variables inserts into the saved Values in place
+            if self._point.exists(k):
+                self._point.erase(k)
+        isam = gtsam.ISAM2(self._params)
+        for graph, vals, removed, constrained in self._log:
+            isam.update(graph, vals, removed, constrained)
+        self._isam = isam
+
     def _check_keys(self, values: Any, new_specs: list[PoseFactorSpec]) -> None:
         """Refuse, before any state changes, what would corrupt the mirror of GTSAM's state."""
         keys = np.asarray(list(values.keys()), dtype=np.uint64)

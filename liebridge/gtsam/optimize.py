@@ -327,7 +327,14 @@ def _lm_settings(params: Any) -> _LMSettings:
 
 
 def _check_keys(graph: Any, values: Any) -> list[int]:
-    """Return the graph's keys, sorted; raise ``ValueError`` if one is not in ``values``."""
+    """Return the graph's keys, sorted; raise ``ValueError`` if one is not in ``values``.
+
+    ``TypeError`` (naming the argument) for a ``graph`` or ``values`` of the wrong type.
+    """
+    if not isinstance(graph, gtsam.NonlinearFactorGraph):
+        raise TypeError(f"graph: expected gtsam.NonlinearFactorGraph, got {type(graph).__name__}")
+    if not isinstance(values, gtsam.Values):
+        raise TypeError(f"values: expected gtsam.Values, got {type(values).__name__}")
     key_set = graph.keys()  # held: iterating the temporary KeySet reads freed memory
     keys = sorted(int(k) for k in key_set)
     for k in keys:
@@ -387,10 +394,10 @@ def optimize(
         A parameter that would make the run spin or never stop (named, with its value); a factor
         key missing from ``values`` (naming the key and the factor); a non-finite initial error.
     """
+    keys = _check_keys(graph, values)  # the arguments' types first, then the parameters
     P = _lm_settings(params)
     lam, factor, upper, lower, max_it = P.lam, P.factor, P.upper, P.lower, P.max_it
     rel, absol, errtol = P.rel, P.absol, P.errtol
-    keys = _check_keys(graph, values)
     t0 = time.perf_counter()
 
     def say(msg: str) -> None:

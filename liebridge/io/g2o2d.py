@@ -53,7 +53,17 @@ import numpy.typing as npt
 
 from .. import _validate as validate
 from .._validate import FloatArray
-from .g2o import _covariances, _Parser, has_duplicates, in_file_order, read_tagged, vertices
+from .g2o import (
+    _covariances,
+    _ids,
+    _Parser,
+    _readonly,
+    _symmetrised_copy,
+    has_duplicates,
+    in_file_order,
+    read_tagged,
+    vertices,
+)
 from .trajectory import text_lines
 
 __all__ = ["G2OGraph2D", "is_2d", "read", "write"]
@@ -145,22 +155,60 @@ class G2OGraph2D:
     vertices_from_odometry: bool = False
 
     def __post_init__(self) -> None:
-        n, m = self.vertex_ids.shape[0], self.edges.shape[0]
-        if self.vertex_xytheta.shape != (n, 3):
-            raise ValueError(f"vertex_xytheta: expected ({n}, 3), got {self.vertex_xytheta.shape}")
-        if self.measured_xytheta.shape != (m, 3):
-            raise ValueError(
-                f"measured_xytheta: expected ({m}, 3), got {self.measured_xytheta.shape}"
-            )
-        if self.information.shape != (m, 3, 3):
-            raise ValueError(f"information: expected ({m}, 3, 3), got {self.information.shape}")
+        self._check_and_freeze(copy=True)
+
+    @classmethod
+    def _adopt(cls, **fields: Any) -> G2OGraph2D:
+        """Build from arrays the reader has just made (the same checks; frozen, not copied)."""
+        graph = object.__new__(cls)
+        for name, value in fields.items():
+            object.__setattr__(graph, name, value)
+        graph._check_and_freeze(copy=False)
+        return graph
+
+    def _check_and_freeze(self, *, copy: bool) -> None:
+        """Validate the fields as :class:`~liebridge.io.g2o.G2OGraph` does; store them read-only.
+
+        Integer ids in ``[0, 2**64 − 2]``, unique; edges between existing vertices; finite
+        poses and measurements; information symmetric positive semi-definite (NaN refused). The
+        caller's arrays are copied (``copy``), never frozen in place.
+        """
+        ids = _ids(self.vertex_ids, "vertex_ids")
+        if ids.ndim != 1:
+            raise ValueError(f"vertex_ids: expected a 1-D integer array, got {ids.shape}")
+        n = ids.shape[0]
+        vx = validate.vector(self.vertex_xytheta, "vertex_xytheta", 3)
+        if vx.shape != (n, 3):
+            raise ValueError(f"vertex_xytheta: expected ({n}, 3), got {vx.shape}")
+        e = _ids(self.edges, "edges")
+        if e.ndim != 2 or e.shape[1] != 2:
+            raise ValueError(f"edges: expected an (M, 2) integer array, got {e.shape}")
+        m = e.shape[0]
+        mx = validate.vector(self.measured_xytheta, "measured_xytheta", 3)
+        if mx.shape != (m, 3):
+            raise ValueError(f"measured_xytheta: expected ({m}, 3), got {mx.shape}")
+        info = _covariances(self.information, "information", 3)
+        if info.shape != (m, 3, 3):
+            raise ValueError(f"information: expected ({m}, 3, 3), got {info.shape}")
         if self.edge2_order not in ("g2o", "toro", "none"):
             raise ValueError(
                 f"edge2_order: expected 'g2o', 'toro' or 'none', got {self.edge2_order!r}"
             )
-        for a in (self.vertex_ids, self.vertex_xytheta, self.edges, self.measured_xytheta):
-            a.setflags(write=False)
-        self.information.setflags(write=False)
+        if has_duplicates(ids):
+            raise ValueError("vertex_ids: ids are not unique")
+        missing = ~np.isin(e, ids)
+        if missing.any():
+            k = int(np.argwhere(missing)[0][0])
+            raise ValueError(
+                f"edges[{k}]: {tuple(int(x) for x in e[k])} refers to a missing vertex"
+            )
+        object.__setattr__(self, "vertex_ids", _readonly(ids, copy))
+        object.__setattr__(self, "vertex_xytheta", _readonly(vx, copy))
+        object.__setattr__(self, "edges", _readonly(e, copy))
+        object.__setattr__(self, "measured_xytheta", _readonly(mx, copy))
+        object.__setattr__(self, "information", _symmetrised_copy(info, copy))
+        fixed = _ids(np.asarray(list(self.fixed), dtype=object), "fixed")
+        object.__setattr__(self, "fixed", tuple(int(i) for i in fixed))
 
     def __repr__(self) -> str:
         return (
@@ -399,7 +447,7 @@ def _graph(
         fixed,
         pose2_params,
     )
-    return G2OGraph2D(
+    return G2OGraph2D._adopt(
         vertex_ids=ids,
         vertex_xytheta=vpar,
         edges=edges,

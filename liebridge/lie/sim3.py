@@ -79,7 +79,14 @@ def _exp(xi: FloatArray) -> FloatArray:
 
 
 def _scale(X: FloatArray) -> FloatArray:
-    return np.asarray(np.cbrt(np.linalg.det(X[..., :3, :3])), dtype=np.float64)
+    # det(sR) = s³ under- or overflows for s below ≈ 1e-103 or above ≈ 1e102: take it of the
+    # block divided by a power of two m ≥ its largest entry (exact), then s = m·cbrt(det(A/m))
+    A = X[..., :3, :3]
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        big = np.max(np.abs(A), axis=(-1, -2))
+        m = np.ldexp(1.0, np.frexp(np.where(np.isfinite(big) & (big > 0), big, 1.0))[1])
+        s = m * np.cbrt(np.linalg.det(A / m[..., None, None]))
+    return np.asarray(s, dtype=np.float64)
 
 
 def _log(X: FloatArray) -> FloatArray:
@@ -169,8 +176,21 @@ def vee(X: Any) -> FloatArray:
 
 
 def exp(xi: Any) -> FloatArray:
-    """Sim(3) exponential ``(ω, u, λ)`` → ``[[e^λ Exp(ω), W u], [0, 1]]``, ``(..., 4, 4)``."""
-    return validate.finite_output(_exp(_tangent(xi)), "sim3.exp")
+    """Sim(3) exponential ``(ω, u, λ)`` → ``[[e^λ Exp(ω), W u], [0, 1]]``, ``(..., 4, 4)``.
+
+    Raises ``ValueError`` when the scale ``e^λ`` is not a normal float64 (``λ < −708``: it would
+    round to a subnormal or to 0, a matrix that is no similarity), naming the batch index.
+    """
+    x = _tangent(xi)
+    lam_min = -708.3964185322641  # log of float64's smallest normal number: e^λ stays normal
+    tiny = x[..., 6] < lam_min
+    if tiny.any():
+        i = validate.batch_index(np.asarray(tiny))
+        raise ValueError(
+            f"xi: log-scale λ = {float(x[..., 6][i]):.6g} at batch index {i} is below "
+            f"{lam_min:.6g}: the scale e^λ underflows float64 (no similarity has scale 0)"
+        )
+    return validate.finite_output(_exp(x), "sim3.exp")
 
 
 def log(X: Any) -> FloatArray:

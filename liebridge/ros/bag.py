@@ -12,15 +12,17 @@ into place when complete: a failure leaves no half-written bag.
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import tempfile
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from ..conventions import ConventionLike, get, single_group
 from .messages import MESSAGE_TYPES, RosMessages, normalize_msgtype
@@ -31,6 +33,8 @@ __all__ = [
     "TopicSummary",
     "atomic_output",
     "bag_info",
+    "check_topic",
+    "iter_messages",
     "read_messages",
     "require_rosbags",
     "write_messages",
@@ -144,9 +148,29 @@ def _fixed(value: Any, n: int, where: str) -> list[float]:
 class _Rows:
     """Column lists filled message by message (one Python pass, then one array per field)."""
 
-    def __init__(self, where: Callable[[int], str]) -> None:
+    def __init__(self, where: Callable[[int], str], names: dict[str, str]) -> None:
         self.cols: dict[str, list[Any]] = {}
         self.where = where
+        self.names = names  # frame names seen, to share one str object per name
+
+    def name(self, s: Any) -> str:
+        text = str(s)
+        return self.names.setdefault(text, text)
+
+    def arrays(self, first: int) -> dict[str, Any]:
+        """Return the columns as arrays (``message_index`` from ``first``) or tuples (names)."""
+        out: dict[str, Any] = {}
+        for name, col in self.cols.items():
+            if name in ("frame_id", "child_frame_id"):
+                out[name] = tuple(col)
+            elif name in _FLOAT_WIDTH:
+                out[name] = np.array(col, dtype=np.float64)
+            else:
+                out[name] = np.array(col, dtype=np.int64)
+        if "message_index" in out:
+            out["message_index"] = out["message_index"] - first
+        self.cols = {}
+        return out
 
     def add(self, **kw: Any) -> None:
         for k, val in kw.items():
@@ -156,7 +180,7 @@ class _Rows:
         self.add(
             stamp_sec=int(h.stamp.sec),
             stamp_nanosec=int(h.stamp.nanosec),
-            frame_id=str(h.frame_id),
+            frame_id=self.name(h.frame_id),
             seq=int(getattr(h, "seq", 0)),
             message_index=k,
         )
@@ -171,7 +195,7 @@ class _Rows:
         self.header(t.header, k)
         tr, q = t.transform.translation, t.transform.rotation
         self.add(
-            child_frame_id=str(t.child_frame_id),
+            child_frame_id=self.name(t.child_frame_id),
             position=[tr.x, tr.y, tr.z],
             orientation_xyzw=[q.x, q.y, q.z, q.w],
         )
@@ -195,7 +219,7 @@ class _Rows:
             self.add(pose_covariance=cov)
         elif mt == "nav_msgs/msg/Odometry":
             self.header(msg.header, k)
-            self.add(child_frame_id=str(msg.child_frame_id))
+            self.add(child_frame_id=self.name(msg.child_frame_id))
             self.pose(msg.pose.pose)
             tl, ta = msg.twist.twist.linear, msg.twist.twist.angular
             self.add(
@@ -254,6 +278,10 @@ def read_messages(
 ) -> RosMessages:
     """All messages of ``topic`` in ``bag`` as one :class:`RosMessages` batch.
 
+    The bag is read in batches of :data:`BATCH_MESSAGES` messages whose fields go into arrays
+    at once: memory is the returned arrays (≈ 0.9 kB an ``Odometry`` message) plus one batch,
+    not a Python object per field. :func:`iter_messages` streams the batches instead.
+
     Parameters
     ----------
     bag : str or os.PathLike
@@ -285,13 +313,88 @@ def read_messages(
         A quaternion off the unit sphere or a covariance that cannot be converted, naming the
         topic and message index.
     """
+    single_group(get(convention))  # a bad convention is refused before the bag is read
+    batches = list(_column_batches(bag, topic, progress))
+    mt, storage = batches[0][0], batches[0][1]
+    if len(batches) == 1:
+        cols, log_times = batches[0][2], batches[0][3]
+    else:
+        log_times = np.concatenate([b[3] for b in batches])
+        cols = {}
+        for name in list(batches[0][2]):  # column by column, each batch's part freed at once
+            parts = [b[2].pop(name) for b in batches]
+            if isinstance(parts[0], tuple):
+                cols[name] = tuple(x for part in parts for x in part)
+            else:
+                if name == "message_index":  # counted from each batch's first message
+                    parts = [part + b[4] for part, b in zip(parts, batches, strict=True)]
+                cols[name] = np.concatenate(parts)
+        del batches
+    return _messages(Path(bag), topic, mt, storage, cols, log_times, convention, quaternion_tol)
+
+
+#: Messages read into Python objects before their fields become arrays (bounds the memory of
+#: :func:`read_messages` and :func:`iter_messages` beyond their arrays: ≈ 6 kB a message).
+BATCH_MESSAGES = 5_000
+
+
+def iter_messages(
+    bag: PathLike,
+    topic: str,
+    *,
+    convention: ConventionLike = "ros",
+    quaternion_tol: float | None = None,
+    progress: Progress | None = None,
+    batch: int | None = None,
+) -> Iterator[RosMessages]:
+    """Stream the messages of ``topic`` as :class:`RosMessages` batches of ``batch`` messages.
+
+    ``batch`` defaults to :data:`BATCH_MESSAGES`. Memory stays one batch whatever the bag's
+    size, where :func:`read_messages` holds every message's arrays. Each batch is
+    what :func:`read_messages` would return for its messages, with ``message_index`` counted
+    from the batch's first message; errors name the message's index in the topic.
+    """
+    batch = BATCH_MESSAGES if batch is None else batch
+    if isinstance(batch, bool) or not isinstance(batch, int) or batch < 1:
+        raise ValueError(f"batch: expected a positive int, got {batch!r}")
+    single_group(get(convention))  # refused at the call, not at the first batch
+    return _iter_messages(Path(bag), topic, convention, quaternion_tol, progress, batch)
+
+
+def _iter_messages(
+    path: Path,
+    topic: str,
+    convention: ConventionLike,
+    quaternion_tol: float | None,
+    progress: Progress | None,
+    batch: int,
+) -> Iterator[RosMessages]:
+    for mt, storage, cols, log_times, first in _column_batches(path, topic, progress, batch):
+        try:
+            yield _messages(path, topic, mt, storage, cols, log_times, convention, quaternion_tol)
+        except ValueError as exc:  # "message j" of the batch → of the topic
+            raise type(exc)(_shift_message_index(str(exc), first)) from None
+
+
+def _shift_message_index(text: str, first: int) -> str:
+    return re.sub(r"message (\d+)", lambda m: f"message {int(m.group(1)) + first}", text)
+
+
+def _column_batches(
+    bag: PathLike, topic: str, progress: Progress | None, batch: int | None = None
+) -> Iterator[tuple[str, str, dict[str, Any], npt.NDArray[np.int64], int]]:
+    """``(msgtype, storage, columns, log_times, first message)`` per batch of messages.
+
+    Columns are arrays (numbers) or tuples (frame ids, interned); ``message_index`` counts from
+    the batch's first message. At least one (possibly empty) batch is yielded.
+    """
     path = Path(bag)
-    conv = single_group(get(convention))
+    batch = BATCH_MESSAGES if batch is None else batch
     with _open_reader(path) as r:
         conns = [c for c in r.connections if c.topic == topic]
         if not conns:
-            names = ", ".join(sorted(r.topics)) or "none"
-            raise BagError(f"{path}: no topic {topic!r} (topics: {names})")
+            have = ", ".join(sorted(r.topics)) or "none"
+            raise BagError(f"{path}: no topic {topic!r} (topics: {have})")
         types = {normalize_msgtype(c.msgtype) for c in conns}
         if len(types) != 1:
             raise BagError(f"{path}: topic {topic} has several types: {sorted(types)}")
@@ -302,11 +405,17 @@ def read_messages(
                 f"(supported: {', '.join(MESSAGE_TYPES)})"
             )
         total = sum(int(c.msgcount) for c in conns)
-        rows = _Rows(lambda k: f"{path}: topic {topic}, message {k}")
+        storage = _storage_of(path)
+        names: dict[str, str] = {}  # one str object per frame name, not one per message
+        rows = _Rows(lambda k: f"{path}: topic {topic}, message {k}", names)
         log_times: list[int] = []
-        k = 0
+        k = first = 0
         try:
             for con, log_ns, raw in r.messages(connections=conns):
+                if k - first == batch:
+                    yield mt, storage, rows.arrays(first), np.array(log_times), first
+                    rows = _Rows(lambda k: f"{path}: topic {topic}, message {k}", names)
+                    log_times, first = [], k
                 try:
                     msg = r.deserialize(raw, con.msgtype)
                 except Exception as exc:
@@ -328,13 +437,27 @@ def read_messages(
             ) from None
         if progress is not None:
             progress(k, total)
-    storage = _storage_of(path)
-    cols = rows.cols
-    n = len(cols.get("stamp_sec", []))
+    yield mt, storage, rows.arrays(first), np.array(log_times, dtype=np.int64), first
+
+
+def _messages(
+    path: Path,
+    topic: str,
+    mt: str,
+    storage: str,
+    cols: dict[str, Any],
+    log_times: npt.NDArray[np.int64],
+    convention: ConventionLike,
+    quaternion_tol: float | None,
+) -> RosMessages:
+    """One :class:`RosMessages` of a topic's columns (see :func:`_column_batches`)."""
+    conv = single_group(get(convention))
+    n = len(cols.get("stamp_sec", ()))
     kw: dict[str, Any] = {}
     for name, width in _FLOAT_WIDTH.items():
         if name in cols:
-            kw[name] = np.array(cols[name], dtype=np.float64).reshape(n, width)
+            arr = cols[name]
+            kw[name] = arr if arr.shape == (n, width) else arr.reshape(n, width)
     if "child_frame_id" in cols or mt in ("tf2_msgs/msg/TFMessage",):
         kw["child_frame_id"] = tuple(cols.get("child_frame_id", []))
     if mt == "sensor_msgs/msg/Imu" or n == 0:
@@ -352,14 +475,14 @@ def read_messages(
     if quaternion_tol is not None:
         kw["quaternion_tol"] = float(quaternion_tol)
     try:
-        return RosMessages(
+        return RosMessages._adopt(  # the arrays are this reader's: frozen, not copied
             msgtype=mt,
-            stamp_sec=np.array(cols.get("stamp_sec", []), dtype=np.int64),
-            stamp_nanosec=np.array(cols.get("stamp_nanosec", []), dtype=np.int64),
+            stamp_sec=np.asarray(cols.get("stamp_sec", []), dtype=np.int64),
+            stamp_nanosec=np.asarray(cols.get("stamp_nanosec", []), dtype=np.int64),
             frame_id=tuple(cols.get("frame_id", [])),
-            seq=np.array(cols.get("seq", []), dtype=np.int64),
-            message_index=np.array(cols.get("message_index", []), dtype=np.int64),
-            log_time_ns=np.array(log_times, dtype=np.int64),
+            seq=np.asarray(cols.get("seq", []), dtype=np.int64),
+            message_index=np.asarray(cols.get("message_index", []), dtype=np.int64),
+            log_time_ns=np.asarray(log_times, dtype=np.int64),
             topic=topic,
             storage=storage,
             convention=conv,
@@ -510,6 +633,29 @@ def _storage_for(path: Path, storage: str | None, msgs: RosMessages) -> str:
     return storage
 
 
+#: A ROS graph resource name as ROS 1 and ROS 2 accept it for a topic: optional leading ``/``
+#: or ``~``, tokens of letters, digits and underscores (not starting with a digit) separated by
+#: single slashes, substitutions ``{…}`` allowed; no trailing slash (ROS 2 ``rcl``
+#: ``validate_topic_name``; ROS 1 ``ros::names::validate``).
+_TOPIC = re.compile(r"[/~]?(?:[A-Za-z_{][A-Za-z0-9_{}]*)(?:/[A-Za-z_{][A-Za-z0-9_{}]*)*")
+
+
+def check_topic(topic: Any, name: str = "topic") -> str:
+    """Return ``topic`` if it is a valid ROS topic name; else a ``ValueError`` naming it.
+
+    An empty name (``--out-topic ''``) is written by rosbags without complaint and gives a bag
+    that no reader opens; a name with spaces, ``//`` or a trailing ``/`` is refused by ROS.
+    """
+    if not isinstance(topic, str):
+        raise TypeError(f"{name}: expected a topic name (str), got {type(topic).__name__}")
+    if not _TOPIC.fullmatch(topic):
+        raise ValueError(
+            f"{name}: {topic!r} is not a ROS topic name (expected e.g. '/liebridge/poses': "
+            "letters, digits, '_' in '/'-separated tokens, not starting with a digit)"
+        )
+    return topic
+
+
 def write_messages(
     bag: PathLike,
     topic: str,
@@ -542,6 +688,7 @@ def write_messages(
     """
     if not isinstance(msgs, RosMessages):
         raise TypeError(f"msgs: expected RosMessages, got {type(msgs).__name__}")
+    check_topic(topic)
     rb = require_rosbags()
     path = Path(bag)
     kind = _storage_for(path, storage, msgs)
@@ -595,25 +742,47 @@ def write_messages(
     return path
 
 
-def write_tum(path: PathLike, msgs: RosMessages) -> None:
+def write_tum(path: PathLike, msgs: RosMessages | Iterable[RosMessages]) -> None:
     """Write ``msgs``'s poses as a TUM file: ``stamp x y z qx qy qz qw`` per line.
 
     The stamp is written exactly as ``sec.nanosec`` (nine decimals), position and quaternion with
     ``repr`` (the stored doubles, quaternion sign as in the message): nothing is rounded.
     The file says the frames in a comment line.
+
+    ``msgs`` may be an iterable of batches (:func:`iter_messages`): they are written as they
+    come, so memory stays one batch. Every batch must hold the same pair of frames (one
+    trajectory); otherwise a ``ValueError`` names the message, and nothing is left at ``path``.
     """
-    if not isinstance(msgs, RosMessages):
-        raise TypeError(f"msgs: expected RosMessages, got {type(msgs).__name__}")
-    parent = msgs.frame_id[0] if len(msgs) else ""
-    child = msgs.child_frame_id[0] if msgs.child_frame_id and len(msgs) else "body"
-    lines = [
-        f"# timestamp tx ty tz qx qy qz qw  (T_{parent or 'parent'}_{child}; topic {msgs.topic})\n"
-    ]
+    batches = iter((msgs,)) if isinstance(msgs, RosMessages) else iter(msgs)
+    with atomic_output(path) as tmp, open(tmp, "w", encoding="utf-8") as fh:
+        frames: tuple[str, str | None] | None = None
+        done = 0
+        for m in batches:
+            if not isinstance(m, RosMessages):
+                raise TypeError(f"msgs: expected RosMessages, got {type(m).__name__}")
+            here = m.trajectory_frames()  # one trajectory: one pair of frames
+            if frames is None or (done == 0 and len(m)):
+                frames = here
+                parent, child = frames[0], frames[1] or "body"
+                if fh.tell() == 0:
+                    fh.write(
+                        f"# timestamp tx ty tz qx qy qz qw  (T_{parent or 'parent'}_{child}; "
+                        f"topic {m.topic})\n"
+                    )
+            elif len(m) and here != frames:
+                raise ValueError(
+                    f"topic {m.topic}, message {done}: frames {here} differ from the first "
+                    f"message's {frames}; the topic holds poses in several frames, not one "
+                    "trajectory"
+                )
+            fh.writelines(_tum_lines(m))
+            done += len(m)
+
+
+def _tum_lines(msgs: RosMessages) -> Iterator[str]:
     r = repr
     for s, ns, p, q in zip(
         msgs.stamp_sec, msgs.stamp_nanosec, msgs.position, msgs.orientation_xyzw, strict=True
     ):
         nums = " ".join(r(float(x)) for x in (*p, *q))
-        lines.append(f"{int(s)}.{int(ns):09d} {nums}\n")
-    with atomic_output(path) as tmp, open(tmp, "w", encoding="utf-8") as fh:
-        fh.writelines(lines)
+        yield f"{int(s)}.{int(ns):09d} {nums}\n"

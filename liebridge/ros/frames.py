@@ -28,6 +28,7 @@ import numpy as np
 from .. import _validate as validate
 from .._validate import FloatArray
 from ..conventions import convert_covariance
+from ..frames.transform import frame_name
 from ..io.poses import from_matrix
 from ..lie import se3
 from .messages import RosMessages
@@ -58,6 +59,7 @@ def transform_messages(msgs: RosMessages, T_new_old: Any, new_frame_id: str) -> 
         raise TypeError(f"msgs: expected RosMessages, got {type(msgs).__name__}")
     if msgs.msgtype == "sensor_msgs/msg/Imu":
         raise ValueError("msgs: sensor_msgs/Imu carries no pose to transform")
+    frame_name(new_frame_id, "new_frame_id")  # an empty name would be written as it is
     Tf = validate.pose(T_new_old, "T_new_old")
     if Tf.shape != (4, 4):
         raise ValueError(f"T_new_old: expected one pose (4, 4), got {Tf.shape}")
@@ -131,6 +133,10 @@ def twist_frame_check(msgs: RosMessages, *, ratio: float = 3.0) -> TwistFrameChe
     -------
     TwistFrameCheck
     """
+    if isinstance(ratio, bool) or not isinstance(ratio, int | float | np.integer | np.floating):
+        raise TypeError(f"ratio: expected a number ≥ 1, got {type(ratio).__name__}")
+    if not (np.isfinite(ratio) and ratio >= 1.0):  # NaN decided nothing and said so nowhere
+        raise ValueError(f"ratio: expected a finite number ≥ 1, got {ratio!r}")
     if msgs.msgtype != "nav_msgs/msg/Odometry" or msgs.twist_linear_angular is None:
         raise ValueError(f"msgs: expected nav_msgs/Odometry, got {msgs.msgtype}")
     if len(msgs) < 2:

@@ -68,6 +68,7 @@ def increment_covariances(
     """
     if msgs.cov is None and increment == "difference":
         raise ValueError(f"msgs: {msgs.msgtype} carries no pose covariance")
+    msgs.trajectory_frames()  # a chain of one trajectory: one pair of frames
     n = len(msgs)
     if n < 2:
         raise ValueError("msgs: need at least two poses for an odometry chain")

@@ -37,7 +37,7 @@ noetic ``common_msgs``, ROS 2 ``common_interfaces``), as shipped in the ``rosbag
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import MISSING, dataclass, field, fields, replace
 from typing import Any
 
 import numpy as np
@@ -92,6 +92,12 @@ def normalize_msgtype(msgtype: str) -> str:
 
 def _readonly(a: npt.NDArray[Any]) -> npt.NDArray[Any]:
     a = np.array(a)
+    a.flags.writeable = False
+    return a
+
+
+def _frozen(a: npt.NDArray[Any]) -> npt.NDArray[Any]:
+    """Return ``a`` itself, read-only (arrays handed over by their maker, never a caller's)."""
     a.flags.writeable = False
     return a
 
@@ -201,7 +207,33 @@ class RosMessages:
         t = f"topic {self.topic}, " if self.topic else ""
         return f"{t}message {int(self.message_index[row])}"
 
+    @classmethod
+    def _adopt(cls, **kw: Any) -> RosMessages:
+        """Build from arrays the bag reader has just made: the same checks, no copies.
+
+        The arrays are made read-only in place instead of copied (the reader hands them over),
+        so :func:`~liebridge.ros.read_messages` peaks at its arrays, not twice them.
+        """
+        obj = object.__new__(cls)
+        for f in fields(cls):
+            if not f.init:
+                continue
+            if f.name in kw:
+                value = kw.pop(f.name)
+            elif f.default is not MISSING:
+                value = f.default
+            else:
+                assert f.default_factory is not MISSING, f.name
+                value = f.default_factory()
+            object.__setattr__(obj, f.name, value)
+        if kw:
+            raise TypeError(f"RosMessages: unknown fields {sorted(kw)}")
+        obj.__dict__["_adopted"] = True
+        obj.__post_init__()
+        return obj
+
     def __post_init__(self) -> None:
+        adopted = bool(self.__dict__.pop("_adopted", False))
         mt = normalize_msgtype(self.msgtype)
         if mt not in MESSAGE_TYPES:
             raise ValueError(
@@ -218,6 +250,8 @@ class RosMessages:
             a = np.asarray(value)
             if a.shape != (length,) or (a.size and not np.issubdtype(a.dtype, np.integer)):
                 raise ValueError(f"{name}: expected {length} integers, got shape {a.shape}")
+            if adopted and a.dtype == np.int64:
+                return _frozen(a)
             return _readonly(a.astype(np.int64))
 
         def floats(name: str, value: Any, width: int, required: bool) -> FloatArray | None:
@@ -230,7 +264,7 @@ class RosMessages:
                 k = next((i for i in range(min(n, len(a))) if np.shape(a[i]) != (width,)), None)
                 at = f" (message row {k})" if k is not None else ""
                 raise ValueError(f"{name}: expected shape ({n}, {width}), got {a.shape}{at}")
-            return _readonly(a)
+            return _frozen(a) if adopted and a.base is None else _readonly(a)
 
         def strings(name: str, value: Any) -> tuple[str, ...]:
             s = tuple(str(x) for x in value)
@@ -335,16 +369,16 @@ class RosMessages:
                     raise
             else:
                 cov = cov_ros
-            cov = _readonly(cov)
+            if cov is not cov_ros:  # in ROS's own convention: a view of the read-only raw field
+                cov = _readonly(cov)
         self._set("cov", cov)
         tw = twc = None
         if self.twist_linear_angular is not None:
             assert self.twist_covariance is not None
             tw = self.twist_linear_angular
             twc = self.twist_covariance.reshape(n, 6, 6)
-            if rot_first:
-                tw, twc = _swap_halves(tw), _swap_halves(twc)
-            tw, twc = _readonly(tw), _readonly(twc)
+            if rot_first:  # else views of the read-only raw fields (no copy: 336 B a message)
+                tw, twc = _readonly(_swap_halves(tw)), _readonly(_swap_halves(twc))
         self._set("twist", tw)
         self._set("twist_cov", twc)
 
@@ -356,6 +390,35 @@ class RosMessages:
                 raise ValueError(
                     f"{self._where(k)}: {exc} — cannot convert it to {self.convention.name!r}"
                 ) from None
+
+    def trajectory_frames(self) -> tuple[str, str | None]:
+        """``(frame_id, child_frame_id)`` shared by every message: the frames of one trajectory.
+
+        Chaining, exporting or comparing the poses as one trajectory ``T_parent_child(t)`` needs
+        one parent and one child frame; a topic whose ``frame_id`` alternates (map, odom, map…)
+        holds several trajectories interleaved.
+
+        Raises
+        ------
+        ValueError
+            Naming the first message whose ``frame_id`` (or ``child_frame_id``) differs from the
+            first message's, and both names.
+        """
+        if len(self) == 0:
+            return "", None
+        for name in ("frame_id", "child_frame_id"):
+            ids = getattr(self, name)
+            if ids is None:
+                continue
+            first = ids[0]
+            for k, f in enumerate(ids):
+                if f != first:
+                    raise ValueError(
+                        f"{self._where(k)}: {name} {f!r} differs from the first message's "
+                        f"{first!r}; the topic holds poses in several frames, not one trajectory "
+                        "(select the messages of one frame first, e.g. with select())"
+                    )
+        return self.frame_id[0], None if self.child_frame_id is None else self.child_frame_id[0]
 
     def with_convention(self, convention: ConventionLike) -> RosMessages:
         """Return the same messages with ``cov``/``twist``/``twist_cov`` in ``convention``.
@@ -394,12 +457,27 @@ class RosMessages:
         return replace(self, message_index=new_mi, log_time_ns=self.log_time_ns[uniq], **kw)
 
 
+#: Seconds a ROS time can hold: ROS 2 ``builtin_interfaces/Time.sec`` is int32, ROS 1's
+#: ``time.secs`` uint32; a stamp outside both cannot be written (and beyond ≈ 9.2e9 s its
+#: nanoseconds overflow int64).
+STAMP_MIN = -(2**31)
+STAMP_MAX = 2**32 - 1
+
+
 def _stamps_split(stamps: Any, n: int) -> tuple[IntArray, IntArray]:
     """Seconds → (sec, nanosec), rounded to the nearest nanosecond."""
     t = validate.as_float_array(stamps, "stamps")
     if t.shape != (n,):
         raise ValueError(f"stamps: expected shape ({n},), got {t.shape}")
     validate.check_finite(t, "stamps")
+    out = (t < STAMP_MIN) | (t > STAMP_MAX)
+    if out.any():
+        k = int(np.flatnonzero(out)[0])
+        raise ValueError(
+            f"stamps: stamp {k} ({float(t[k])!r} s) is outside the seconds a ROS time holds "
+            f"([{STAMP_MIN}, {STAMP_MAX}]: ROS 2's int32, ROS 1's uint32 seconds); "
+            f"{int(out.sum())} such stamps"
+        )
     ns = np.round(t * 1e9).astype(np.int64)
     return ns // 1_000_000_000, ns % 1_000_000_000
 

@@ -26,6 +26,7 @@ covariance rotates with the world, ``Σ' = Ad_G Σ Ad_Gᵀ``).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -33,7 +34,7 @@ import numpy as np
 
 from .. import _validate as validate
 from .._validate import FloatArray
-from ..conventions import ConventionLike, get
+from ..conventions import ConventionLike, get, pose_convention
 from ..conventions import unchecked as cu
 from ..lie import GROUPS
 
@@ -96,6 +97,7 @@ class Alignment:
         Both increments are in ``convention`` (see the module docstring), shape (..., 6, 6).
         """
         conv = get(convention)
+        pose_convention(conv, "convention", np.eye(4))
         T = validate.pose(T_est, "T_est")
         D = np.diag([1.0, 1.0, 1.0, self.scale, self.scale, self.scale])
         J = cu.from_canonical(conv, self.apply(T)) @ D @ cu.to_canonical(conv, T)
@@ -161,6 +163,12 @@ def umeyama(p_est: Any, p_ref: Any, kind: AlignmentKind | str = "se3") -> Alignm
         raise ValueError(
             f"alignment {kind!r} needs at least {_MIN_POSES} associated poses, got {len(x)}"
         )
+    # the alignment is equivariant under a common scaling c (R, s the same, t·c): positions
+    # beyond 1e100 are divided by a power of two first, so that no square or product overflows
+    big = max(float(np.abs(x).max()), float(np.abs(y).max()))
+    c = math.ldexp(1.0, math.frexp(big)[1]) if big > 1e100 else 1.0
+    if c != 1.0:
+        x, y = x / c, y / c
     n = len(x)
     mx, my = x.mean(axis=0), y.mean(axis=0)
     xc, yc = x - mx, y - my
@@ -172,13 +180,15 @@ def umeyama(p_est: Any, p_ref: Any, kind: AlignmentKind | str = "se3") -> Alignm
                 "alignment '4dof': the horizontal positions do not move; the yaw is undetermined"
             )
         th = np.arctan2(a_s, a_c)
+        scale_back = c
         c, s = np.cos(th), np.sin(th)
         R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-        return Alignment("4dof", R, my - R @ mx, 1.0)
+        return Alignment("4dof", R, _translation(my - R @ mx, scale_back), 1.0)
     sigma_x = float(np.linalg.norm(xc) ** 2) / n
     cov_xy = (yc.T @ xc) / n
     u, d, vt = np.linalg.svd(cov_xy)
-    if np.count_nonzero(d > np.finfo(d.dtype).eps) < 2:
+    # relative to the largest: the positions may have been rescaled above (or be in km)
+    if not d[0] > 0.0 or np.count_nonzero(d > np.finfo(d.dtype).eps * d[0]) < 2:
         raise ValueError(
             f"alignment {kind!r}: the positions are degenerate (singular values of their "
             f"cross-covariance {d.tolist()}); all on one line or all equal"
@@ -187,8 +197,28 @@ def umeyama(p_est: Any, p_ref: Any, kind: AlignmentKind | str = "se3") -> Alignm
     if np.linalg.det(u) * np.linalg.det(vt) < 0.0:
         S[2, 2] = -1.0
     R = u @ S @ vt
-    scale = float(np.trace(np.diag(d) @ S) / sigma_x) if _with_scale(kind) else 1.0
-    return Alignment(kind, R, my - scale * (R @ mx), scale)
+    scale = 1.0
+    if _with_scale(kind):
+        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+            scale = float(np.trace(np.diag(d) @ S) / sigma_x)
+        if not (math.isfinite(scale) and scale > 0.0):
+            raise ValueError(
+                f"alignment 'sim3': the scale from the estimate to the reference is {scale!r} "
+                "in float64 (their spreads differ by more than float64 spans)"
+            )
+    return Alignment(kind, R, _translation(my - scale * (R @ mx), c), scale)
+
+
+def _translation(t: FloatArray, c: float) -> FloatArray:
+    """``c·t`` (undoing the common scaling), or a ``ValueError`` if it overflows float64."""
+    with np.errstate(over="ignore"):
+        out = np.asarray(t * c, dtype=np.float64)
+    if not np.isfinite(out).all():
+        raise ValueError(
+            "alignment: its translation overflows float64 (the positions and their offset are "
+            "too large); the trajectories cannot be aligned in float64"
+        )
+    return out
 
 
 def align(T_ref: Any, T_est: Any, kind: AlignmentKind | str = "se3") -> Alignment:

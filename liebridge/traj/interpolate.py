@@ -30,7 +30,7 @@ import numpy as np
 
 from .. import _validate as validate
 from .._validate import FloatArray
-from ..conventions import ConventionLike, get
+from ..conventions import ConventionLike, get, pose_convention
 from ..conventions import unchecked as cu
 from ..lie import unchecked as lu
 from .association import check_timestamps
@@ -61,7 +61,8 @@ def _bracket(
             f"no extrapolation"
         )
     i = np.clip(np.searchsorted(ts, tq, side="right") - 1, 0, ts.size - 2)
-    tau = (tq - ts[i]) / (ts[i + 1] - ts[i])
+    # halves first: stamps ±1e308 apart overflow a difference (exact otherwise: powers of two)
+    tau = (0.5 * tq - 0.5 * ts[i]) / (0.5 * ts[i + 1] - 0.5 * ts[i])
     return tq, i, tau
 
 
@@ -130,6 +131,7 @@ def interpolate_covariances(
         In ``convention``'s tangent at ``T_query``.
     """
     conv = get(convention)
+    pose_convention(conv, "convention", np.eye(4))
     Tq = interpolate_poses(t_query, t, T, method)
     _, i, tau = _bracket(t_query, t)
     Tp = validate.pose(T, "T")

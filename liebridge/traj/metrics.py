@@ -25,6 +25,7 @@ Statistics (:class:`Statistics`): rmse, mean, median, **population** std (``ddof
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
 from typing import Any, Literal
 
@@ -83,21 +84,81 @@ class Statistics:
 
 
 def statistics(errors: Any) -> Statistics:
-    """Statistics of a non-empty 1-D error array."""
+    """Statistics of a non-empty 1-D error array.
+
+    Errors too large to square in float64 (above ≈ 1e154) are summed after an exact power-of-two
+    rescaling, so ``rmse``, ``mean`` and ``std`` stay finite for every finite input.
+
+    Raises
+    ------
+    ValueError
+        An empty or non-1-D array, NaN/Inf (naming the index), or a sum of squares ``sse`` that
+        is itself beyond float64 (naming the largest error).
+    """
     e = validate.as_float_array(errors, "errors")
     if e.ndim != 1 or e.size == 0:
         raise ValueError(f"errors: expected a non-empty shape (N,), got {e.shape}")
     validate.check_finite(e, "errors", core_ndim=0)
-    sq = e * e
+    big = float(np.max(np.abs(e)))
+    if big < _SQUARE_SAFE:
+        sq = e * e
+        rmse, mean, std = float(np.sqrt(np.mean(sq))), float(np.mean(e)), float(np.std(e))
+        sse = float(np.sum(sq))
+    else:  # exact rescaling by a power of two: the squares and the sums stay in range
+        scale = math.ldexp(1.0, math.frexp(big)[1] - 1)  # |e| / scale < 2
+        u = e / scale
+        usq = u * u
+        rmse = scale * float(np.sqrt(np.mean(usq)))
+        mean, std = scale * float(np.mean(u)), scale * float(np.std(u))
+        sse = scale * scale * float(np.sum(usq))  # Python floats: inf on overflow, no warning
+        if not math.isfinite(sse):
+            raise ValueError(
+                f"errors: the sum of squares (sse) overflows float64 (largest error {big:.3g}); "
+                "express the errors in a larger unit"
+            )
     return Statistics(
-        rmse=float(np.sqrt(np.mean(sq))),
-        mean=float(np.mean(e)),
+        rmse=rmse,
+        mean=mean,
         median=float(np.median(e)),
-        std=float(np.std(e)),
+        std=std,
         min=float(np.min(e)),
         max=float(np.max(e)),
-        sse=float(np.sum(sq)),
+        sse=sse,
         n=int(e.size),
+    )
+
+
+#: Below this magnitude a float64 can be squared and summed (10⁸ terms) without overflow.
+_SQUARE_SAFE = 1e145
+
+
+def _norm(x: FloatArray, axis: int | tuple[int, int] = -1) -> FloatArray:
+    """Euclidean (Frobenius) norm over ``axis`` that does not overflow for finite entries.
+
+    The plain ``np.linalg.norm`` squares the entries (inf above ≈ 1e154); rows holding such
+    entries are rescaled by an exact power of two first. A norm beyond float64 itself (entries
+    near 1e308) stays inf and is reported by the caller.
+    """
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = np.asarray(np.linalg.norm(x, axis=axis), dtype=np.float64)
+        bad = ~np.isfinite(out)
+        if bad.any():
+            big = np.max(np.abs(x), axis=axis)
+            scale = np.ldexp(1.0, np.frexp(np.where(big > 0, big, 1.0))[1] - 1)
+            shape = out.shape + (1,) * (x.ndim - out.ndim)
+            scaled = np.linalg.norm(x / scale.reshape(shape), axis=axis) * scale
+            out = np.where(bad, scaled, out)
+    return out
+
+
+def _finite_errors(err: FloatArray, what: str) -> FloatArray:
+    """``err`` if finite; else a ValueError naming the first pose (or pair) and why."""
+    if np.isfinite(err).all():
+        return err
+    i = int(np.argmax(~np.isfinite(err)))
+    raise ValueError(
+        f"{what}: the error at index {i} overflows float64 (the poses' translations differ by "
+        "more than ≈ 1e308); the result cannot be represented"
     )
 
 
@@ -124,11 +185,11 @@ def _check_relation(pose_relation: str) -> None:
 def _relation_error(E: FloatArray, pose_relation: str) -> FloatArray:
     """Error of stacked error poses ``E`` ``(K, 4, 4)`` under a pose relation."""
     if pose_relation == "trans_part":
-        return np.asarray(np.linalg.norm(E[:, :3, 3], axis=-1), dtype=np.float64)
+        return _norm(E[:, :3, 3])
     if pose_relation == "rot_part":
         return np.asarray(np.linalg.norm(E[:, :3, :3] - np.eye(3), axis=(-2, -1)), np.float64)
     if pose_relation == "full":
-        return np.asarray(np.linalg.norm(E - np.eye(4), axis=(-2, -1)), dtype=np.float64)
+        return _norm(E - np.eye(4), axis=(-2, -1))
     angle = np.linalg.norm(lu.so3_log(np.ascontiguousarray(E[:, :3, :3])), axis=-1)
     return np.asarray(np.degrees(angle) if pose_relation == "angle_deg" else angle, np.float64)
 
@@ -137,9 +198,10 @@ def ape(T_ref: Any, T_est: Any, pose_relation: PoseRelation | str = "trans_part"
     """Absolute pose error per pose, shape (N,) (evo's APE; see the module docstring)."""
     _check_relation(pose_relation)
     Tr, Te = _pair(T_ref, T_est)
-    if pose_relation in ("trans_part", "point_distance"):
-        return np.asarray(np.linalg.norm(Te[:, :3, 3] - Tr[:, :3, 3], axis=-1), np.float64)
-    return _relation_error(lu.se3_inverse(Te) @ Tr, pose_relation)
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported by name
+        if pose_relation in ("trans_part", "point_distance"):
+            return _finite_errors(_norm(Te[:, :3, 3] - Tr[:, :3, 3]), "ape")
+        return _finite_errors(_relation_error(lu.se3_inverse(Te) @ Tr, pose_relation), "ape")
 
 
 def rpe_pairs(
@@ -252,13 +314,15 @@ def rpe(
     Q, P = _pair(T_ref, T_est)
     pairs = rpe_pairs(P, delta, unit, all_pairs=all_pairs, rel_tol=rel_tol)
     i, j = pairs[:, 0], pairs[:, 1]
-    if pose_relation == "point_distance":
-        dr = np.linalg.norm(Q[j, :3, 3] - Q[i, :3, 3], axis=-1)
-        de = np.linalg.norm(P[j, :3, 3] - P[i, :3, 3], axis=-1)
-        return np.asarray(np.abs(dr - de), dtype=np.float64), pairs
-    Q_rel = lu.se3_inverse(Q[i]) @ Q[j]
-    P_rel = lu.se3_inverse(P[i]) @ P[j]
-    return _relation_error(lu.se3_inverse(Q_rel) @ P_rel, pose_relation), pairs
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported by name
+        if pose_relation == "point_distance":
+            dr = _norm(Q[j, :3, 3] - Q[i, :3, 3])
+            de = _norm(P[j, :3, 3] - P[i, :3, 3])
+            return _finite_errors(np.asarray(np.abs(dr - de), dtype=np.float64), "rpe"), pairs
+        Q_rel = lu.se3_inverse(Q[i]) @ Q[j]
+        P_rel = lu.se3_inverse(P[i]) @ P[j]
+        err = _relation_error(lu.se3_inverse(Q_rel) @ P_rel, pose_relation)
+    return _finite_errors(err, "rpe"), pairs
 
 
 @dataclass(frozen=True)
@@ -308,7 +372,7 @@ def kitti_segment_errors(
     Ls = validate.as_float_array(lengths, "lengths").reshape(-1)
     if Ls.size == 0 or not (np.isfinite(Ls).all() and (Ls > 0).all()):
         raise ValueError(f"lengths: expected positive segment lengths, got {Ls.tolist()}")
-    if step < 1:
+    if isinstance(step, bool) or not isinstance(step, int | np.integer) or step < 1:
         raise ValueError(f"step: expected an integer ≥ 1, got {step!r}")
     steps = np.linalg.norm(np.diff(Q[:, :3, 3], axis=0), axis=-1)
     dist = np.concatenate([[0.0], np.cumsum(steps)])

@@ -31,7 +31,7 @@ from scipy import stats
 
 from .. import _validate as validate
 from .._validate import FloatArray
-from ..conventions import ConventionLike, get
+from ..conventions import ConventionLike, get, pose_convention
 from ..conventions import unchecked as cu
 
 __all__ = ["NEESResult", "chi2_bounds", "nees"]
@@ -121,6 +121,7 @@ def nees(
         positive definite (naming the pose index).
     """
     conv = get(convention)
+    pose_convention(conv, "convention", np.eye(4))
     Tr = validate.pose(T_ref, "T_ref")
     Te = validate.pose(T_est, "T_est")
     if Tr.ndim != 3 or Tr.shape != Te.shape:
@@ -133,7 +134,14 @@ def nees(
             f"cov_est: {cov.shape[0]} covariances for {Te.shape[0]} poses of the estimate"
         )
     cov = validate.covariance(cov, "cov_est", 6)
-    e = cu.local(conv, Te, Tr)
+    with np.errstate(over="ignore", invalid="ignore"):  # reported just below, by pose
+        e = cu.local(conv, Te, Tr)
+    if not np.isfinite(e).all():
+        i = int(np.argmax(~np.isfinite(e).all(axis=-1)))
+        raise ValueError(
+            f"T_ref, T_est: the error {conv.name}.local(T_est, T_ref) at pose {i} overflows "
+            "float64 (the poses are too far apart to be compared in float64)"
+        )
     try:
         L = np.linalg.cholesky(cov)
     except np.linalg.LinAlgError:
@@ -143,8 +151,17 @@ def nees(
             f"cov_est: not positive definite at pose {i} (smallest eigenvalue {lam[i]:.3g}); "
             f"the NEES needs an invertible covariance"
         ) from None
-    z = np.linalg.solve(L, e[..., None])[..., 0]
-    values = np.einsum("ni,ni->n", z, z)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # reported just below
+        z = np.linalg.solve(L, e[..., None])[..., 0]
+        values = np.einsum("ni,ni->n", z, z)
+    if not np.isfinite(values).all():
+        i = int(np.argmax(~np.isfinite(values)))
+        lam_i = float(np.linalg.eigvalsh(cov[i])[0])
+        raise ValueError(
+            f"cov_est: the NEES at pose {i} overflows float64 (largest error component "
+            f"{float(np.abs(e[i]).max()):.3g}, smallest covariance eigenvalue {lam_i:.3g}): the "
+            "error is too large for this covariance to be represented"
+        )
     n = Te.shape[0]
     return NEESResult(
         nees=np.asarray(values, dtype=np.float64),

@@ -20,7 +20,7 @@ import numpy.typing as npt
 
 from .. import _validate as validate
 from .._validate import FloatArray
-from ..conventions import ConventionLike
+from ..conventions import ConventionLike, get, pose_convention
 from .association import MAX_DIFF, associate, check_timestamps
 from .interpolate import METHODS, interpolate_covariances, interpolate_poses
 
@@ -85,6 +85,8 @@ def synchronize(
     ValueError
         Stamps, shapes or covariances that do not match (naming both lengths), no overlap.
     """
+    if convention is not None:  # checked even when the covariances need no interpolation
+        pose_convention(get(convention), "convention", np.eye(4))
     a = check_timestamps(t_ref, "t_ref")
     b = check_timestamps(t_est, "t_est")
     Tr = validate.pose(T_ref, "T_ref")

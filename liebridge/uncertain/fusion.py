@@ -162,5 +162,9 @@ def _step(
     innov = -r - np.einsum("...ij,...j->...i", Jb, mean)
     K = np.swapaxes(np.linalg.solve(S, np.swapaxes(PHt, -1, -2)), -1, -2)
     delta = mean + np.einsum("...ij,...j->...i", K, innov)
-    P_post = P - K @ np.swapaxes(PHt, -1, -2)
+    # Joseph form (I − KH) P (I − KH)ᵀ + K R Kᵀ, not P − K H P: a sum of two Gram-type products
+    # stays positive semi-definite to rounding, where the difference of a zero-covariance
+    # measurement's update leaves negative eigenvalues (−1e-20 next to a zero posterior)
+    A = np.eye(n) - K @ Jb
+    P_post = A @ P @ np.swapaxes(A, -1, -2) + K @ R_big @ np.swapaxes(K, -1, -2)
     return np.asarray(delta, dtype=np.float64), np.asarray(P_post, dtype=np.float64)

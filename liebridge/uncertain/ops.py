@@ -38,8 +38,11 @@ one's orientation).
 
 from __future__ import annotations
 
+import functools
+import math
+import re
 from collections.abc import Callable
-from typing import Any, Literal
+from typing import Any, Literal, TypeVar, cast
 
 import numpy as np
 
@@ -137,16 +140,84 @@ sigma_points = cubature_rule_5
 _sqrt_psd = sqrt_psd
 
 
-def _unscented(joint: FloatArray, f: Callable[[FloatArray], FloatArray]) -> FloatArray:
-    """Covariance of ``f(δ)``, ``δ ~ N(0, joint)`` by the fifth-degree cubature.
+#: Bytes of sigma-point arrays in flight per pass of the unscented transform: a batch is cut into
+#: chunks so that memory stays ≈ this whatever the batch (1e5 compositions needed ≈ 20 GB at once).
+UNSCENTED_BYTES = 2**26
 
-    ``f`` maps ``(..., K, N)`` perturbations to ``(..., K, m)`` outputs.
+
+def _unscented(joint: FloatArray, f: Callable[..., FloatArray], *arrays: FloatArray) -> FloatArray:
+    """Covariance of ``f(δ, *arrays)``, ``δ ~ N(0, joint)`` by the fifth-degree cubature.
+
+    ``f`` maps ``(b, K, N)`` perturbations and the ``arrays`` (each ``(b, …)``, the batch of
+    ``joint`` flattened to ``b``) to ``(b, K, m)`` outputs. The batch is processed in chunks of
+    about :data:`UNSCENTED_BYTES` of sigma points (≈ 1 kB per point and element in flight).
     """
-    pts, w = sigma_points(joint.shape[-1])
-    d = np.einsum("...ij,kj->...ki", _sqrt_psd(joint), pts)
-    y = f(d)
-    dy = y - np.einsum("k,...ki->...i", w, y)[..., None, :]
-    return _sym(np.einsum("k,...ki,...kj->...ij", w, dy, dy))
+    shape = joint.shape[:-2]
+    N = joint.shape[-1]
+    pts, w = sigma_points(N)
+    total = math.prod(shape)
+    chunk = max(1, UNSCENTED_BYTES // (pts.shape[0] * 1024))
+    flat_joint = joint.reshape((total, N, N))
+    flat = [
+        np.reshape(np.broadcast_to(a, (*shape, *a.shape[len(shape) :])), (total, -1))
+        for a in arrays
+    ]
+    out: FloatArray | None = None
+    for lo in range(0, max(total, 1), chunk):
+        hi = min(lo + chunk, total)
+        d = np.einsum("...ij,kj->...ki", _sqrt_psd(flat_joint[lo:hi]), pts)
+        parts = (
+            a[lo:hi].reshape((hi - lo, *b.shape[len(shape) :]))
+            for a, b in zip(flat, arrays, strict=True)
+        )
+        try:
+            y = f(d, *parts)
+        except ValueError as exc:  # the index inside the chunk → the caller's batch index
+            raise ValueError(_rebase(str(exc), lo, shape)) from None
+        dy = y - np.einsum("k,...ki->...i", w, y)[..., None, :]
+        part = np.einsum("k,...ki,...kj->...ij", w, dy, dy)
+        if out is None:
+            out = np.empty((total, *part.shape[1:]))
+        out[lo:hi] = part
+    assert out is not None
+    return _sym(out.reshape((*shape, *out.shape[1:])))
+
+
+def _rebase(msg: str, offset: int, shape: tuple[int, ...]) -> str:
+    """``… batch index (j, k) …`` of a chunk's cubature points → the caller's ``(*i, k)``."""
+    m = re.search(r"batch index \((\d+), (\d+)\)", msg)
+    if m is None:
+        return msg
+    where = tuple(int(i) for i in np.unravel_index(offset + int(m.group(1)), shape or (1,)))
+    i = (*where[: len(shape)], int(m.group(2)))
+    return msg[: m.start()] + f"batch index {i}" + msg[m.end() :]
+
+
+_F = TypeVar("_F", bound=Callable[..., Any])
+
+
+def _finite_result(op: str) -> Callable[[_F], _F]:
+    """Run an operation without numpy's overflow warnings; name it in an overflow's error.
+
+    Finite input can overflow (translations of 1e200 squared in a covariance): the result is
+    checked (``validate.finite_output``) and the error says which operation overflowed, not
+    that "cov contains NaN or Inf" as if the caller's covariance did.
+    """
+
+    def wrap(f: _F) -> _F:
+        @functools.wraps(f)
+        def run(*args: Any, **kwargs: Any) -> Any:
+            with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+                try:
+                    return f(*args, **kwargs)
+                except ValueError as exc:
+                    if "the result overflows float64" in str(exc):
+                        raise ValueError(f"{op}: {exc}") from None
+                    raise
+
+        return cast(_F, run)
+
+    return wrap
 
 
 def _check_method(method: str) -> None:
@@ -175,6 +246,7 @@ def _bshape(X: FloatArray, shape: tuple[int, ...]) -> FloatArray:
 
 
 # --------------------------------------------------------------------------- operations
+@_finite_result("compose")
 def compose(
     A: UncertainPose, B: UncertainPose, cross: Any = None, method: Method = "linear"
 ) -> UncertainPose:
@@ -215,13 +287,17 @@ def compose(
     else:
         cov = _unscented(
             joint,
-            lambda d: _read(
+            lambda d, TA, TB, TC: _read(
                 c, TC, _sample(c, TA, d[..., :n]) @ _sample(c, TB, d[..., n:], "B.cov")
             ),
+            TA,
+            TB,
+            TC,
         )
-    return UncertainPose(TC, cov, c)
+    return UncertainPose(validate.finite_output(TC, "T"), validate.finite_output(cov, "cov"), c)
 
 
+@_finite_result("inverse")
 def inverse(A: UncertainPose, method: Method = "linear") -> UncertainPose:
     """Uncertain inverse ``C = A⁻¹`` (``T_body_world`` from ``T_world_body``).
 
@@ -240,10 +316,11 @@ def inverse(A: UncertainPose, method: Method = "linear") -> UncertainPose:
         J = -_from_g(TC, c) @ _ad(TA) @ _to_g(TA, c)
         cov = _sandwich(J, A.cov)
     else:
-        cov = _unscented(A.cov, lambda d: _read(c, TC, _inv(_sample(c, TA, d))))
-    return UncertainPose(TC, cov, c)
+        cov = _unscented(A.cov, lambda d, TA, TC: _read(c, TC, _inv(_sample(c, TA, d))), TA, TC)
+    return UncertainPose(validate.finite_output(TC, "T"), validate.finite_output(cov, "cov"), c)
 
 
+@_finite_result("relative")
 def relative(
     A: UncertainPose, B: UncertainPose, cross: Any = None, method: Method = "linear"
 ) -> UncertainPose:
@@ -270,13 +347,17 @@ def relative(
     else:
         cov = _unscented(
             joint,
-            lambda d: _read(
+            lambda d, TA, TB, TC: _read(
                 c, TC, _inv(_sample(c, TA, d[..., :n])) @ _sample(c, TB, d[..., n:], "B.cov")
             ),
+            TA,
+            TB,
+            TC,
         )
-    return UncertainPose(TC, cov, c)
+    return UncertainPose(validate.finite_output(TC, "T"), validate.finite_output(cov, "cov"), c)
 
 
+@_finite_result("transform")
 def transform(
     A: UncertainPose,
     T_fixed: Any,
@@ -330,12 +411,25 @@ def transform(
         Jg = _to_g(TA, c) if side == "left" else _ad(_inv(F)) @ _to_g(TA, c)
         cov = _sandwich(_from_g(TC, c) @ Jg, cov_A)
     elif side == "left":
-        cov = _unscented(cov_A, lambda d: _read(c, TC, F[..., None, :, :] @ _sample(c, TA, d)))
+        cov = _unscented(
+            cov_A,
+            lambda d, F, TA, TC: _read(c, TC, F[..., None, :, :] @ _sample(c, TA, d)),
+            F,
+            TA,
+            TC,
+        )
     else:
-        cov = _unscented(cov_A, lambda d: _read(c, TC, _sample(c, TA, d) @ F[..., None, :, :]))
-    return UncertainPose(TC, cov, c)
+        cov = _unscented(
+            cov_A,
+            lambda d, F, TA, TC: _read(c, TC, _sample(c, TA, d) @ F[..., None, :, :]),
+            F,
+            TA,
+            TC,
+        )
+    return UncertainPose(validate.finite_output(TC, "T"), validate.finite_output(cov, "cov"), c)
 
 
+@_finite_result("act")
 def act(A: UncertainPose, p: Any, cov_p: Any = None, method: Method = "linear") -> UncertainPoint:
     """Map an uncertain point through an uncertain pose: ``q = T·p`` (``R p + t``; ``R p``).
 
@@ -382,11 +476,11 @@ def act(A: UncertainPose, p: Any, cov_p: Any = None, method: Method = "linear") 
         cov = _sandwich(J, joint)
     else:
 
-        def f(d: FloatArray) -> FloatArray:
+        def f(d: FloatArray, TA: FloatArray, pa: FloatArray) -> FloatArray:
             X = _sample(c, TA, d[..., :n])
             pk = pa[..., None, :] + d[..., n:]
             out = np.einsum("...ij,...j->...i", X[..., :3, :3], pk)
             return out + X[..., :3, 3] if n == 6 else out
 
-        cov = _unscented(joint, f)
-    return UncertainPoint(q, cov)
+        cov = _unscented(joint, f, TA, pa)
+    return UncertainPoint(validate.finite_output(q, "p"), validate.finite_output(cov, "cov"))

@@ -17,7 +17,14 @@ import numpy as np
 
 from .. import _validate as validate
 from .._validate import FloatArray
-from ..conventions import Convention, ConventionLike, convert_covariance, get, group_input
+from ..conventions import (
+    Convention,
+    ConventionLike,
+    convert_covariance,
+    get,
+    group_input,
+    pose_convention,
+)
 
 __all__ = ["UncertainPoint", "UncertainPose"]
 
@@ -72,7 +79,9 @@ class UncertainPose:
 
     def __init__(self, T: Any, cov: Any, convention: ConventionLike) -> None:
         conv = get(convention)
+        pose_convention(conv, "convention")  # before T is read as a 3×3 rotation
         Ta = group_input(_matrix_of(T), "T")
+        pose_convention(conv, "convention", Ta)
         n = 3 if Ta.shape[-1] == 3 else 6
         C = validate.covariance(cov, "cov", n)
         shape = validate.batch_shape(("T", Ta.shape[:-2]), ("cov", C.shape[:-2]))
@@ -133,6 +142,7 @@ class UncertainPose:
         unchanged (the mean shift of a nonlinear change of chart is second order and dropped).
         """
         dst = get(convention)
+        pose_convention(dst, "convention", self.T)
         cov = convert_covariance(self.cov, self.T, self.convention, dst, method=method)
         return UncertainPose(self.T, cov, dst)
 
