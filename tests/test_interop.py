@@ -226,7 +226,7 @@ NOT_A_POSE = {
     "Bundle.split": "X is a block-diagonal bundle element (no library has a bundle object)",
     "NavChart.dim": "X is ignored: a navigation chart's tangent always has 9 entries",
     "NavChart.element": "X is a 5×5 SE₂(3) extended pose (no library object is one)",
-    "pose_convention": "X is read for its shape only (a rotation or not): the convention is checked",
+    "pose_convention": "X is read for its shape only: the convention is what is checked",
     "Chart.dim": "the base of every chart kind: each defines it (Convention.dim is tested)",
     "Chart.element": "the base of every chart kind: each defines it (Convention.element is tested)",
     "Bundle.sub_element": "X is a block-diagonal bundle element (no library has a bundle object)",
