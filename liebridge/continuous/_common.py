@@ -15,8 +15,9 @@ import numpy as np
 
 from .. import _validate as validate
 from .._validate import FloatArray
-from ..conventions import Convention, ConventionLike, get
+from ..conventions import Convention, ConventionLike, get, single_group
 from ..conventions import unchecked as cu
+from ..lie import se3
 from ..lie import unchecked as lu
 
 TIME_UNITS: tuple[str, ...] = ("s", "ns")
@@ -56,8 +57,8 @@ def same_unit(unit_a: str, name_a: str, unit_b: str, name_b: str) -> None:
 
 def convention(conv: ConventionLike, name: str = "convention") -> Convention:
     """Return the SE(3) convention (preset name or object), or raise a clear error."""
-    c = get(conv)
-    if c.group != "se3":
+    c = single_group(get(conv), name)
+    if c.record is not se3.GROUP:
         raise ValueError(f"{name}: expected an SE(3) convention, got {c.name!r} (group {c.group})")
     return c
 

@@ -52,7 +52,7 @@ from ..lie import unchecked as lu
 from ..lie.series import one_minus_cos_over_t2, sinc, t_minus_sin_over_t3
 from ._common import convention as _se3_convention
 from ._common import hat3, same_unit, time_array, to_conv_columns
-from .interpolate import METHODS, interp_canonical
+from .interpolate import COUPLED, METHODS, interp_canonical
 
 __all__ = ["DESKEW_MODELS", "REFERENCES", "Deskewed", "deskew"]
 
@@ -219,7 +219,7 @@ def deskew(
             raise ValueError(f"{name}: expected one pose, shape (4, 4), got {X.shape}")
     alpha, a_ref, unit = _alpha(stamps, t_begin, t_end, ref)
 
-    if meth == "se3" and not jacobians:
+    if meth == COUPLED and not jacobians:
         # Exp(c·ξ)·p for one twist ξ = (ω, v) and per-point scalars c, without 4×4 matrices:
         # R p = p + A c (ω×p) + B c² ω×(ω×p),  V c v = c v + B c² ω×v + C c³ ω×(ω×v)
         xi = np.asarray(lu.se3_log(lu.se3_inverse(A) @ B), dtype=np.float64)

@@ -41,6 +41,8 @@ __all__ = ["METHODS", "Interpolated", "interpolate"]
 #: The interpolation methods, by name.
 METHODS: tuple[str, ...] = ("se3", "split")
 Method = Literal["se3", "split"]
+#: The coupled method: the group's own geodesic (the other, ``"split"``, is SLERP + LERP).
+COUPLED: str = METHODS[0]
 
 
 class Interpolated(NamedTuple):
@@ -73,7 +75,7 @@ def interp_canonical(
 ) -> tuple[FloatArray, FloatArray | None, FloatArray | None, FloatArray | None]:
     """Return ``T`` and canonical (GTSAM right, (ω, v)) Jacobians of validated, broadcast inputs."""
     tt = tau[..., None]
-    if method == "se3":
+    if method == COUPLED:
         xi = np.asarray(lu.se3_log(lu.se3_inverse(T0) @ T1), dtype=np.float64)
         E = lu.se3_exp(tt * xi)
         T = np.asarray(T0 @ E, dtype=np.float64)
@@ -88,7 +90,7 @@ def interp_canonical(
     T = np.where((tau == 1.0)[..., None, None], T1, T)
     if not jacobians:
         return T, None, None, None
-    if method == "se3":
+    if method == COUPLED:
         txi = tt * xi
         Jr_t = se3_jr(txi)
         J1 = tau[..., None, None] * Jr_t @ se3_jr_inv(xi)

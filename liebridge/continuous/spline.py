@@ -42,7 +42,7 @@ import scipy.linalg
 
 from .. import _validate as validate
 from .._validate import FloatArray
-from ..conventions import Convention, ConventionLike, convert_covariance, get
+from ..conventions import GTSAM, SOPHUS, Convention, ConventionLike, convert_covariance
 from ..conventions import unchecked as cu
 from ..lie import unchecked as lu
 from ._common import (
@@ -139,7 +139,7 @@ KONTIKI = SplinePreset(
     time_unit="s",
     omega_frame="world",
     v_frame="world",
-    knot_convention=get("sophus"),
+    knot_convention=SOPHUS,
     extrapolates=False,
     source="S (source-read, not run: kontiki does not install here) hovren/kontiki@4c44edb "
     "cpplib/include/kontiki/trajectories/uniform_se3_spline_trajectory.h:161-164 (Log(P_a⁻¹P_b) "
@@ -155,7 +155,7 @@ GTSAM_CUMULATIVE = SplinePreset(
     time_unit="s",
     omega_frame="none",
     v_frame="none",
-    knot_convention=get("gtsam"),
+    knot_convention=GTSAM,
     extrapolates=True,
     source="V GTSAM 4.3.0 PyPI wheel CumulativeSplineTrajectoryPose3 (sampleTrajectory, "
     "sampleTrajectoryDerivative; tests/test_continuous_spline.py); S borglab/gtsam@30e6a8d "

@@ -11,7 +11,7 @@ import numpy as np
 from .. import _validate as validate
 from .._validate import FloatArray
 from ..check import monte_carlo_covariance
-from ..conventions import Convention, ConventionLike, get, tangent_map
+from ..conventions import Convention, ConventionLike, get, single_group, tangent_map
 from .elements import as_element, conventions_classes, label
 from .jacobian import _Call, _cause_of
 from .result import Diagnosis
@@ -21,11 +21,6 @@ __all__ = ["diagnose_covariance"]
 
 def _rel(A: FloatArray, B: FloatArray) -> float:
     return float(np.linalg.norm(A - B) / max(1e-300, float(np.linalg.norm(B))))
-
-
-def _swap(n: int) -> FloatArray:
-    h = n // 2
-    return np.eye(n)[list(range(h, n)) + list(range(h))]
 
 
 def diagnose_covariance(
@@ -87,12 +82,13 @@ def diagnose_covariance(
     if not callable(propagate):
         raise TypeError(f"propagate: expected a callable, got {type(propagate).__name__}")
     el = as_element(T, "T")
-    if el.kind not in ("se3", "so3", "se2"):
+    rec = el.record
+    if rec is None:
         raise ValueError(f"T: expected a pose or rotation, got shape {el.array.shape}")
     d = el.dim
     C = validate.covariance(cov, "cov", d)
-    a0 = get(src) if src is not None else None
-    b0 = get(dst) if dst is not None else None
+    a0 = single_group(get(src), "src") if src is not None else None
+    b0 = single_group(get(dst), "dst") if dst is not None else None
     U = _Call(propagate, "propagate")([C.copy(), el.rebuild(el.array.copy())], "T")
     if U.shape != (d, d):
         raise ValueError(f"propagate: returned shape {U.shape}, expected ({d}, {d})")
@@ -121,8 +117,9 @@ def diagnose_covariance(
             mistakes.append(("missing_adjoint", "Σ returned unchanged", _rel(U, C)))
         Mi = np.linalg.inv(M)
         mistakes.append(("inverse_adjoint", "M⁻¹·Σ·M⁻ᵀ (Ad_T⁻¹ for Ad_T)", _rel(U, Mi @ C @ Mi.T)))
-        if el.kind != "so3":
-            P = _swap(d) if el.kind == "se3" else np.eye(3)[[2, 0, 1]]
+        if rec.vecs:  # a tangent with translation blocks: the other order is a mistake
+            other = "trans_first" if rec.canonical_order == "rot_first" else "rot_first"
+            P = np.eye(d)[rec.perm(other)]  # canonical → the other order
             for W, side in ((P @ M, "output"), (P.T @ M, "output"), (M @ P, "input")):
                 mistakes.append(
                     (
@@ -131,7 +128,7 @@ def diagnose_covariance(
                         _rel(U, W @ C @ W.T),
                     )
                 )
-            L = P.T @ M @ P if el.kind == "se3" else P @ M @ P.T
+            L = P @ M @ P.T  # M's blocks laid out in the other order
             mistakes.append(
                 (
                     "adjoint_block_layout",

@@ -1,10 +1,13 @@
 """What the doctor is handed: group elements (arrays or GTSAM objects), their kind, candidates.
 
-A *kind* is what an input or output of a user's function is: ``"se3"`` (a ``(4, 4)`` pose),
-``"so3"`` (a ``(3, 3)`` rotation), ``"se2"`` (a ``(3, 3)`` planar pose ``[R t; 0 1]``) or
-``"vector"`` (a ``(n,)`` array: a bias, a residual). The candidate conventions of a kind are
-every registered preset of its group plus every side × order × chart × rotation-coordinate
-combination of the model (Euler angles excluded: they are absolute, not increments).
+A *kind* is what an input or output of a user's function is: the name of its group's record
+(:mod:`liebridge.lie`) — ``"se3"`` (a ``(4, 4)`` pose), ``"so3"`` (a ``(3, 3)`` rotation),
+``"se2"`` (a ``(3, 3)`` planar pose ``[R t; 0 1]``) — or ``"vector"`` (a ``(n,)`` array: a bias,
+a residual). Everything the doctor needs about a kind (tangent length, rotation coordinates,
+charts) is read from that record (:func:`record`). The candidate conventions of a kind are every
+registered preset of its group plus every side × order × chart × rotation-coordinate combination
+of the model (Euler angles excluded: they are absolute, not increments); a rotation is perturbed
+through the SE(3) conventions, which act on rotations too.
 """
 
 from __future__ import annotations
@@ -21,10 +24,12 @@ from .. import _validate as validate
 from .._validate import FloatArray
 from ..conventions import GROUP_PRESETS, PRESETS, Convention, get, tangent_map
 from ..conventions.convention import CHARTS, ORDERS, SIDES
-from ..lie import se2 as _se2_module
+from ..lie import GROUPS, Group, se2, se3, so3
+from ..lie import group as group_record
 
 __all__ = [
     "CANONICAL_NAME",
+    "VECTOR",
     "ConventionClass",
     "Element",
     "as_element",
@@ -32,12 +37,33 @@ __all__ = [
     "conventions_classes",
     "kind_of_output",
     "label",
+    "record",
     "rotation_index",
     "with_angle",
 ]
 
-#: The hub convention of each kind's tangent (GTSAM's): finite differences are read through it.
-CANONICAL_NAME = {"se3": "gtsam", "so3": "gtsam", "se2": "gtsam_pose2"}
+#: The kind of a plain vector (a bias, a residual): not a group element.
+VECTOR = "vector"
+
+#: The hub convention (GTSAM's) of each group record's tangent: finite differences are read
+#: through it. A rotation is read through SE(3)'s, which acts on rotations too.
+CANONICAL_NAME: dict[Group, str] = {
+    se3.GROUP: "gtsam",
+    so3.GROUP: "gtsam",
+    se2.GROUP: "gtsam_pose2",
+}
+
+
+def record(kind: str) -> Group | None:
+    """Return the group record of ``kind`` (``None`` for :data:`VECTOR`)."""
+    return None if kind == VECTOR else group_record(kind)
+
+
+def has_blocks(kind: str) -> bool:
+    """Whether ``kind``'s tangent has translation blocks beside its rotation (an order, a chart)."""
+    rec = record(kind)
+    return rec is None or bool(rec.vecs)
+
 
 #: Increment rotation coordinates (Euler angles are absolute, not candidates for a Jacobian).
 _INC_ROTS = ("exp", "half_exp", "quat_vec", "cayley")
@@ -72,11 +98,15 @@ class Element:
     rebuild: Callable[[FloatArray], Any]
 
     @property
+    def record(self) -> Group | None:
+        """The group record of the element (``None`` for a vector)."""
+        return record(self.kind)
+
+    @property
     def dim(self) -> int:
         """Tangent (or vector) length."""
-        if self.kind == "vector":
-            return int(self.array.shape[-1])
-        return {"se3": 6, "so3": 3, "se2": 3}[self.kind]
+        rec = self.record
+        return int(self.array.shape[-1]) if rec is None else rec.dim
 
 
 def _rebuilder(x: Any) -> Callable[[FloatArray], Any]:
@@ -105,13 +135,16 @@ def as_element(x: Any, name: str, group: str | None = None) -> Element:
     if arr.ndim == 0:
         arr = arr.reshape(1)
     if arr.ndim == 1:
-        return Element(arr.copy(), "vector", _rebuilder(x))
+        return Element(arr.copy(), VECTOR, _rebuilder(x))
     if arr.shape == (4, 4):
-        return Element(validate.pose(arr, name).copy(), "se3", _rebuilder(x))
+        return Element(validate.pose(arr, name).copy(), se3.GROUP.name, _rebuilder(x))
     if arr.shape == (3, 3):
-        if group == "se2" or (group != "so3" and not _is_rotation(arr) and _is_pose2(arr)):
-            return Element(validate.pose2(arr, name).copy(), "se2", _rebuilder(x))
-        return Element(validate.rotation(arr, name).copy(), "so3", _rebuilder(x))
+        want = GROUPS.get(group) if isinstance(group, str) else None
+        if want is se2.GROUP or (
+            want is not so3.GROUP and not _is_rotation(arr) and _is_pose2(arr)
+        ):
+            return Element(validate.pose2(arr, name).copy(), se2.GROUP.name, _rebuilder(x))
+        return Element(validate.rotation(arr, name).copy(), so3.GROUP.name, _rebuilder(x))
     raise ValueError(
         f"{name}: expected a (4, 4) pose, a (3, 3) rotation or SE(2) pose, or a vector (n,); "
         f"got shape {arr.shape}"
@@ -121,14 +154,15 @@ def as_element(x: Any, name: str, group: str | None = None) -> Element:
 def kind_of_output(y: FloatArray, input_kinds: Sequence[str]) -> str:
     """Kind of a function's output (a ``(3, 3)`` one read as the inputs suggest)."""
     if y.ndim <= 1:
-        return "vector"
+        return VECTOR
     if y.shape == (4, 4):
-        return "se3"
+        return se3.GROUP.name
     if y.shape == (3, 3):
-        if _is_rotation(y) and not ("se2" in input_kinds and _is_pose2(y)):
-            return "so3"
+        planar_in = any(record(k) is se2.GROUP for k in input_kinds)
+        if _is_rotation(y) and not (planar_in and _is_pose2(y)):
+            return so3.GROUP.name
         if _is_pose2(y):
-            return "se2"
+            return se2.GROUP.name
     raise ValueError(
         f"f: returned shape {y.shape}; expected a (4, 4) pose, a (3, 3) rotation or SE(2) pose, "
         "or a vector"
@@ -136,26 +170,27 @@ def kind_of_output(y: FloatArray, input_kinds: Sequence[str]) -> str:
 
 
 def rotation_index(conv: Convention, kind: str) -> list[int]:
-    """Tangent indices of the rotation coordinates of ``conv`` on an element of ``kind``."""
-    if conv.embed is not None:
+    """Tangent indices of the rotation coordinates of ``conv`` on an element of ``kind``.
+
+    Read from the kind's record: where its rotation block lands in ``conv.order`` (a rotation
+    has only rotation coordinates, whatever the order).
+    """
+    rec = record(kind)
+    if conv.embed is not None or rec is None or rec.rot is None:
         return []
-    if kind == "so3":
-        return [0, 1, 2]
-    if kind == "se3":
-        return [0, 1, 2] if conv.order == "rot_first" else [3, 4, 5]
-    if kind == "se2":
-        return [0] if conv.order == "rot_first" else [2]
-    return []
+    rot = rec.rot
+    return [i for i, c in enumerate(rec.perm(conv.order)) if rot.start <= c < rot.stop]
 
 
 def with_angle(el: Element, theta: float) -> FloatArray:
     """``el``'s array with its rotation replaced by one of angle ``theta`` about its own axis."""
     A = el.array.copy()
-    if el.kind == "se2":
+    rot_dim = 0 if el.record is None else el.record.rot_dim
+    if rot_dim == 1:
         c, s = math.cos(theta), math.sin(theta)
         A[:2, :2] = [[c, -s], [s, c]]
         return A
-    if el.kind not in ("se3", "so3"):
+    if rot_dim != 3:
         return A
     R = A[:3, :3]
     w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
@@ -167,15 +202,16 @@ def with_angle(el: Element, theta: float) -> FloatArray:
 
 def candidates(kind: str, extra: Sequence[Convention] = ()) -> list[Convention]:
     """Every convention the doctor tries on an element of ``kind``: ``extra``, presets, combos."""
-    if kind == "se2":
-        presets = [p for p in GROUP_PRESETS if p.group == "se2"]
+    rec = record(kind)
+    if rec is not None and rec is not se3.GROUP and rec is not so3.GROUP:
+        presets = [p for p in GROUP_PRESETS if p.record is rec]
         combos = [
-            Convention("/".join(c), c[0], c[1], c[2], "exp", "wxyz", group="se2")  # type: ignore[arg-type]
-            for c in itertools.product(SIDES, ORDERS, _se2_module.GROUP.charts)
+            Convention("/".join(c), c[0], c[1], c[2], "exp", "wxyz", group=rec.name)  # type: ignore[arg-type]
+            for c in itertools.product(SIDES, ORDERS, rec.charts)
         ]
     else:
         presets = [p for p in PRESETS if not p.is_euler]
-        if kind == "so3":
+        if rec is so3.GROUP:
             combos = [
                 Convention("/".join((s, r)), s, "rot_first", "so3xr3_body", r, "wxyz")  # type: ignore[arg-type]
                 for s in SIDES
@@ -185,7 +221,7 @@ def candidates(kind: str, extra: Sequence[Convention] = ()) -> list[Convention]:
             combos = [
                 Convention("/".join(c), c[0], c[1], c[2], c[3], "wxyz")  # type: ignore[arg-type]
                 for c in itertools.product(SIDES, ORDERS, CHARTS, _INC_ROTS)
-                if c[2] != "se3" or c[3] == "exp"
+                if c[2] != se3.GROUP.coupled_chart or c[3] == "exp"
             ]
     return [*extra, *presets, *combos]
 
@@ -197,22 +233,20 @@ def _words(conv: Convention, kind: str) -> str:
     rot = {"exp": "", "cayley": "", "half_exp": ", half-angle rotation coordinates"}.get(
         conv.rotation, ", quaternion-vector (half-angle) rotation coordinates"
     )
-    if kind == "so3":
+    if not has_blocks(kind):
         return f"{side}{rot}"
     if conv.embed is not None:
         return f"{side}, embedded in {conv.embed.size} coordinates at {conv.embed.index}"
-    if kind == "se2":
+    if record(kind) is se2.GROUP:
         order = "(θ, x, y)" if conv.order == "rot_first" else "(x, y, θ)"
     else:
         order = "(ω, v)" if conv.order == "rot_first" else "(v, ω)"
-    chart = {
-        "se3": "",
-        "se2": "",
-        "so3xr3_body": ", rotation and translation perturbed separately (body-frame translation)",
-        "split_body": ", rotation and translation perturbed separately (body-frame translation)",
-        "so3xr3_world": ", rotation and translation perturbed separately (world-frame translation)",
-        "split_world": ", rotation and translation perturbed separately (world-frame translation)",
-    }[conv.chart]
+    frame = conv.record.split_frame(conv.chart)
+    chart = (
+        ""
+        if frame is None
+        else f", rotation and translation perturbed separately ({frame}-frame translation)"
+    )
     return f"{side} in {order} order{chart}{rot}"
 
 
@@ -250,7 +284,10 @@ def conventions_classes(
     kind: str, points: Sequence[FloatArray], extra: Sequence[Convention] = ()
 ) -> list[ConventionClass]:
     """Group the candidates of ``kind`` by their first-order maps at ``points``."""
-    canon = get(CANONICAL_NAME[kind])
+    rec = record(kind)
+    if rec is None or rec not in CANONICAL_NAME:
+        raise ValueError(f"kind: expected one of {[g.name for g in CANONICAL_NAME]}, got {kind!r}")
+    canon = get(CANONICAL_NAME[rec])
     classes: list[ConventionClass] = []
     for c in candidates(kind, extra):
         try:

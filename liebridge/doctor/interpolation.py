@@ -68,8 +68,8 @@ def diagnose_interpolation(
     """
     if not callable(interpolate):
         raise TypeError(f"interpolate: expected a callable, got {type(interpolate).__name__}")
-    a, b = as_element(T0, "T0", "so3"), as_element(T1, "T1", "so3")
-    if a.kind != b.kind or a.kind not in ("se3", "so3"):
+    a, b = as_element(T0, "T0", so3.GROUP.name), as_element(T1, "T1", so3.GROUP.name)
+    if a.record is not b.record or a.record not in (se3.GROUP, so3.GROUP):
         raise ValueError(
             f"T0, T1: expected two (4, 4) poses or two (3, 3) rotations, got {a.array.shape} and "
             f"{b.array.shape}"

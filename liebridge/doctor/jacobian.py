@@ -12,14 +12,24 @@ import numpy as np
 from .. import _validate as validate
 from .._validate import FloatArray
 from ..check import numerical_jacobian
-from ..conventions import Convention, ConventionLike, detect_convention, get, tangent_map
+from ..conventions import (
+    Convention,
+    ConventionLike,
+    detect_convention,
+    get,
+    single_group,
+    tangent_map,
+)
 from ..lie import se2, se3, so3
 from .elements import (
     CANONICAL_NAME,
+    VECTOR,
     ConventionClass,
     as_element,
     conventions_classes,
+    has_blocks,
     kind_of_output,
+    record,
     rotation_index,
     with_angle,
 )
@@ -152,7 +162,8 @@ def _fix_words(found: Convention, want: Convention, kind: str, where: str) -> li
     """Say what turns a Jacobian in ``found``'s tangent into one in ``want``'s."""
     words: list[str] = []
     A = "Ad_X" if where == "input" else "Ad_Y"
-    if kind == "so3":
+    blocks = has_blocks(kind)  # a rotation's tangent has no order and no chart
+    if not blocks:
         A = "R" if where == "input" else "R_Y"
     if found.side != want.side:
         if where == "input":
@@ -161,7 +172,7 @@ def _fix_words(found: Convention, want: Convention, kind: str, where: str) -> li
         else:
             op = A if found.side == "right" else f"{A}⁻¹"
             words.append(f"multiply by {op} on the left (J_{want.side} = {op}·J_{found.side})")
-    if kind != "so3" and found.order != want.order:
+    if blocks and found.order != want.order:
         what = "column" if where == "input" else "row"
         words.append(f"swap the rotation and translation {what} blocks")
     if found.rotation_scale != want.rotation_scale:
@@ -172,20 +183,21 @@ def _fix_words(found: Convention, want: Convention, kind: str, where: str) -> li
         )
         what = "columns" if where == "input" else "rows"
         words.append(f"scale the rotation {what} by {k:g} (the half-angle factor)")
-    if kind != "so3" and found.chart != want.chart and not words:
+    if blocks and found.chart != want.chart and not words:
         words.append("convert the translation part between body- and world-frame increments")
     return words
 
 
 def _cause_of(found: Convention, want: Convention, kind: str) -> str:
     parts = []
+    blocks = has_blocks(kind)
     if found.side != want.side:
         parts.append("right_vs_left")
-    if kind != "so3" and found.order != want.order:
+    if blocks and found.order != want.order:
         parts.append("order")
     if found.rotation_scale != want.rotation_scale:
         parts.append("half_angle")
-    if kind != "so3" and found.chart != want.chart:
+    if blocks and found.chart != want.chart:
         parts.append("chart")
     return "+".join(parts) or "convention"
 
@@ -273,20 +285,21 @@ def diagnose_jacobian(
         raise TypeError(f"f: expected a callable, got {type(f).__name__}")
     measured = callable(solver_convention) and not isinstance(solver_convention, Convention)
     solver = (
-        get(solver_convention)  # type: ignore[arg-type]
+        single_group(get(solver_convention), "solver_convention")  # type: ignore[arg-type]
         if solver_convention is not None and not measured
         else None
     )
-    if group is None and solver is not None and solver.group == "se2":
-        group = "se2"
+    if group is None and solver is not None and solver.record is se2.GROUP:
+        group = se2.GROUP.name
     xs = X if isinstance(X, (tuple, list)) else (X,)
     if not xs:
         raise ValueError("X: give at least one input")
     els = [as_element(x, f"X[{k}]" if len(xs) > 1 else "X", group) for k, x in enumerate(xs)]
-    kinds = {e.kind for e in els} - {"vector"}
-    if len(kinds) > 1 and kinds != {"se3", "so3"}:
+    kinds = {e.kind for e in els} - {VECTOR}
+    recs = {record(k) for k in kinds}
+    if len(kinds) > 1 and recs != {se3.GROUP, so3.GROUP}:  # a rotation takes SE(3)'s conventions
         raise ValueError(f"X: inputs of kinds {sorted(kinds)} cannot share one convention")
-    in_kind = "se3" if "se3" in kinds else (kinds.pop() if kinds else "vector")
+    in_kind = se3.GROUP.name if se3.GROUP in recs else (kinds.pop() if kinds else VECTOR)
     f_call = _Call(f, "f")
     j_call = _Call(J, "J") if callable(J) else None
     if j_call is None and isinstance(J, (tuple, list)) and all(np.ndim(b) == 2 for b in J):
@@ -295,7 +308,7 @@ def diagnose_jacobian(
     # probe points: X itself, then (J a function) every rotation input at the table's angles
     point_names = ["X"]
     points = [[e.array for e in els]]
-    if j_call is not None and in_kind != "vector":
+    if j_call is not None and in_kind != VECTOR:
         for deg in ANGLES_DEG:
             point_names.append(f"{deg:g}°")
             points.append([with_angle(e, math.radians(deg)) for e in els])
@@ -310,10 +323,11 @@ def diagnose_jacobian(
     for y, nm in zip(ys, point_names, strict=True):
         if y.shape != ys[0].shape:
             raise ValueError(f"f: returned shape {y.shape} at {nm} but {ys[0].shape} at X")
-    m = {"se3": 6, "so3": 3, "se2": 3}.get(out_kind, int(ys[0].size))
+    out_rec = record(out_kind)
+    m = out_rec.dim if out_rec is not None else int(ys[0].size)
     if measured:  # the solver's own retraction: measure its convention
-        on = in_kind if in_kind != "vector" else out_kind
-        if on == "vector":
+        on = in_kind if in_kind != VECTOR else out_kind
+        if on == VECTOR:
             raise ValueError("solver_convention: a retraction needs a pose or rotation to act on")
         try:
             solver = detect_convention(solver_convention, group=on)  # type: ignore[arg-type]
@@ -321,7 +335,7 @@ def diagnose_jacobian(
             raise ValueError(f"solver_convention: {exc}") from exc
     dims = [
         solver.dim()
-        if (solver is not None and solver.embed is not None and e.kind == solver.group)
+        if (solver is not None and solver.embed is not None and e.record is solver.record)
         else e.dim
         for e in els
     ]
@@ -349,17 +363,18 @@ def diagnose_jacobian(
 
     # convention classes of the inputs and of the output
     extra = [solver] if solver is not None else []
-    group_idx = [k for k, e in enumerate(els) if e.kind != "vector"]
+    group_idx = [k for k, e in enumerate(els) if e.kind != VECTOR]
     in_classes: list[ConventionClass | None] = [None]
-    if in_kind != "vector":
+    if in_kind != VECTOR:
         key_pts = [p[k] for p in points for k in group_idx]  # every group input, every point
-        ext = [c for c in extra if (c.group == "se2") == (in_kind == "se2")]
+        planar = record(in_kind) is se2.GROUP
+        ext = [c for c in extra if (c.record is se2.GROUP) == planar]
         in_classes = list(conventions_classes(in_kind, key_pts, ext))
     out_classes: list[ConventionClass | None] = [None]
-    if out_kind != "vector":
-        ext = [c for c in extra if (c.group == "se2") == (out_kind == "se2")]
+    if out_kind != VECTOR:
+        ext = [c for c in extra if (c.record is se2.GROUP) == (out_rec is se2.GROUP)]
         out_classes = list(conventions_classes(out_kind, ys, ext))
-    canon_out = CANONICAL_NAME.get(out_kind)
+    canon_out = CANONICAL_NAME.get(out_rec) if out_rec is not None else None
 
     def fd(cls: ConventionClass | None, pi: int) -> FloatArray:
         cols = []
@@ -371,7 +386,7 @@ def diagnose_jacobian(
                 q[k] = a
                 return f_call(args(q), f"a finite-difference step at {point_names[pi]}")
 
-            conv = cls.rep if (cls is not None and e.kind != "vector") else None
+            conv = cls.rep if (cls is not None and e.kind != VECTOR) else None
             cols.append(
                 numerical_jacobian(
                     fk,
@@ -395,7 +410,7 @@ def diagnose_jacobian(
         """Block-diagonal T(X; twin→conv) (or its inverse) over the inputs."""
         blocks = []
         for e, a in zip(els, points[pi], strict=True):
-            if e.kind == "vector":
+            if e.kind == VECTOR:
                 blocks.append(np.eye(e.dim))
             else:
                 tw = _twin(conv)
@@ -421,7 +436,7 @@ def diagnose_jacobian(
                 D = np.ones(n)
                 off = 0
                 for e, dk in zip(els, dims, strict=True):
-                    if e.kind != "vector":
+                    if e.kind != VECTOR:
                         for r in rotation_index(ic.rep, e.kind):
                             D[off + r] = -1.0
                     off += dk
@@ -491,7 +506,7 @@ def diagnose_jacobian(
                     )
                 )
             # a log output's Jr⁻¹ / Jl⁻¹ left out
-            if out_kind == "vector":
+            if out_kind == VECTOR:
                 per_pt = [_jr_mistakes(y.reshape(-1)) for y in ys]
                 for j, (cause, w, _) in enumerate(per_pt[0]):
                     hyps.append(

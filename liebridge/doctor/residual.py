@@ -11,7 +11,7 @@ import numpy as np
 from .._validate import FloatArray
 from ..check import numerical_jacobian
 from ..conventions import ConventionLike, get
-from ..lie import se2, se3
+from ..lie import GROUPS, Group, se2, se3
 from .jacobian import _Call
 from .result import Diagnosis
 
@@ -22,10 +22,14 @@ EDGE_METERS = 1.0
 EDGE_DEGREES = 10.0
 
 
-def _edge(group: str) -> tuple[FloatArray, FloatArray, FloatArray]:
+#: The groups the one-edge graph is built for.
+EDGE_GROUPS: tuple[Group, ...] = (se3.GROUP, se2.GROUP)
+
+
+def _edge(rec: Group) -> tuple[FloatArray, FloatArray, FloatArray]:
     """``(T_i, Z, G)``: a generic anchor pose, the measurement, a generic frame change."""
     th = math.radians(EDGE_DEGREES)
-    if group == "se2":
+    if rec is se2.GROUP:
         Ti = se2.exp([1.5, -2.0, 0.8])
         Z = np.array(
             [
@@ -112,11 +116,12 @@ def diagnose_residual(
     """
     if not callable(residual):
         raise TypeError(f"residual: expected a callable, got {type(residual).__name__}")
-    if group not in ("se3", "se2"):
+    rec = GROUPS.get(group) if isinstance(group, str) else None
+    if rec is None or rec not in EDGE_GROUPS:
         raise ValueError(f"group: expected 'se3' or 'se2', got {group!r}")
     conv = get(convention)
     r_call = _Call(residual, "residual")
-    Ti, Z, G = _edge(group)
+    Ti, Z, G = _edge(rec)
     Zi = _inv(Z)
 
     def r(A: FloatArray, B: FloatArray, where: str) -> FloatArray:
@@ -143,7 +148,7 @@ def diagnose_residual(
         @ Z
         @ (
             se2.exp([0.3, -0.2, 0.25])
-            if group == "se2"
+            if rec is se2.GROUP
             else se3.exp([0.1, 0.2, -0.1, 0.3, -0.2, 0.4])
         )
     )
