@@ -20,7 +20,7 @@ import gtsam
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from liebridge.adapters import gtsam_glue
+from liebridge.gtsam import glue as gtsam_glue
 
 
 def best_of(fn: Callable[[], object], repeat: int = 5) -> float:
