@@ -10,7 +10,7 @@ that is wrong everywhere except where ``T = I`` (and then only up to the block o
 Conventions. The residual ``r_k = n_kᵀ (T p_k − q_k)`` has the left Jacobian ``J_left`` in
 ``barfoot``; ``liebridge.convert_jacobian(J_left, "barfoot", "gtsam", at_input=T)`` gives
 ``J_left · M(T)`` with ``M = tangent_map(T, "gtsam", "barfoot")`` (``P·Ad_T``).
-``liebridge.factors.custom.make_custom_factor`` wraps residual and Jacobian as a
+``liebridge.gtsam.custom.make_custom_factor`` wraps residual and Jacobian as a
 ``gtsam.CustomFactor``. Both Jacobians are checked against central finite differences
 (``liebridge.check.numerical_jacobian``) through the retraction each one claims — GTSAM's
 own ``Pose3.retract`` for the converted one.

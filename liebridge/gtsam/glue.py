@@ -1,5 +1,7 @@
 """GTSAM glue: ``gtsam.Pose3`` and ``gtsam.Values`` ↔ batched ``(..., 4, 4)`` arrays.
 
+Old path: also reachable as ``lb.gtsam_glue`` (earlier releases); new code writes ``lb.gtsam``.
+
 The array side is liebridge's canonical form: ``T = [[R, t], [0, 1]]``, float64, the same matrix
 ``gtsam.Pose3.matrix()`` returns (GTSAM's ``Pose3`` *is* the canonical convention: right
 perturbation, tangent ``(ω, v)``). Nothing here changes a convention; it moves data.

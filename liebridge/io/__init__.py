@@ -10,5 +10,24 @@ package itself, lazily).
 """
 
 from . import euroc, g2o, g2o2d, poses, sanity, trajectory, trajfile
+from .euroc import read_euroc, write_euroc
+from .trajectory import read_kitti, read_tum, write_kitti, write_tum
+from .trajfile import read_trajectory, write_trajectory
 
-__all__ = ["euroc", "g2o", "g2o2d", "poses", "sanity", "trajectory", "trajfile"]
+__all__ = [
+    "euroc",
+    "g2o",
+    "g2o2d",
+    "poses",
+    "read_euroc",
+    "read_kitti",
+    "read_trajectory",
+    "read_tum",
+    "sanity",
+    "trajectory",
+    "trajfile",
+    "write_euroc",
+    "write_kitti",
+    "write_trajectory",
+    "write_tum",
+]

@@ -1,5 +1,7 @@
 """g2o / TORO-iSAM pose-graph files with explicit information semantics.
 
+Old path: also reachable as ``lb.g2o`` (earlier releases); new code writes ``lb.io.g2o``.
+
 Read with :func:`read`, write with :func:`write`, hand to GTSAM with :meth:`G2OGraph.to_gtsam`.
 Inside, every information matrix is over **GTSAM's tangent** of the edge error,
 ``ξ = (ω, v) = Log(Z⁻¹·Ti⁻¹·Tj)`` (rotation first; what ``gtsam.BetweenFactorPose3`` whitens),

@@ -1,5 +1,7 @@
 """Trajectory text files: TUM and KITTI, read and written at full float precision.
 
+Old path: also reachable as ``lb.trajectory_io`` (earlier releases); new code writes ``lb.io``.
+
 TUM (TUM RGB-D benchmark, Sturm et al. 2012; also the format of ``evo``)
     One pose per line, ``timestamp tx ty tz qx qy qz qw``: the translation and the Hamilton
     quaternion, scalar **last** (layout ``"xyz_qxyzw"`` in :mod:`liebridge.io.poses`), of
