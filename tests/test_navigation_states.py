@@ -1,4 +1,4 @@
-"""Navigation states across VIO/LIO systems (issue 16, conventions part).
+"""Navigation states across VIO/LIO systems (conventions part).
 
 * Euler-angle rotation coordinates ``euler_zyx`` / ``euler_rpy``: round trips, first-order maps
   and ``local_jacobian`` against central differences, GTSAM's ``Rot3.Ypr`` and scipy as oracles,
@@ -59,7 +59,7 @@ def _cov(rng: np.random.Generator, n: int, scale: float = 0.01) -> np.ndarray:
 
 
 # ----------------------------------------------------------------------------- Euler angles
-def test_issue_constructor_with_group() -> None:
+def test_constructor_with_group() -> None:
     c = C.Convention(
         name="mrpt_rot", side="right", order="rot_first", chart="so3xr3_body",
         rotation="euler_zyx", quat_order="xyzw", group="so3",

@@ -1,4 +1,4 @@
-"""Issue 23: the batched linearization of :func:`liebridge.gtsam.optimize` changes no number.
+"""The batched linearization of :func:`liebridge.gtsam.optimize` changes no number.
 
 * the fused SE(3)-chart residual/Jacobians (one logarithm for both) equal the generic
   ``factor_math`` path and central differences through GTSAM's retraction;

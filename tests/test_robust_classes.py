@@ -1,4 +1,4 @@
-"""Regression tests for the 13 classes of wrong outcome of issue 21, one or more per class.
+"""Regression tests for the 13 classes of wrong outcome, one or more per class.
 
 Each test is named after its class (``test_classN_...``) and failed on the code before the fix:
 a silent wrong answer, a traceback instead of one clear error, or a hang. What each class gets

@@ -1,4 +1,4 @@
-"""Issue 23, files: ``read_tum``/``read_kitti`` parse in one ``numpy.loadtxt`` pass.
+"""``read_tum``/``read_kitti`` parse in one ``numpy.loadtxt`` pass.
 
 The fast path must give what the line-by-line reader gives (an oracle parsed here with
 ``float()`` per field), keep the precision-aware tolerances (quaternion norms, rotation blocks

@@ -103,7 +103,7 @@ def _is(path: Path, test: str) -> bool:
     """``path.is_file()`` / ``is_dir()`` that answers False for names the OS cannot hold.
 
     A command's own full-precision output pasted back is longer than 255 characters: the OS
-    refuses it as a file name (``ENAMETOOLONG``), so it is numbers (issue 21, class 8).
+    refuses it as a file name (``ENAMETOOLONG``), so it is numbers.
     """
     try:
         return bool(getattr(path, test)())
@@ -114,7 +114,7 @@ def _is(path: Path, test: str) -> bool:
 def _load_npy(path: Path, text: str, what: str) -> Any:
     """``np.load`` after checking the header: real numbers, and no more data than the file holds.
 
-    A header may promise any shape; ``np.load`` would try to allocate it (issue 21, class 9).
+    A header may promise any shape; ``np.load`` would try to allocate it.
     """
     with open(path, "rb") as fh:
         try:

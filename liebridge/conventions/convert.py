@@ -284,7 +284,7 @@ def convert_covariance(
     return validate.finite_output(out.reshape((*batch, *out.shape[1:])), "convert_covariance")
 
 
-#: Batch elements per pass of the unscented transform (issue 23: 10⁶ covariances at once needed
+#: Batch elements per pass of the unscented transform (10⁶ covariances at once needed
 #: ≈ 20 GB; in chunks of this size the peak is ≈ 20 kB × 4096 ≈ 80 MB, at the same speed).
 UNSCENTED_CHUNK = 4096
 

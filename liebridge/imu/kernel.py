@@ -606,7 +606,7 @@ def _c_buffer(x: FloatArray) -> FloatArray:
 
     ``np.ascontiguousarray`` keeps a misaligned view (e.g. ``np.frombuffer(b, offset=1)``) as it
     is; the C kernel reads doubles through the pointer, undefined behaviour when misaligned
-    (issue 21, class 12; the kernel itself refuses such a buffer).
+    (the kernel itself refuses such a buffer).
     """
     return np.require(x, dtype=np.float64, requirements=["C_CONTIGUOUS", "ALIGNED"])
 
@@ -757,7 +757,7 @@ def integrate_blocks(
     Raises
     ------
     ValueError
-        The inputs are finite but so large that the result is not (issue 21, class 6): the
+        The inputs are finite but so large that the result is not: the
         message gives the largest ``|acc|``, ``|gyro|``, ``dt`` and ``|bias|``.
     """
     n = dt.shape[0]

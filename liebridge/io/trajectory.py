@@ -77,7 +77,7 @@ def open_text(path: PathLike | int, mode: str) -> Iterator[IO[str]]:
     """Open ``path`` as UTF-8 text for reading (``"r"``) or writing (``"w"``).
 
     * A file descriptor (int) is used and left open for the caller (``open(fd)`` would close
-      it on exit; issue 21, class 13).
+      it on exit).
     * Writing a path that is a regular file or does not exist goes to a temporary file in the
       same directory, renamed over ``path`` when complete: a failed write leaves ``path`` as it
       was, and a hard link to another file (an input) is replaced, never written through
@@ -165,7 +165,7 @@ def _fast_table(path: PathLike, ncols: int) -> FloatArray | None:
     Returns ``None`` whenever the file is anything but well formed UTF-8 with ``ncols`` finite
     numbers on every data line (a header without ``#``, a bad field, a wrong count, NaN/Inf):
     the caller then runs its line-by-line reader, which names the line and the fault exactly.
-    Memory: the file's bytes, one cleaned copy and the table (issue 23: 1.7 GB for a 10⁶-line
+    Memory: the file's bytes, one cleaned copy and the table (1.7 GB for a 10⁶-line
     TUM file read line by line).
     """
     if isinstance(path, int):
@@ -240,7 +240,7 @@ def read_tum(path: PathLike) -> tuple[FloatArray, FloatArray]:
     """
     what = "timestamp tx ty tz qx qy qz qw"
     fast = _fast_table(path, 8)
-    if fast is not None:  # one loadtxt pass (issue 23); quaternions judged by their text below
+    if fast is not None:  # one loadtxt pass; quaternions judged by their text below
         data = fast
         err = np.abs(np.linalg.norm(data[:, 4:8], axis=-1) - 1.0)
         suspect = np.flatnonzero(err > _layouts.QUATERNION_TOL).tolist()
@@ -268,7 +268,7 @@ def read_tum(path: PathLike) -> tuple[FloatArray, FloatArray]:
     return _tum_poses(np.array(rows, dtype=np.float64).reshape(-1, 8))
 
 
-#: Rows converted per pass from quaternions to matrices (bounds the temporaries; issue 23).
+#: Rows converted per pass from quaternions to matrices (bounds the temporaries).
 _POSE_CHUNK = 1 << 16
 
 
@@ -330,7 +330,7 @@ def read_kitti(path: PathLike) -> FloatArray:
     """
     what = "r11 r12 r13 tx r21 r22 r23 ty r31 r32 r33 tz"  # the 3x4 [R | t], row-major
     fast = _fast_table(path, 12)
-    if fast is not None:  # one loadtxt pass (issue 23); rotations judged by their text below
+    if fast is not None:  # one loadtxt pass; rotations judged by their text below
         errs, dets = _rotation_errors(fast.reshape(-1, 3, 4)[:, :, :3])
         suspect = np.flatnonzero((errs > _layouts.ROTATION_TOL) | (dets < 0)).tolist()
         for r, (lineno, fields) in sorted(_data_line_text(path, suspect).items()):
