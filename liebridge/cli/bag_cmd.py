@@ -67,7 +67,7 @@ def _export(args: argparse.Namespace) -> int:
     ros = _ros()
     conv = convention_arg(args.convention, "--convention")
     suffixes = {"tum": None, "g2o": (".g2o", ".txt"), "npz": (".npz",)}[args.to]
-    out = check_output_path(args.out, "OUT", suffixes)
+    out = check_output_path(args.out, "OUT", suffixes, inputs=[args.bag])
     m = _read(ros, args.bag, args.topic, conv)
     if args.to == "tum":
         ros.write_tum(out, m)
@@ -119,7 +119,7 @@ def _write_marginals(args: argparse.Namespace) -> int:
     ros = _ros()
     inp = Path(args.input)
     is_g2o = inp.is_file() and inp.suffix.lower() in (".g2o", ".txt")
-    out = check_output_path(args.output, "OUT")
+    out = check_output_path(args.output, "OUT", inputs=[args.input, getattr(args, "bag", None)])
     if is_g2o:
         from ..io import g2o as g2o_io
 

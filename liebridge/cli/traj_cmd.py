@@ -28,8 +28,15 @@ from ._common import (
     convention_arg,
     need_matplotlib,
     one_line,
+    save_figure,
     say,
 )
+
+
+def _inputs(args: argparse.Namespace) -> list[str | None]:
+    """List the files a ``traj`` command reads (REF, EST, ``--cov``): never overwritten."""
+    return [args.ref, args.est, getattr(args, "cov", None)]
+
 
 __all__ = ["add_parser"]
 
@@ -77,7 +84,7 @@ def _read(
         raise CLIError(f"{what}: {exc}") from None
     for w in caught:  # one line each on stderr, never Python's two-line warning format
         say(f"liebridge traj: warning: {what}: {one_line(str(w.message))}")
-    return out
+    return out.stamps, out.T
 
 
 def _prepare(
@@ -201,7 +208,7 @@ def _plot(
     ax.grid(True, alpha=0.3)
     fig.suptitle(f"liebridge traj {args.traj_command}: {args.est} vs {args.ref}", fontsize=9)
     fig.tight_layout()
-    fig.savefig(args.plot, dpi=110)
+    save_figure(fig, args.plot)
     plt.close(fig)
     say(f"wrote {args.plot}")
 
@@ -210,7 +217,7 @@ def _ape(args: argparse.Namespace) -> int:
     from .. import traj
 
     if args.plot:
-        check_output_path(args.plot, "--plot", (".png", ".pdf", ".svg"))
+        check_output_path(args.plot, "--plot", (".png", ".pdf", ".svg"), inputs=_inputs(args))
     p = _prepare(args)
     err = traj.ape(p.T_ref, p.T_aligned, args.pose_relation)
     result = {"metric": "ape", "pose_relation": args.pose_relation, **_stats_dict(err)}
@@ -225,7 +232,7 @@ def _rpe(args: argparse.Namespace) -> int:
     from .. import traj
 
     if args.plot:
-        check_output_path(args.plot, "--plot", (".png", ".pdf", ".svg"))
+        check_output_path(args.plot, "--plot", (".png", ".pdf", ".svg"), inputs=_inputs(args))
     if args.unit == "frames" and not float(args.delta).is_integer():
         raise CLIError(f"--delta: expected an integer for --unit frames, got {args.delta:g}")
     p = _prepare(args)
@@ -281,7 +288,7 @@ def _nees(args: argparse.Namespace) -> int:
 
     conv = convention_arg(args.convention, "--convention")
     if args.plot:
-        check_output_path(args.plot, "--plot", (".png", ".pdf", ".svg"))
+        check_output_path(args.plot, "--plot", (".png", ".pdf", ".svg"), inputs=_inputs(args))
     try:
         cov = np.load(args.cov, allow_pickle=False)
     except (OSError, ValueError, EOFError) as exc:

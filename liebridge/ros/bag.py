@@ -23,6 +23,8 @@ from typing import Any
 import numpy as np
 
 from ..conventions import ConventionLike, get
+from ..io.atomic import atomic_path, atomic_write
+from ..io.trajectory import stamp_text, write_tum_text
 from .messages import MESSAGE_TYPES, RosMessages, normalize_msgtype
 
 __all__ = [
@@ -383,25 +385,29 @@ def _needs(mt: str, name: str) -> bool:
 def atomic_output(path: PathLike) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; rename it onto ``path`` only on success.
 
-    Works for files (replaced atomically) and for directories (a ROS 2 bag: ``path`` must not
-    exist yet). On any exception the temporary is removed and ``path`` is untouched.
+    :func:`liebridge.io.atomic.atomic_path` under the bag writers' name: files are replaced
+    atomically (a symbolic link is followed, a hard link is never written through); a directory
+    (a ROS 2 bag) is renamed into place and ``path`` must not exist yet. A FIFO or a character
+    device (``/dev/null``) is never renamed onto: the result is written to the temporary first
+    and then copied through. Anything else that is not a regular file is refused. On any
+    exception the temporary is removed and ``path`` is untouched. Errors are :class:`BagError`.
     """
-    target = Path(path)
-    parent = target.parent if str(target.parent) else Path(".")
-    if not parent.is_dir():
-        raise BagError(f"{target}: directory {str(parent)!r} does not exist")
-    tmpdir = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".tmp", dir=parent))
     try:
-        tmp = tmpdir / target.name
-        yield tmp
-        if tmp.is_dir():
-            if target.exists():
-                raise BagError(f"{target}: exists already; a ROS 2 bag directory is not replaced")
-            os.rename(tmp, target)
-        else:
-            os.replace(tmp, target)
-    finally:
-        shutil.rmtree(tmpdir, ignore_errors=True)
+        with atomic_path(path, name=str(path)) as tmp:
+            if tmp is not None:
+                yield tmp
+                return
+            with tempfile.TemporaryDirectory(prefix=".liebridge-", suffix=".tmp") as d:
+                staged = Path(d) / Path(path).name
+                yield staged
+                if staged.is_dir():
+                    raise ValueError(f"{path}: a bag directory cannot be written to a device")
+                with open(staged, "rb") as src, atomic_write(path, "wb") as dst:
+                    shutil.copyfileobj(src, dst)
+    except ValueError as exc:
+        if isinstance(exc, BagError):
+            raise
+        raise BagError(str(exc)) from None
 
 
 def _time(types: Any, sec: int, nsec: int) -> Any:
@@ -598,22 +604,24 @@ def write_messages(
 def write_tum(path: PathLike, msgs: RosMessages) -> None:
     """Write ``msgs``'s poses as a TUM file: ``stamp x y z qx qy qz qw`` per line.
 
-    The stamp is written exactly as ``sec.nanosec`` (nine decimals), position and quaternion with
-    ``repr`` (the stored doubles, quaternion sign as in the message): nothing is rounded.
-    The file says the frames in a comment line.
+    The stamp is written exactly as decimal seconds with nine decimals from the integer
+    ``sec``/``nanosec`` (sign-correct: −1.5 s is ``-1.500000000``;
+    :func:`liebridge.io.trajectory.stamp_text`); position and quaternion with ``repr`` (the
+    stored doubles; the quaternion's sign by the TUM writers' one rule, first ``w ≥ 0`` then
+    hemisphere continuity). The header comment names the frames. Written by the one TUM writer,
+    :func:`liebridge.io.trajectory.write_tum_text`, through the one atomic-write helper.
     """
     if not isinstance(msgs, RosMessages):
         raise TypeError(f"msgs: expected RosMessages, got {type(msgs).__name__}")
     parent = msgs.frame_id[0] if len(msgs) else ""
     child = msgs.child_frame_id[0] if msgs.child_frame_id and len(msgs) else "body"
-    lines = [
-        f"# timestamp tx ty tz qx qy qz qw  (T_{parent or 'parent'}_{child}; topic {msgs.topic})\n"
-    ]
-    r = repr
-    for s, ns, p, q in zip(
-        msgs.stamp_sec, msgs.stamp_nanosec, msgs.position, msgs.orientation_xyzw, strict=True
-    ):
-        nums = " ".join(r(float(x)) for x in (*p, *q))
-        lines.append(f"{int(s)}.{int(ns):09d} {nums}\n")
-    with atomic_output(path) as tmp, open(tmp, "w", encoding="utf-8") as fh:
-        fh.writelines(lines)
+    try:
+        write_tum_text(
+            path,
+            stamp_text(msgs.stamp_sec, msgs.stamp_nanosec),
+            np.asarray(msgs.position, dtype=np.float64).reshape(-1, 3),
+            np.asarray(msgs.orientation_xyzw, dtype=np.float64).reshape(-1, 4),
+            comment=f"T_{parent or 'parent'}_{child}; topic {msgs.topic}",
+        )
+    except ValueError as exc:
+        raise BagError(str(exc)) from None
