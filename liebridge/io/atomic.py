@@ -32,6 +32,7 @@ directory (a ROS 2 bag) — before any work is done.
 from __future__ import annotations
 
 import errno
+import io
 import os
 import shutil
 import stat
@@ -39,7 +40,7 @@ import tempfile
 from collections.abc import Iterable, Iterator
 from contextlib import contextmanager, suppress
 from pathlib import Path
-from typing import IO, Any, Literal
+from typing import IO, Any, Literal, cast
 
 __all__ = ["atomic_path", "atomic_write", "output_kind", "refuse_same_file", "same_file"]
 
@@ -103,8 +104,36 @@ def _open_through(p: str, binary: bool, name: str) -> IO[Any]:
     except OSError:  # pragma: no cover - a descriptor that cannot change mode: use it as it is
         pass
     if binary:
-        return open(fd, "wb")
+        return cast(IO[Any], _Stream(open(fd, "wb")))
     return open(fd, "w", encoding="utf-8", newline="")
+
+
+class _Stream(io.BufferedIOBase):
+    """A binary stream that does not claim to be a seekable OS file.
+
+    ``numpy.save`` writes a real file object with ``ndarray.tofile``, which needs the file
+    position: a FIFO has none. Through this wrapper it writes the bytes instead.
+    """
+
+    def __init__(self, raw: IO[bytes]) -> None:
+        super().__init__()
+        self._raw = raw
+
+    def writable(self) -> bool:
+        return True
+
+    def write(self, b: Any) -> int:
+        return self._raw.write(b)
+
+    def flush(self) -> None:
+        self._raw.flush()
+
+    def close(self) -> None:
+        if not self.closed:
+            try:
+                super().close()  # flushes through self.flush while the raw file is open
+            finally:
+                self._raw.close()
 
 
 @contextmanager
