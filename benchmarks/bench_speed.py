@@ -287,13 +287,13 @@ def batched(n: int, repeat: int) -> list[dict[str, Any]]:
         )
         yield (
             "convert_jacobian gtsam→barfoot at_input (batched)",
-            lambda: lb.convert_jacobian(J, "gtsam", "barfoot", at_input=T),
+            lambda: lb.convert_jacobian(J, T, "gtsam", "barfoot"),
             lambda: J @ h["barfoot_inv"](),
             (J, T),
         )
         yield (
             "convert_jacobian gtsam→barfoot at_output (batched)",
-            lambda: lb.convert_jacobian(J, "gtsam", "barfoot", at_output=T),
+            lambda: lb.convert_jacobian(J, None, "gtsam", "barfoot", at_output=T),
             lambda: h["barfoot"]() @ J,
             (J, T),
         )
@@ -340,7 +340,7 @@ def single_more(repeat: int) -> list[dict[str, Any]]:
             hand_info,
         ),
         "convert_jacobian gtsam→barfoot (input and output)": (
-            lambda: lb.convert_jacobian(J, "gtsam", "barfoot", at_input=T, at_output=T),
+            lambda: lb.convert_jacobian(J, T, "gtsam", "barfoot", at_output=T),
             hand_jac,
         ),
     }

@@ -410,7 +410,7 @@ def test_convert_jacobian_of_a_state_map(src: str, dst: str) -> None:
 
     J_a = numerical_jacobian(f, S, retract=a.retract, local=a.local, dim=15)
     J_b = numerical_jacobian(f, S, retract=b.retract, local=b.local, dim=15)
-    got = lb.convert_jacobian(J_a, a, b, at_input=S, at_output=f(S))
+    got = lb.convert_jacobian(J_a, S, a, b, at_output=f(S))
     np.testing.assert_allclose(got, J_b, atol=2e-6 * np.abs(J_b).max())
 
 

@@ -30,6 +30,7 @@ import numpy as np
 
 from .. import _validate as validate
 from .._validate import FloatArray
+from ..uncertain import UncertainPose
 
 __all__ = [
     "GROUPS",
@@ -253,16 +254,31 @@ def _group(group: str) -> tuple[Any, int, str, Any, Any]:
     return GROUPS[group]
 
 
-def to_gtsam(X: Any, group: str) -> Any:
+def to_gtsam(X: Any, group: str | None = None) -> Any:
     """Build the GTSAM object of ``group`` from one matrix, or a list from a batch ``(N, n, n)``.
+
+    The one ``to_gtsam`` of liebridge (``liebridge.gtsam.uncertain.to_gtsam`` is this function;
+    ``G2OGraph.to_gtsam`` is a method building a whole graph).
 
     Parameters
     ----------
-    X : array_like, shape (n, n) or (N, n, n)
+    X : array_like, shape (n, n) or (N, n, n), or UncertainPose
         Elements as liebridge's matrices (see :data:`GROUPS`), validated (a rotation block must be
-        orthonormal, a scale positive, the constant rows exact).
+        orthonormal, a scale positive, the constant rows exact). An
+        :class:`~liebridge.uncertain.UncertainPose` gives ``(object, covariance)``: the
+        ``gtsam.Pose3`` or ``gtsam.Rot3`` (a list for a batch) and its covariance in GTSAM's
+        tangent ``(ω, v)`` — what ``gtsam.noiseModel.Gaussian.Covariance`` takes for a
+        ``PriorFactorPose3`` on that pose.
     group : {"se3", "so3", "se2", "so2", "sim3", "se23"}
+        Required for arrays; for an UncertainPose it is implied (``"so3"`` or ``"se3"``).
     """
+    if isinstance(X, UncertainPose):
+        implied = "so3" if X.is_rotation else "se3"
+        if group is not None and group != implied:
+            raise ValueError(f"group: {group!r} given for an UncertainPose of {implied!r}")
+        return to_gtsam(X.T, implied), np.array(X.gtsam_cov())
+    if group is None:
+        raise TypeError(f"group: required for an array X (one of {tuple(GROUPS)})")
     check, n, _, make, _ = _group(group)
     arr = check(X, "X")
     if arr.ndim == 2:
