@@ -1,4 +1,4 @@
-"""Issue 23, files: liebridge's readers against ``numpy.loadtxt`` and evo's readers, same run.
+"""liebridge's readers against ``numpy.loadtxt`` and evo's readers, same run.
 
 Rows (each file generated here, in a temporary directory):
 
@@ -31,7 +31,7 @@ Times: the candidates interleaved, ``--repeat`` times, median (``run.interleaved
 reader once in a fresh subprocess: peak traced by ``tracemalloc`` (numpy and Python allocations),
 the process's peak resident set (``VmHWM``; ``rss_baseline_mib`` is that of the same process
 reading nothing); ``returned_mib`` is the ``nbytes`` of the arrays the reader
-returns (for evo: its trajectory's arrays). Targets (issue 23): time ≤ 2× ``loadtxt`` and ≤ 2×
+returns (for evo: its trajectory's arrays). Targets: time ≤ 2× ``loadtxt`` and ≤ 2×
 evo, traced peak ≤ 3× the arrays returned. The evo columns are skipped, and say so, when evo is
 not installed.
 

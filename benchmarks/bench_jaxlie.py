@@ -1,4 +1,4 @@
-"""Issue 23: the batched Lie kernels against jaxlie ``jax.jit(jax.vmap(...))`` on CPU, float64.
+"""The batched Lie kernels against jaxlie ``jax.jit(jax.vmap(...))`` on CPU, float64.
 
 For ``so3.exp``, ``so3.log``, ``se3.exp``, ``se3.log`` and ``se3.adjoint`` at 10⁴, 10⁵ and 10⁶
 elements (``--sizes``), each candidate timed in the same process, interleaved and repeated
@@ -28,7 +28,7 @@ its adjoint is in that order; liebridge's (GTSAM's) is ``(ω, v)``: inputs are p
 timing and results compared after permuting back. Each row first checks that liebridge and
 jaxlie agree on the same inputs (max abs difference, asserted ≤ 1e-12 on the comparable map).
 
-Ratios: ``x_memory_pass`` = time / memory pass (issue 23's target: ≤ 3×); ``x_one_pass`` =
+Ratios: ``x_memory_pass`` = time / memory pass (target: ≤ 3×); ``x_one_pass`` =
 time / one pass (the stricter reading of that floor); ``speedup_vs_jaxlie_matrix`` =
 jaxlie_matrix / liebridge (target: > 1, ahead of jaxlie-jit). ``cpu_per_wall`` records how many
 cores a candidate kept busy (XLA may use a second one; liebridge's kernels use one).
@@ -415,7 +415,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any] | None:
             "jaxlie's SE(3) tangent and adjoint are (v, w); inputs permuted before timing, "
             "results permuted back for the agreement check.",
             "memory_pass: a copy of the input and of an output-sized array, the floor "
-            "bench_speed.py's kernels rows use (issue 23's target: <= 3x); it moves about twice "
+            "bench_speed.py's kernels rows use (target: <= 3x); it moves about twice "
             "the bytes a kernel must.",
             "one_pass: the least traffic a kernel can make, its input read once and a fresh "
             "output written once (x_one_pass is the stricter ratio).",

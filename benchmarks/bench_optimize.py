@@ -1,4 +1,4 @@
-"""Custom-convention graphs: ``liebridge.gtsam.optimize`` against GTSAM's native LM (issue 23).
+"""Custom-convention graphs: ``liebridge.gtsam.optimize`` against GTSAM's native LM.
 
 What a user would otherwise run: GTSAM's ``LevenbergMarquardtOptimizer`` on GTSAM's own
 ``BetweenFactorPose3``. Against it, in the same process, interleaved and repeated (median):
@@ -10,7 +10,7 @@ recorded: on a machine shared with other jobs the CPU-time ratio is the steadier
 (the generic, not the fused, batched path).
 
 ``--replicas R`` chains R copies of sphere2500 (each copy's first pose tied to the previous
-copy's last one by a between factor, σ = 0.1) — the 10,000-pose question of issue 23.
+copy's last one by a between factor, σ = 0.1) — the 10,000-pose question.
 
 Usage: ``python benchmarks/bench_optimize.py [--reps 3] [--replicas 1]
 [--out benchmarks/results/optimize.json]``.

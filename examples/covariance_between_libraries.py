@@ -44,7 +44,7 @@ SWAP = np.r_[3, 4, 5, 0, 1, 2]  # (ω, v) <-> (v, ω)
 def optimized_graph(dataset: str, max_poses: int | None) -> tuple[Any, Any, list[int]]:
     """Optimize ``dataset`` (first ``max_poses`` poses) in GTSAM; return graph, values, keys."""
     path = Path(dataset) if Path(dataset).is_file() else Path(gtsam.findExampleDataFile(dataset))
-    g = lb.g2o.read(path)
+    g = lb.io.g2o.read(path)
     keys = np.sort(g.vertex_ids)
     if max_poses is not None:
         keys = keys[:max_poses]
@@ -58,7 +58,7 @@ def optimized_graph(dataset: str, max_poses: int | None) -> tuple[Any, Any, list
         values.insert(int(k), init.atPose3(int(k)))
     noise = gtsam.noiseModel.Isotropic.Sigma(6, 1e-4)
     graph.add(gtsam.PriorFactorPose3(int(keys[0]), init.atPose3(int(keys[0])), noise))
-    result = lb.factors.optimize(graph, values, progress=False)
+    result = lb.gtsam.optimize(graph, values, progress=False)
     return graph, result.values, [int(k) for k in keys]
 
 
@@ -207,7 +207,7 @@ def main(argv: list[str] | None = None) -> int:
         f"{'reordered only':>15}"
     )
     for conv in TARGETS:
-        converted = lb.marginals(graph, values, [key], conv, marginals_object=marg)[0]
+        converted = lb.gtsam.marginals(graph, values, [key], conv, marginals_object=marg)[0]
         mc = lb.check.monte_carlo_covariance(cov_g, X, "gtsam", conv, n=args.samples, rng=rng)
         cl = claims(cov_g, converted, conv)
         gaps = {name: whitened_gap(c, mc) for name, c in cl.items()}

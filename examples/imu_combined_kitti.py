@@ -8,9 +8,9 @@ Problem
     factor (15-dimensional residual), there is no separate bias between-factor. The same graph is
     built twice:
 
-    * liebridge: :func:`liebridge.factors.preintegrate_combined` (GTSAM's tangent preintegration,
-      15×15 covariance) and :func:`liebridge.factors.combined_imu` (a ``gtsam.CustomFactor``),
-      optimized with :func:`liebridge.factors.optimize`;
+    * liebridge: :func:`liebridge.imu.preintegrate_combined` (GTSAM's tangent preintegration,
+      15×15 covariance) and :func:`liebridge.imu.combined_imu` (a ``gtsam.CustomFactor``),
+      optimized with :func:`liebridge.gtsam.optimize`;
     * GTSAM: ``PreintegratedCombinedMeasurements`` and ``gtsam.CombinedImuFactor``, optimized with
       GTSAM's Levenberg-Marquardt.
 
@@ -33,7 +33,7 @@ import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import B, V, X
 
-import liebridge.factors as F
+import liebridge as lb
 
 GRAVITY = 9.8
 GPS_SIGMA = 0.25  # m
@@ -104,12 +104,12 @@ def build(imu: np.ndarray, gps: np.ndarray, meta: dict[str, float]):
     segs = segments(imu, gps)
     for k, (i, rows) in enumerate(segs, start=1):
         dt, acc, gyro = rows[:, 1], rows[:, 2:5], rows[:, 5:8]
-        ours = F.preintegrate_combined(acc, gyro, dt, bias=zero_bias, params=params)
+        ours = lb.imu.preintegrate_combined(acc, gyro, dt, bias=zero_bias, params=params)
         pim = gtsam.PreintegratedCombinedMeasurements(params, zero_bias)
         for a, w, d in zip(acc, gyro, dt, strict=True):
             pim.integrateMeasurement(a, w, d)
         keys = (X(k - 1), V(k - 1), X(k), V(k), B(k - 1), B(k))
-        graphs["liebridge"].add(F.combined_imu(*keys, ours))
+        graphs["liebridge"].add(lb.imu.combined_imu(*keys, ours))
         graphs["gtsam"].add(gtsam.CombinedImuFactor(*keys, pim))
         velocity = (gps[i, 1:] - gps[i - 1, 1:]) / (gps[i, 0] - gps[i - 1, 0])
         R = R @ ours.delta_R
@@ -134,7 +134,7 @@ def main(argv: list[str] | None = None) -> int:
         graph = graphs[name]
         t0 = time.perf_counter()
         if name == "liebridge":
-            result = F.optimize(graph, initial, lm, progress=False).values
+            result = lb.gtsam.optimize(graph, initial, lm, progress=False).values
         else:
             result = gtsam.LevenbergMarquardtOptimizer(graph, initial, lm).optimize()
         t1 = time.perf_counter()

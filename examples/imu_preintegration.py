@@ -7,8 +7,8 @@ Problem
     keyframe gets a pose prior on its position only (zero information on rotation), the bias a
     random walk. The same graph is built twice:
 
-    * liebridge: :func:`liebridge.factors.preintegrate` (on-manifold, vectorized) and
-      :func:`liebridge.factors.imu` (a ``gtsam.CustomFactor``);
+    * liebridge: :func:`liebridge.imu.preintegrate` (on-manifold, vectorized) and
+      :func:`liebridge.imu.imu` (a ``gtsam.CustomFactor``);
     * GTSAM: ``PreintegratedImuMeasurements`` (its default, *tangent* preintegration — the only
       one ``gtsam.ImuFactor`` accepts in Python) and ``gtsam.ImuFactor``.
 
@@ -40,7 +40,7 @@ import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import B, V, X
 
-import liebridge.factors as F
+import liebridge as lb
 
 GRAVITY = 9.8
 GPS_SIGMA = 0.25  # m, position prior of every keyframe
@@ -105,7 +105,7 @@ def build(imu: np.ndarray, gps: np.ndarray, meta: dict[str, float]):
             g.add(gtsam.PriorFactorPose3(X(k), gtsam.Pose3(gtsam.Rot3(), position), gps_prior))
 
     # one call before timing: the first pays one-time imports (scipy.linalg, about 0.3 s)
-    F.preintegrate(imu[:2, 2:5], imu[:2, 5:8], imu[:2, 1], bias=zero_bias, params=params)
+    lb.imu.preintegrate(imu[:2, 2:5], imu[:2, 5:8], imu[:2, 1], bias=zero_bias, params=params)
     R = np.eye(3)
     add_keyframe(0, R, first, np.zeros(3))
     for g in graphs.values():
@@ -118,7 +118,7 @@ def build(imu: np.ndarray, gps: np.ndarray, meta: dict[str, float]):
     for k, (i, rows) in enumerate(segs, start=1):
         dt, acc, gyro = rows[:, 1], rows[:, 2:5], rows[:, 5:8]
         t0 = time.perf_counter()
-        ours = F.preintegrate(acc, gyro, dt, bias=zero_bias, params=params)
+        ours = lb.imu.preintegrate(acc, gyro, dt, bias=zero_bias, params=params)
         t1 = time.perf_counter()
         pim = gtsam.PreintegratedImuMeasurements(params, zero_bias)
         for a, w, d in zip(acc, gyro, dt, strict=True):
@@ -128,7 +128,7 @@ def build(imu: np.ndarray, gps: np.ndarray, meta: dict[str, float]):
         t_pre["gtsam"] += t2 - t1
         delta_p_gap = max(delta_p_gap, float(np.abs(ours.delta_p - pim.deltaPij()).max()))
 
-        graphs["liebridge"].add(F.imu(X(k - 1), V(k - 1), X(k), V(k), B(k - 1), ours))
+        graphs["liebridge"].add(lb.imu.imu(X(k - 1), V(k - 1), X(k), V(k), B(k - 1), ours))
         graphs["gtsam"].add(gtsam.ImuFactor(X(k - 1), V(k - 1), X(k), V(k), B(k - 1), pim))
         walk = gtsam.noiseModel.Diagonal.Sigmas(
             np.sqrt(len(rows))
@@ -157,7 +157,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"keyframes: {n_key + 1}, IMU factors: {n_key}, IMU samples: {n_used} of {len(imu)}")
     print(
         "preintegration time: liebridge {:.1f} ms ({} kernel), GTSAM loop {:.1f} ms".format(
-            1e3 * t_pre["liebridge"], F.imu_kernel(imu_params(meta)), 1e3 * t_pre["gtsam"]
+            1e3 * t_pre["liebridge"], lb.imu.imu_kernel(imu_params(meta)), 1e3 * t_pre["gtsam"]
         )
     )
     print(f"max |Δp| liebridge (manifold) vs GTSAM (tangent) preintegration: {delta_p_gap:.3e} m")
@@ -177,7 +177,7 @@ def main(argv: list[str] | None = None) -> int:
         graph = graphs[name]
         t0 = time.perf_counter()
         if optimizer == "liebridge.gtsam.optimize":
-            result = F.optimize(graph, initial, lm, progress=False).values
+            result = lb.gtsam.optimize(graph, initial, lm, progress=False).values
         else:
             result = gtsam.LevenbergMarquardtOptimizer(graph, initial, lm).optimize()
         t1 = time.perf_counter()

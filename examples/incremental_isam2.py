@@ -6,9 +6,9 @@ native ``BetweenFactorPose3`` with a converted covariance is only a first-order 
 ``between(..., "g2o", native=False)`` keeps g2o's residual exactly, but as a ``gtsam.CustomFactor``
 inside GTSAM's iSAM2 every linearization calls Python with a copy of the whole ``Values``.
 
-Conventions. The file's information is read with ``liebridge.g2o.read`` (over GTSAM's tangent at
+Conventions. The file's information is read with ``liebridge.io.g2o.read`` (over GTSAM's tangent at
 each measurement) and converted to the convention with ``liebridge.convert_covariance``.
-``liebridge.factors.ISAM2`` then linearizes liebridge's factors in one numpy pass and lets GTSAM's
+``liebridge.gtsam.ISAM2`` then linearizes liebridge's factors in one numpy pass and lets GTSAM's
 iSAM2 do the rest (docs/isam2.md).
 
 What to look at. Poses arrive 25 per update. The printed lines: liebridge's ISAM2 over the whole
@@ -33,12 +33,11 @@ import gtsam
 import numpy as np
 
 import liebridge as lb
-import liebridge.factors as F
 
 STEP = 25
 
 
-def factors(g: lb.g2o.G2OGraph, convention: str, n: int) -> tuple[dict[int, list[Any]], Any]:
+def factors(g: lb.io.g2o.G2OGraph, convention: str, n: int) -> tuple[dict[int, list[Any]], Any]:
     """Return the factors grouped by their newest key (< n), and the odometry measurements."""
     cov = np.linalg.inv(g.information)
     cov = lb.convert_covariance(
@@ -49,17 +48,19 @@ def factors(g: lb.g2o.G2OGraph, convention: str, n: int) -> tuple[dict[int, list
     for (i, j), Z, C in zip(g.edges.tolist(), g.measured, cov, strict=True):
         if max(i, j) >= n:
             continue
-        by_last.setdefault(max(i, j), []).append(F.between(i, j, Z, C, convention, native=False))
+        factor = lb.gtsam.between(i, j, Z, C, convention, native=False)
+        by_last.setdefault(max(i, j), []).append(factor)
         if j == i + 1:
             odometry[j] = gtsam.Pose3(Z)
     prior_cov = lb.convert_covariance(np.eye(6) * 1e-8, np.eye(4), "gtsam", convention)
-    by_last.setdefault(0, []).insert(0, F.prior(0, np.eye(4), prior_cov, convention, native=False))
+    prior = lb.gtsam.prior(0, np.eye(4), prior_cov, convention, native=False)
+    by_last.setdefault(0, []).insert(0, prior)
     return by_last, odometry
 
 
 def feed(isam: Any, by_last: dict[int, list[Any]], odometry: dict[int, Any], n: int) -> Any:
     """Poses 0..n-1, 25 per update; each new pose = estimate of the previous ∘ odometry."""
-    inner = isam.isam2 if isinstance(isam, F.ISAM2) else isam
+    inner = isam.isam2 if isinstance(isam, lb.gtsam.ISAM2) else isam
     prev = gtsam.Pose3()
     seconds = 0.0
     for start in range(0, n, STEP):
@@ -84,25 +85,25 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--convention", default="g2o")
     args = ap.parse_args(argv)
     path = Path(args.dataset)
-    g = lb.g2o.read(path if path.is_file() else gtsam.findExampleDataFile(args.dataset))
+    g = lb.io.g2o.read(path if path.is_file() else gtsam.findExampleDataFile(args.dataset))
     n = min(args.max_poses, g.vertex_ids.shape[0])
     by_last, odometry = factors(g, args.convention, n)
     updates = -(-n // STEP)
-    _, s = feed(F.ISAM2(), by_last, odometry, n)
+    _, s = feed(lb.gtsam.ISAM2(), by_last, odometry, n)
     print(
-        f"liebridge.factors.ISAM2 ({args.convention}): {n} poses in {updates} updates, "
+        f"liebridge.gtsam.ISAM2 ({args.convention}): {n} poses in {updates} updates, "
         f"{s:.2f} s ({s / updates * 1e3:.1f} ms/update)"
     )
     m = min(args.compare_poses, n)
     by_m = {k: fs for k, fs in by_last.items() if k < m}
-    est_lb, s_lb = feed(F.ISAM2(), by_m, odometry, m)
+    est_lb, s_lb = feed(lb.gtsam.ISAM2(), by_m, odometry, m)
     est_gt, s_gt = feed(gtsam.ISAM2(), by_m, odometry, m)
     diff = max(
         float(np.abs(est_lb.atPose3(k).matrix() - est_gt.atPose3(k).matrix()).max())
         for k in range(m)
     )
     print(
-        f"first {m} poses: liebridge.factors.ISAM2 {s_lb:.2f} s, gtsam.ISAM2 with the same "
+        f"first {m} poses: liebridge.gtsam.ISAM2 {s_lb:.2f} s, gtsam.ISAM2 with the same "
         f"CustomFactors {s_gt:.2f} s ({s_gt / max(s_lb, 1e-9):.1f}x); "
         f"max pose difference {diff:.1e}"
     )

@@ -8,9 +8,9 @@ must return Jacobians in *that* tangent. Pasting the left Jacobian in unchanged 
 that is wrong everywhere except where ``T = I`` (and then only up to the block order).
 
 Conventions. The residual ``r_k = n_kᵀ (T p_k − q_k)`` has the left Jacobian ``J_left`` in
-``barfoot``; ``liebridge.convert_jacobian(J_left, "barfoot", "gtsam", at_input=T)`` gives
+``barfoot``; ``liebridge.convert_jacobian(J_left, T, "barfoot", "gtsam")`` gives
 ``J_left · M(T)`` with ``M = tangent_map(T, "gtsam", "barfoot")`` (``P·Ad_T``).
-``liebridge.factors.custom.make_custom_factor`` wraps residual and Jacobian as a
+``liebridge.gtsam.custom.make_custom_factor`` wraps residual and Jacobian as a
 ``gtsam.CustomFactor``. Both Jacobians are checked against central finite differences
 (``liebridge.check.numerical_jacobian``) through the retraction each one claims — GTSAM's
 own ``Pose3.retract`` for the converted one.
@@ -67,7 +67,7 @@ def make_factor(p: np.ndarray, q: np.ndarray, n: np.ndarray, sigma: float, conve
         if not want_jacobians:
             return r, None
         J_left = point_to_plane_left_jacobian(T, p, n)
-        J = lb.convert_jacobian(J_left, "barfoot", "gtsam", at_input=T) if convert else J_left
+        J = lb.convert_jacobian(J_left, T, "barfoot", "gtsam") if convert else J_left
         return r, [J]
 
     noise = gtsam.noiseModel.Isotropic.Sigma(p.shape[0], sigma)
@@ -104,7 +104,7 @@ def fd_table(data: dict[str, np.ndarray], T: np.ndarray) -> dict[str, float]:
         return np.asarray(gtsam.Pose3(X).retract(d).matrix())
 
     J_left = point_to_plane_left_jacobian(T, p, n)
-    J_conv = lb.convert_jacobian(J_left, "barfoot", "gtsam", at_input=T)
+    J_conv = lb.convert_jacobian(J_left, T, "barfoot", "gtsam")
     fd_left = lb.check.numerical_jacobian(f, T, in_convention="barfoot", out_local="euclidean")
     fd_gtsam = lb.check.numerical_jacobian(f, T, retract=gtsam_retract, out_local="euclidean")
     return {

@@ -6,7 +6,7 @@ perturbation ``T = Exp(ξ)·T̄`` with ``ξ = (ρ, φ)``, translation first. GTS
 ``BetweenFactorPose3`` wants a covariance over its own tangent: right perturbation, ``(ω, v)``,
 rotation first. Copying the 6×6 matrix across is wrong twice over (order and side).
 
-Conventions. The dataset's information is read with ``liebridge.g2o.read`` (over GTSAM's tangent
+Conventions. The dataset's information is read with ``liebridge.io.g2o.read`` (over GTSAM's tangent
 at each measurement) and converted into Barfoot's with ``liebridge.convert_covariance`` — that is
 what your front end would hand you. ``liebridge.ConventionGraph("barfoot")`` takes those
 covariances as they are and builds GTSAM factors (native ones: Barfoot ↔ GTSAM is an exact
@@ -36,16 +36,16 @@ import numpy as np
 import liebridge as lb
 
 
-def load(dataset: str, max_poses: int | None) -> lb.g2o.G2OGraph:
+def load(dataset: str, max_poses: int | None) -> lb.io.g2o.G2OGraph:
     """Read ``dataset`` (a path or a GTSAM example file); keep the first ``max_poses`` poses."""
     path = Path(dataset) if Path(dataset).is_file() else Path(gtsam.findExampleDataFile(dataset))
-    g = lb.g2o.read(path)
+    g = lb.io.g2o.read(path)
     if max_poses is None or max_poses >= g.vertex_ids.shape[0]:
         return g
     keep = np.sort(g.vertex_ids)[:max_poses]
     v = np.isin(g.vertex_ids, keep)
     e = np.isin(g.edges, keep).all(axis=1)
-    return lb.g2o.G2OGraph(
+    return lb.io.g2o.G2OGraph(
         vertex_ids=g.vertex_ids[v],
         vertex_xyz_qxyzw=g.vertex_xyz_qxyzw[v],
         edges=g.edges[e],
@@ -55,16 +55,16 @@ def load(dataset: str, max_poses: int | None) -> lb.g2o.G2OGraph:
     )
 
 
-def covariances_in(g: lb.g2o.G2OGraph, convention: str) -> np.ndarray:
+def covariances_in(g: lb.io.g2o.G2OGraph, convention: str) -> np.ndarray:
     """Each edge's covariance over ``convention``'s tangent at its measurement (M Σ Mᵀ)."""
     cov_gtsam = np.linalg.inv(g.information)
     cov_gtsam = 0.5 * (cov_gtsam + cov_gtsam.transpose(0, 2, 1))
     return lb.convert_covariance(cov_gtsam, g.measured, "gtsam", convention)
 
 
-def build(g: lb.g2o.G2OGraph, convention: str, covs: np.ndarray, prior_cov: np.ndarray) -> Any:
+def build(g: lb.io.g2o.G2OGraph, convention: str, covs: np.ndarray, prior_cov: np.ndarray) -> Any:
     """Build a ConventionGraph fed with covariances in ``convention`` (as its user would)."""
-    cg = lb.ConventionGraph(convention)
+    cg = lb.gtsam.ConventionGraph(convention)
     for k, T in zip(g.vertex_ids.tolist(), g.poses, strict=True):
         cg.insert(k, T)
     first = int(g.vertex_ids[0])
@@ -74,7 +74,7 @@ def build(g: lb.g2o.G2OGraph, convention: str, covs: np.ndarray, prior_cov: np.n
     return cg
 
 
-def gtsam_reference(g: lb.g2o.G2OGraph, prior_sigma: float) -> tuple[Any, Any]:
+def gtsam_reference(g: lb.io.g2o.G2OGraph, prior_sigma: float) -> tuple[Any, Any]:
     """GTSAM's own pipeline: native factors from the file's information, GTSAM's LM."""
     graph, values = g.to_gtsam()
     noise = gtsam.noiseModel.Isotropic.Sigma(6, prior_sigma)
@@ -163,7 +163,7 @@ def main(argv: list[str] | None = None) -> int:
     res = cg.optimize(progress=False)
     keys = g.vertex_ids.tolist()
     T_opt = cg.poses(keys)
-    T_ref = lb.gtsam_glue.from_values(ref, keys)
+    T_ref = lb.gtsam.from_values(ref, keys)
     gap = np.abs(T_opt[:, :3, 3] - T_ref[:, :3, 3]).max()
     print(
         f"{conv.name} through ConventionGraph ({res.iterations} iterations, {res.seconds:.2f} s): "
@@ -173,7 +173,7 @@ def main(argv: list[str] | None = None) -> int:
     )
 
     # the trap: the same covariances given to GTSAM as if they were over GTSAM's tangent
-    naive = lb.ConventionGraph("gtsam")
+    naive = lb.gtsam.ConventionGraph("gtsam")
     for k, T in zip(keys, g.poses, strict=True):
         naive.insert(k, T)
     naive.add_prior(keys[0], g.poses[0], prior_cov)

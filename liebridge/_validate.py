@@ -107,13 +107,19 @@ _ACCEPTED = (
 )
 
 
-def library_key(x: Any) -> tuple[str, str] | None:
-    """``(top-level module, class name)`` of ``x`` if its class belongs to a known library.
+def library_key(obj: Any) -> tuple[str, str] | None:
+    """Return ``(module root, class name)`` of a known library's object or class, else ``None``.
 
-    Only the class's ``__module__`` string is read: nothing is imported. ``None`` for anything
-    else (numbers, lists, arrays, objects of other libraries).
+    Only ``__module__`` strings are read: nothing is imported. For an object, any class of a known
+    library's module counts (so that an unsupported class of GTSAM, say, gets an error naming it);
+    for a class, only the supported ones (:data:`LIBRARY_OBJECTS`). ``None`` for anything else
+    (numbers, lists, arrays, objects of other libraries). :func:`liebridge.interop.library_key`
+    is this function.
     """
-    cls = type(x)
+    if isinstance(obj, type):
+        key = (obj.__module__.partition(".")[0], obj.__name__)
+        return key if key in LIBRARY_OBJECTS else None
+    cls = type(obj)
     root = cls.__module__.partition(".")[0]
     return (root, cls.__name__) if root in _LIBRARY_ROOTS else None
 
@@ -131,17 +137,22 @@ def _library_matrix(x: Any, key: tuple[str, str], name: str) -> Any:
     return value() if kind == "method" else value
 
 
+def _object_key(x: Any) -> tuple[str, str] | None:
+    """:func:`library_key` of an object (a class is not a pose: None)."""
+    return None if isinstance(x, type) else library_key(x)
+
+
 def _library_array(x: Any, name: str) -> Any:
     """``x`` as an array if it is (a list/tuple of) known library objects, else ``x`` itself."""
-    key = library_key(x)
+    key = _object_key(x)
     if key is not None:
         return _library_matrix(x, key, name)
     if type(x) in (list, tuple) and x:
-        key = library_key(x[0])
+        key = _object_key(x[0])
         if key is not None:
             mats = []
             for k, item in enumerate(x):
-                if library_key(item) != key:
+                if _object_key(item) != key:
                     raise TypeError(
                         f"{name}: item {k} is a {type(item).__name__}, item 0 a "
                         f"{key[0]}.{key[1]}: a sequence of poses holds one type"

@@ -39,6 +39,7 @@ from typing import Any
 import numpy as np
 
 from . import _validate as validate
+from ._validate import library_key
 
 __all__ = ["SUPPORTED", "from_library", "library_key", "to_library"]
 
@@ -70,18 +71,6 @@ _BUILD: dict[tuple[str, str], tuple[str, str, bool]] = {
 SUPPORTED: tuple[tuple[str, str], ...] = tuple(validate.LIBRARY_OBJECTS)
 
 _E3 = np.array([0.0, 0.0, 1.0])
-
-
-def library_key(obj: Any) -> tuple[str, str] | None:
-    """Return ``(module root, class name)`` of a known library's object or class, else ``None``.
-
-    Reads ``type(obj).__module__`` only (``obj.__module__`` for a class): nothing is imported.
-    """
-    if isinstance(obj, type):
-        root = obj.__module__.partition(".")[0]
-        key = (root, obj.__name__)
-        return key if key in validate.LIBRARY_OBJECTS else None
-    return validate.library_key(obj)
 
 
 def from_library(obj: Any, name: str = "obj") -> validate.FloatArray:

@@ -114,7 +114,10 @@ CASES = [
     Case(
         "nan-jacobian",
         lambda: lb.convert_jacobian(
-            with_entry(batch(I6), (1, 0, 0), np.nan), "gtsam", "sophus", at_input=T0
+            with_entry(batch(I6), (1, 0, 0), np.nan),
+            T0,
+            "gtsam",
+            "sophus",
         ),
         r"J: contains NaN or Inf at batch index \(1,\), entry \(0, 0\)",
     ),
@@ -170,12 +173,12 @@ CASES = [
     ),
     Case(
         "shape-jacobian-vector",
-        lambda: lb.convert_jacobian(np.zeros(6), "gtsam", "sophus", at_input=T0),
+        lambda: lb.convert_jacobian(np.zeros(6), T0, "gtsam", "sophus"),
         r"J: expected shape \(\.\.\., m, n\), got \(6,\)",
     ),
     Case(
         "shape-jacobian-columns",
-        lambda: lb.convert_jacobian(np.zeros((6, 5)), "gtsam", "sophus", at_input=T0),
+        lambda: lb.convert_jacobian(np.zeros((6, 5)), T0, "gtsam", "sophus"),
         r"J: 5 columns, but the input tangent has 6",
     ),
     Case(
@@ -207,7 +210,7 @@ CASES = [
     ),
     Case(
         "batch-jacobian",
-        lambda: lb.convert_jacobian(batch(I6, 3), "gtsam", "sophus", at_output=batch(T0, 2)),
+        lambda: lb.convert_jacobian(batch(I6, 3), None, "gtsam", "sophus", at_output=batch(T0, 2)),
         r"batch shapes do not broadcast: J \(3,\), at_output \(2,\)",
     ),
     Case(

@@ -1,4 +1,4 @@
-"""Smoke run of ``benchmarks/bench_files.py --quick`` (issue 23, files): it runs, rows agree."""
+"""Smoke run of ``benchmarks/bench_files.py --quick``: it runs, rows agree."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Smoke run of ``benchmarks/bench_speed.py --quick`` (issue 23 rows): it runs, rows agree."""
+"""Smoke run of ``benchmarks/bench_speed.py --quick``: it runs, rows agree."""
 
 from __future__ import annotations
 

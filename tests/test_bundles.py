@@ -75,7 +75,7 @@ def test_covariance_information_jacobian(a: Bundle, b: Bundle) -> None:
     info = lb.convert_information(np.linalg.inv(S), X, a, b)
     np.testing.assert_allclose(info @ lin, np.eye(a.dim()), atol=1e-7)
     J = rng.normal(size=(2, a.dim()))
-    Jb = lb.convert_jacobian(J, a, b, at_input=X)
+    Jb = lb.convert_jacobian(J, X, a, b)
     np.testing.assert_allclose(Jb @ lb.tangent_map(X, a, b), J, atol=1e-10)
 
 

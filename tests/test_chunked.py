@@ -1,4 +1,4 @@
-"""Issue 23, huge batches: the unscented covariance conversion runs in bounded memory (chunks).
+"""The unscented covariance conversion runs in bounded memory (chunks).
 
 Chunked results equal unchunked ones (same arithmetic per element; tolerance only for BLAS
 blocking), peak memory does not grow with the batch, and a bad element is named by its index in

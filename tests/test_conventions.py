@@ -154,7 +154,7 @@ def test_unknown_name_suggests_closest():
         C.get(3)
 
 
-def test_names_cover_the_issue_list():
+def test_names_cover_the_required_presets():
     required = """gtsam gtsam_cayley sophus manif pinocchio pinocchio_r3xso3 jaxlie theseus pypose
     barfoot pytransform3d_global pytransform3d_local symforce ceres_quaternion
     ceres_eigen_quaternion ceres_pose g2o g2o_expmap ros mr_body mr_space""".split()

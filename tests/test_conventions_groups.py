@@ -358,7 +358,7 @@ def test_convert_jacobian_matches_finite_differences_in_both_conventions(
     Y = f(X)
     J_src = numerical_jacobian(f, X, in_convention=a, out_convention=a)
     J_dst = numerical_jacobian(f, X, in_convention=b, out_convention=b)
-    conv = lb.convert_jacobian(J_src, a, b, at_input=X, at_output=Y)
+    conv = lb.convert_jacobian(J_src, X, a, b, at_output=Y)
     if b.embed is not None:  # the extra ROS coordinates do not move the pose: zero columns/rows
         keep = list(b.embed.index)
         J_dst = J_dst[np.ix_(keep, keep)]

@@ -86,7 +86,11 @@ def test_round_trips_are_identity(src):
     np.testing.assert_allclose(back, d, atol=1e-12)
     J = np.random.default_rng(9).normal(size=(6, 6))
     Jb = lb.convert_jacobian(
-        lb.convert_jacobian(J, src, dst, at_input=X, at_output=X), dst, src, at_input=X, at_output=X
+        lb.convert_jacobian(J, X, src, dst, at_output=X),
+        X,
+        dst,
+        src,
+        at_output=X,
     )
     np.testing.assert_allclose(Jb, J, atol=1e-11)
 
@@ -159,7 +163,7 @@ def test_convert_jacobian_of_composition():
 
     J_g = numerical_jacobian(f, X, retract=C.GTSAM.retract, local=C.GTSAM.local)
     J_b = numerical_jacobian(f, X, retract=C.BARFOOT.retract, local=C.BARFOOT.local)
-    J_conv = lb.convert_jacobian(J_g, "gtsam", "barfoot", at_input=X, at_output=f(X))
+    J_conv = lb.convert_jacobian(J_g, X, "gtsam", "barfoot", at_output=f(X))
     np.testing.assert_allclose(J_conv, J_b, atol=1e-7)
 
     # columns only: output a vector (the translation of f)
@@ -168,9 +172,7 @@ def test_convert_jacobian_of_composition():
 
     Jg = numerical_jacobian(g, X, retract=C.GTSAM.retract, out_local="euclidean")
     Js = numerical_jacobian(g, X, retract=C.SOPHUS.retract, out_local="euclidean")
-    np.testing.assert_allclose(
-        lb.convert_jacobian(Jg, "gtsam", "sophus", at_input=X), Js, atol=1e-7
-    )
+    np.testing.assert_allclose(lb.convert_jacobian(Jg, X, "gtsam", "sophus"), Js, atol=1e-7)
 
 
 def test_batched_conversions():
@@ -237,7 +239,7 @@ def test_numerical_jacobian_convention_shorthand():
     J2 = numerical_jacobian(f, X, retract=C.SOPHUS.retract, out_local=C.BARFOOT.local)
     np.testing.assert_array_equal(J1, J2)
     np.testing.assert_allclose(
-        lb.convert_jacobian(J1, "sophus", "gtsam", at_input=X),
+        lb.convert_jacobian(J1, X, "sophus", "gtsam"),
         numerical_jacobian(f, X, retract=C.GTSAM.retract, out_local=C.BARFOOT.local),
         atol=1e-7,
     )

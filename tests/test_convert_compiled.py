@@ -121,7 +121,7 @@ def test_all_preset_pairs_agree_with_numpy_at_edge_poses(src: str, dst: str) -> 
         lambda: lb.tangent_map(X, src, dst),
         lambda: lb.convert_covariance(C, X, src, dst),
         lambda: lb.convert_information(C, X, src, dst),
-        lambda: lb.convert_jacobian(J, src, dst, at_input=X, at_output=X[::-1].copy()),
+        lambda: lb.convert_jacobian(J, X, src, dst, at_output=X[::-1].copy()),
     ):
         _close(*_both(fn))
 
@@ -146,8 +146,8 @@ def test_batch_shapes(shape: tuple[int, ...], src: str, dst: str) -> None:
         lambda: lb.tangent_map(X, src, dst),
         lambda: lb.convert_covariance(C, X, src, dst),
         lambda: lb.convert_information(C, X, src, dst),
-        lambda: lb.convert_jacobian(Jin, src, dst, at_input=X),
-        lambda: lb.convert_jacobian(Jout, src, dst, at_output=X),
+        lambda: lb.convert_jacobian(Jin, X, src, dst),
+        lambda: lb.convert_jacobian(Jout, None, src, dst, at_output=X),
     ):
         a, b = _both(fn)
         assert a.shape == b.shape
@@ -165,7 +165,7 @@ def test_rotations_with_pose_conventions(src: str, dst: str) -> None:
         lambda: lb.tangent_map(R, src, dst),
         lambda: lb.convert_covariance(C, R, src, dst),
         lambda: lb.convert_information(C, R, src, dst),
-        lambda: lb.convert_jacobian(C, src, dst, at_input=R, at_output=R),
+        lambda: lb.convert_jacobian(C, R, src, dst, at_output=R),
     ):
         _close(*_both(fn))
 
@@ -216,7 +216,7 @@ def test_inputs_are_not_mutated() -> None:
     lb.tangent_map(X, "gtsam", "barfoot")
     lb.convert_covariance(C, X, "gtsam", "barfoot")
     lb.convert_information(C, X, "gtsam", "ros")
-    lb.convert_jacobian(J, "gtsam", "ros", at_input=X, at_output=X)
+    lb.convert_jacobian(J, X, "gtsam", "ros", at_output=X)
     assert (X.tobytes(), C.tobytes(), J.tobytes()) == (Xb, Cb, Jb)
     Xr = np.require(X, requirements=["C"])
     Xr.flags.writeable = False  # read-only input is fine
@@ -288,8 +288,8 @@ def test_bad_input_gives_the_same_error(what: str, X: np.ndarray, C: np.ndarray)
     if what not in ("asymmetric", "not PSD", "NaN cov", "overflow"):  # X itself is bad
         calls += [
             lambda: lb.tangent_map(X, "gtsam", "barfoot"),
-            lambda: lb.convert_jacobian(J, "gtsam", "ros", at_input=X),
-            lambda: lb.convert_jacobian(J.swapaxes(-1, -2), "gtsam", "ros", at_output=X),
+            lambda: lb.convert_jacobian(J, X, "gtsam", "ros"),
+            lambda: lb.convert_jacobian(J.swapaxes(-1, -2), None, "gtsam", "ros", at_output=X),
         ]
     raised = 0
     for fn in calls:
@@ -336,8 +336,10 @@ def test_bad_input_messages_name_index_and_size() -> None:
 OVERFLOW_CALLS = {
     "convert_covariance": lambda C, X: lb.convert_covariance(C, X, "gtsam", "barfoot"),
     "convert_information": lambda C, X: lb.convert_information(C, X, "gtsam", "barfoot"),
-    "convert_jacobian": lambda C, X: lb.convert_jacobian(C, "gtsam", "barfoot", at_input=X),
-    "convert_jacobian_out": lambda C, X: lb.convert_jacobian(C, "gtsam", "barfoot", at_output=X),
+    "convert_jacobian": lambda C, X: lb.convert_jacobian(C, X, "gtsam", "barfoot"),
+    "convert_jacobian_out": lambda C, X: lb.convert_jacobian(
+        C, None, "gtsam", "barfoot", at_output=X
+    ),
 }
 
 

@@ -302,7 +302,7 @@ CONVERT = {
     ),
     "convert_information": (lb.convert_information, ["cov6", "pose"]),
     "convert_jacobian": (
-        lambda J, X, a, b: lb.convert_jacobian(J, a, b, at_input=X, at_output=X),
+        lambda J, X, a, b: lb.convert_jacobian(J, X, a, b, at_output=X),
         ["jac", "pose"],
     ),
 }

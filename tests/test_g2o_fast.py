@@ -1,4 +1,4 @@
-"""Issue 23, files: g2o readers parse well-formed files with ``numpy.loadtxt``, one pass per tag.
+"""The g2o readers parse well-formed files with ``numpy.loadtxt``, one pass per tag.
 
 The fast path (``_read_tables``) must return what the line-by-line reader (``_read_lines``, the
 reference) returns — values, order, information matrices, FIX ids — and any file it cannot take
@@ -178,7 +178,7 @@ def test_no_vertex_lines_chains_the_odometry_on_both_paths(tmp_path: Path) -> No
 
 
 def test_chunk_boundaries(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
-    """Chunked conversions and checks (issue 23) give the unchunked result: chunks of 7 rows."""
+    """Chunked conversions and checks give the unchunked result: chunks of 7 rows."""
     whole = g2o.read(_data("sphere2500.txt"))
     path = _write(tmp_path, _graph_lines(40))
     ref = g2o._read_lines(path, "g2o", "sqrt_information")
@@ -441,7 +441,7 @@ def test_empty_and_comment_only_files_give_empty_graphs_on_both_paths(
     _same_2d(fast2, g2o2d._read_lines(path, "auto"))
 
 
-# ----------------------------------------------- EDGE3 only (TORO / iSAM layout), issue 23
+# ----------------------------------------------- EDGE3 only (TORO / iSAM layout)
 def _edge3(i: int, j: int, rng: np.random.Generator, S: Any = None, big: bool = False) -> str:
     """An ``EDGE3`` line: translation, roll pitch yaw (pitch away from ±π/2), 21 numbers."""
     rpy = rng.uniform(-np.pi, np.pi, size=3) * (1.0 if big else 0.2)

@@ -163,7 +163,7 @@ def test_the_kernels_agree_on_the_hard_case() -> None:
 
 
 def test_acceptance_40k_kitti_samples_equal_gtsam() -> None:
-    """Issue 16's acceptance on 40,000 KITTI samples: ΔR, Δv, Δp (relative), Σ to 1e-9."""
+    """The acceptance on 40,000 KITTI samples: ΔR, Δv, Δp (relative), Σ to 1e-9."""
     if not _imu_kernel.COMPILED:
         pytest.skip("compiled kernel not built (the Python loop would take minutes)")
     n = 40_000

@@ -106,7 +106,11 @@ POSE_FUNCS: dict[str, Callable[[Any], Any]] = {
     ),
     "convert_information": lambda X: lb.convert_information(np.linalg.inv(COV), X, "gtsam", "ros"),
     "convert_jacobian": lambda X: lb.convert_jacobian(
-        np.eye(6), "gtsam", "sophus", at_input=X, at_output=X
+        np.eye(6),
+        X,
+        "gtsam",
+        "sophus",
+        at_output=X,
     ),
     "Chart.retract": lambda X: lb.conventions.get("sophus").retract(X, np.full(6, 0.1)),
     "Chart.local": lambda X: lb.conventions.get("barfoot").local(X, T1),

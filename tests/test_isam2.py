@@ -314,7 +314,7 @@ def test_bench_isam2_quick_writes_the_expected_json(tmp_path: Path) -> None:
 
 
 def test_keys_at_or_above_2_63_work_like_the_optimizers() -> None:
-    """Issue 21's class 2 for the incremental path: GTSAM keys are uint64, 2**63 and above too."""
+    """Keys at or above 2**63 on the incremental path: GTSAM keys are uint64."""
     import gtsam
     import numpy as np
 

@@ -1,4 +1,4 @@
-"""Issue 23: the damped system is built by sharing the linear factors and a cached damping graph.
+"""The damped system is built by sharing the linear factors and a cached damping graph.
 
 The damping graph holds one ``√λ·I`` factor per variable of the graph's *own* dimension; a graph
 mixing ``Pose3`` (6) and ``Point3`` (3) variables exercises both sizes. The property is the one

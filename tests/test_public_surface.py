@@ -216,3 +216,75 @@ def test_batch_names_and_commands():
             + (["--dst-dir", "d"] if cmd == "convert" else [])
         )  # fmt: skip
         assert (args.engine, args.jobs, args.scheduler) == ("dask", 2, "tcp://h:8786")
+
+
+# ---- one public spelling -----------------------------------------------------------------------
+
+FLOOR_PACKAGES = (
+    "lie",
+    "conventions",
+    "uncertain",
+    "io",
+    "check",
+    "frames",
+    "traj",
+    "gtsam",
+    "imu",
+    "ros",
+)
+OLD_PATHS = {
+    "factors": "liebridge.factors",
+    "adapters": "liebridge.adapters",
+    "g2o": "liebridge.io.g2o",
+    "poses": "liebridge.io.poses",
+    "trajectory_io": "liebridge.io.trajectory",
+    "gtsam_glue": "liebridge.gtsam.glue",
+}
+
+
+@pytest.mark.parametrize("name", FLOOR_PACKAGES)
+def test_floor_packages_are_top_level_attributes(name):
+    assert getattr(lb, name) is importlib.import_module(f"liebridge.{name}")
+    assert name in dir(lb)
+
+
+@pytest.mark.parametrize("name", sorted(OLD_PATHS))
+def test_old_paths_keep_working_and_say_so(name):
+    mod = getattr(lb, name)
+    assert mod is importlib.import_module(OLD_PATHS[name])
+    doc = mod.__doc__ or ""
+    assert sum("Old path:" in line and f"lb.{name}" in line for line in doc.splitlines()) == 1
+
+
+def test_import_liebridge_does_not_import_gtsam_or_the_lazy_floors():
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, liebridge; "
+        "print(sorted(m for m in ('gtsam', 'liebridge.gtsam', 'liebridge.ros', 'liebridge.traj',"
+        " 'liebridge.frames', 'rosbags') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
+
+
+def test_readme_docs_and_examples_teach_the_floor_plan_spelling():
+    import re
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    old = re.compile(
+        r"\blb\.(factors|adapters|g2o|poses|trajectory_io|gtsam_glue|marginals|ConventionGraph|"
+        r"gtsam_convention)\b|\bliebridge\.(factors|adapters|g2o|poses|trajectory_io|gtsam_glue)\b|"
+        r"from liebridge import (factors|adapters|g2o|poses|trajectory_io|gtsam_glue)\b"
+    )
+    files = [root / "README.md", *sorted((root / "docs").rglob("*.md"))]
+    files += sorted((root / "examples").glob("*.py"))
+    hits = []
+    for f in files:  # a paragraph that names the old paths as such is allowed
+        for para in f.read_text(encoding="utf-8").split("\n\n"):
+            if "keep working" in para or "Old path" in para:
+                continue
+            hits += [f"{f.name}: {ln.strip()}" for ln in para.splitlines() if old.search(ln)]
+    assert not hits, "old spellings taught:\n" + "\n".join(hits)

@@ -1,4 +1,4 @@
-"""A newcomer's first hour (issue 22): option values, short reprs, exact zeros, help texts."""
+"""A newcomer's first hour: option values, short reprs, exact zeros, help texts."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The code in ``docs/bad-input.md`` runs, and its table lists every class of issue 21."""
+"""The code in ``docs/bad-input.md`` runs, and its table lists every class."""
 
 from __future__ import annotations
 

@@ -9,7 +9,7 @@ final error — to ``1e-6`` relative plus ``1e-9`` absolute (the two run the sam
 liebridge evaluates its own factors batched and in another floating-point order, so the last
 iterations may stop one step apart) — and return unused keys unchanged; or, when the graph is
 not valid for ``values``, liebridge raises one ``ValueError`` naming the key while GTSAM fails
-too. Class 5 of issue 21 (an unused key made the run "converge" at the initial values) is the
+too. Class 5 (an unused key made the run "converge" at the initial values) is the
 kind of bug this finds.
 """
 

@@ -1,4 +1,4 @@
-"""The compiled IMU kernel under AddressSanitizer and UBSan (issue 21, class 12).
+"""The compiled IMU kernel under AddressSanitizer and UBSan.
 
 An instrumented copy of ``liebridge/imu/_imu_ext.c`` is built into ``tmp_path`` with
 ``-fsanitize=address,undefined -fno-sanitize-recover=all`` (any report aborts) and exercised in a

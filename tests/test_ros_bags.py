@@ -198,9 +198,11 @@ def test_tum_export_full_precision(tmp_path: Path) -> None:
         s, ns = r[0].split(".")
         assert int(s) == m.stamp_sec[k] and int(ns) == m.stamp_nanosec[k]
         vals = np.array([float(x) for x in r[1:]])
-        assert np.array_equal(vals[:3], m.position[k]) and np.array_equal(
-            vals[3:], m.orientation_xyzw[k]
-        )
+        q = m.orientation_xyzw[k]
+        assert np.array_equal(vals[:3], m.position[k])  # the stored doubles, bit for bit
+        assert np.array_equal(vals[3:], q) or np.array_equal(vals[3:], -q)  # up to sign
+    q = np.array([[float(x) for x in r[4:]] for r in rows])
+    assert q[0, 3] >= 0 and (np.einsum("ij,ij->i", q[1:], q[:-1]) >= 0).all()  # the sign rule
 
 
 # ---- bad input -------------------------------------------------------------------------------

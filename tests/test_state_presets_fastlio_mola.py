@@ -1,4 +1,4 @@
-"""FAST-LIO's 23-dimensional state (S² gravity) and MOLA's preintegration chart (issue 16).
+"""FAST-LIO's 23-dimensional state (S² gravity) and MOLA's preintegration chart.
 
 * S²: GTSAM's ``Unit3`` (the real library) and MTK's ``S2`` (``S2_Bx``, ``boxplus``,
   ``boxminus`` transcribed from IKFoM_toolkit/mtk/types/S2.hpp) against ``Sphere``; round trips,

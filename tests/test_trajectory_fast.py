@@ -1,4 +1,4 @@
-"""Issue 23, files: ``read_tum``/``read_kitti`` parse in one ``numpy.loadtxt`` pass.
+"""``read_tum``/``read_kitti`` parse in one ``numpy.loadtxt`` pass.
 
 The fast path must give what the line-by-line reader gives (an oracle parsed here with
 ``float()`` per field), keep the precision-aware tolerances (quaternion norms, rotation blocks
@@ -72,7 +72,8 @@ def test_low_precision_within_its_tolerance_is_accepted(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("text", "match"),
     [
-        ("timestamp tx ty tz qx qy qz qw\n0 0 0 0 0 0 0 1\n", r":1: not a number"),
+        ("timestamp tx ty tz qx qy qz qw\n0 0 0 0 0 0 0 1\nx 0 0 0 0 0 0 1\n", r":3: not a number"),
+        ("x1.0 0 0 0 0 0 0 1\n0 0 0 0 0 0 0 1\n", r":1: not a number: 'x1.0'"),
         ("0 0 0 0 0 0 0 1\n0 0 0 0 0 0 1\n", r":2: expected 8 numbers"),
         ("0 0 0 0 0 0 0 1\n0 nan 0 0 0 0 0 1\n", r":2: NaN or Inf"),
         ("0 0 0 0 0 0 0 1\n0 0 0 x 0 0 0 1\n", r":2: not a number: 'x'"),
@@ -96,7 +97,7 @@ def test_kitti_equals_oracle_and_names_bad_rotation_line(tmp_path: Path) -> None
     lines = [_kitti_line(R, t) for R, t in zip(Rs, ts, strict=True)]
     path = tmp_path / "k.txt"
     path.write_text("\n".join(lines) + "\n")
-    T = tio.read_kitti(path)
+    T = tio.read_kitti(path).T
     want = np.array([[float(f) for f in ln.split()] for ln in lines]).reshape(-1, 3, 4)
     np.testing.assert_array_equal(T[:, :3, :], want)
     np.testing.assert_array_equal(T[:, 3], np.tile([0.0, 0, 0, 1], (20, 1)))
@@ -116,4 +117,4 @@ def test_empty_files(tmp_path: Path) -> None:
     path.write_text("# only a comment\n\n")
     t, T = tio.read_tum(path)
     assert t.shape == (0,) and T.shape == (0, 4, 4)
-    assert tio.read_kitti(path).shape == (0, 4, 4)
+    assert tio.read_kitti(path).T.shape == (0, 4, 4)

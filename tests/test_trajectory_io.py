@@ -27,13 +27,15 @@ def test_tum_write_read_round_trip(tmp_path: Path) -> None:
     assert np.array_equal(t2, t)  # repr: timestamps bit for bit
     assert np.array_equal(T2[:, :3, 3], T[:, :3, 3])  # and translations
     assert np.allclose(T2, T, atol=1e-15, rtol=0)  # rotation through a quaternion
-    # the file itself: one header comment, then 8 fields, quaternion xyzw with w >= 0
+    # the file itself: one header comment, then 8 fields, quaternion xyzw with the one sign rule:
+    # the first w >= 0, then each q_i . q_{i-1} >= 0 (hemisphere continuity)
     lines = p.read_text().splitlines()
     assert lines[0].startswith("#")
     fields = [ln.split() for ln in lines[1:]]
     assert all(len(f) == 8 for f in fields)
     q = np.array([[float(c) for c in f[4:8]] for f in fields])
-    assert (q[:, 3] >= 0).all()
+    assert q[0, 3] >= 0
+    assert (np.einsum("ij,ij->i", q[1:], q[:-1]) >= 0).all()
     R = Rotation.from_quat(q).as_matrix()  # scipy reads xyzw
     assert np.allclose(R, T[:, :3, :3], atol=1e-15, rtol=0)
     # writing what was read gives the same text
@@ -98,7 +100,7 @@ def test_kitti_round_trip_is_bit_exact(tmp_path: Path) -> None:
     T = random_poses(40, 3)
     p = tmp_path / "00.txt"
     tio.write_kitti(p, T)
-    T2 = tio.read_kitti(p)
+    T2 = tio.read_kitti(p).T
     assert np.array_equal(T2, T)
     rows = [[float(c) for c in ln.split()] for ln in p.read_text().splitlines()]
     assert np.array_equal(np.array(rows), T[:, :3, :].reshape(-1, 12))  # row-major 3x4
@@ -111,7 +113,7 @@ def test_kitti_reads_six_digit_file(tmp_path: Path) -> None:
     line = " ".join(f"{c:e}" for c in block.ravel())
     p = tmp_path / "gt.txt"
     p.write_text(line + "\n" + line + "\n")
-    T = tio.read_kitti(p)
+    T = tio.read_kitti(p).T
     assert T.shape == (2, 4, 4)
     assert np.allclose(T[0, :3, :3], R, atol=1e-6)
     assert np.array_equal(T[:, 3], np.tile([0, 0, 0, 1.0], (2, 1)))
@@ -139,4 +141,4 @@ def test_empty_files(tmp_path: Path) -> None:
     p.write_text("# nothing\n\n")
     t, T = tio.read_tum(p)
     assert t.shape == (0,) and T.shape == (0, 4, 4)
-    assert tio.read_kitti(p).shape == (0, 4, 4)
+    assert tio.read_kitti(p).T.shape == (0, 4, 4)

@@ -1,5 +1,7 @@
 """The conversion functions and file formats under the import path of earlier releases (a façade).
 
+Old path: ``lb.adapters`` keeps working; new code writes ``lb.conventions`` and ``lb.io``.
+
 The code lives in :mod:`liebridge.conventions` (``tangent_map``, ``convert_*``,
 ``is_exactly_linear``) and :mod:`liebridge.io` (``g2o``, ``poses``, ``trajectory``).
 """

@@ -6,12 +6,14 @@ import argparse
 import os
 import re
 import sys
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any, NoReturn
 
 import numpy as np
 
 from .._validate import FloatArray
+from ..io.atomic import atomic_write, output_kind, refuse_same_file
 
 __all__ = [
     "CLIError",
@@ -22,6 +24,8 @@ __all__ = [
     "format_matrix",
     "need_matplotlib",
     "positive_int",
+    "save_figure",
+    "save_npy",
     "say",
     "tangent_label",
 ]
@@ -103,7 +107,7 @@ def _is(path: Path, test: str) -> bool:
     """``path.is_file()`` / ``is_dir()`` that answers False for names the OS cannot hold.
 
     A command's own full-precision output pasted back is longer than 255 characters: the OS
-    refuses it as a file name (``ENAMETOOLONG``), so it is numbers (issue 21, class 8).
+    refuses it as a file name (``ENAMETOOLONG``), so it is numbers.
     """
     try:
         return bool(getattr(path, test)())
@@ -114,7 +118,7 @@ def _is(path: Path, test: str) -> bool:
 def _load_npy(path: Path, text: str, what: str) -> Any:
     """``np.load`` after checking the header: real numbers, and no more data than the file holds.
 
-    A header may promise any shape; ``np.load`` would try to allocate it (issue 21, class 9).
+    A header may promise any shape; ``np.load`` would try to allocate it.
     """
     with open(path, "rb") as fh:
         try:
@@ -216,25 +220,38 @@ def array_argument(text: str, what: str) -> tuple[FloatArray, bool]:
     return _parse_numbers(text, what), False
 
 
-def check_output_path(text: str, what: str, suffixes: tuple[str, ...] | None = None) -> Path:
-    """Fail early (before a long computation) if ``text`` cannot be written."""
+def check_output_path(
+    text: str,
+    what: str,
+    suffixes: tuple[str, ...] | None = None,
+    *,
+    inputs: Iterable[str | os.PathLike[str] | None] = (),
+) -> Path:
+    """Fail early (before a long computation) if ``text`` cannot or must not be written.
+
+    Refused: a missing directory, a directory, a block device or socket, an unsupported suffix,
+    no write permission, and an output that is one of ``inputs`` (the
+    same file by path, hard link or symbolic link, or a path inside an input directory).
+    """
     path = Path(text)
-    parent = path.parent if str(path.parent) else Path(".")
-    if not parent.is_dir():
-        raise CLIError(f"{what}: directory {str(parent)!r} does not exist")
-    if path.is_dir():
-        raise CLIError(f"{what}: {text!r} is a directory")
     if suffixes is not None and path.suffix.lower() not in suffixes:
+        if path.is_dir():
+            raise CLIError(f"{what}: {text!r} is a directory")
         raise CLIError(
             f"{what}: unsupported file type {path.suffix or '(none)'!r} "
             f"(expected one of {', '.join(suffixes)})"
         )
-    existed = path.exists()
-    if existed and not path.is_file():  # a device or a FIFO: opening could block; ask instead
+    try:
+        kind = output_kind(path, what)
+        refuse_same_file(path, inputs, what)
+    except ValueError as exc:
+        raise CLIError(str(exc)) from None
+    if kind == "through":  # a device or a FIFO: opening could block; ask instead
         if not os.access(path, os.W_OK):
             raise CLIError(f"{what}: cannot write {text!r}: permission denied")
         return path
     # really try (permissions, read-only file systems, /proc): append mode changes nothing
+    existed = kind == "regular"
     try:
         with open(path, "ab"):
             pass
@@ -243,6 +260,25 @@ def check_output_path(text: str, what: str, suffixes: tuple[str, ...] | None = N
     if not existed:
         path.unlink(missing_ok=True)
     return path
+
+
+def save_figure(fig: Any, path: str | os.PathLike[str], dpi: int = 110) -> None:
+    """``fig.savefig`` through the one atomic-write helper (format from the suffix)."""
+    fmt = Path(path).suffix.lower().lstrip(".") or "png"
+    try:
+        with atomic_write(path, "wb", name="--plot") as fh:
+            fig.savefig(fh, format=fmt, dpi=dpi)
+    except ValueError as exc:
+        raise CLIError(str(exc)) from None
+
+
+def save_npy(path: str | os.PathLike[str], array: Any, what: str) -> None:
+    """``numpy.save`` through the one atomic-write helper."""
+    try:
+        with atomic_write(path, "wb", name=what) as fh:
+            np.save(fh, array)
+    except ValueError as exc:
+        raise CLIError(str(exc)) from None
 
 
 def need_matplotlib() -> Any:

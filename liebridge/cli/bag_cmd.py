@@ -70,7 +70,7 @@ def _export(args: argparse.Namespace) -> int:
     ros = _ros()
     conv = convention_arg(args.convention, "--convention")
     suffixes = {"tum": None, "g2o": (".g2o", ".txt"), "npz": (".npz",)}[args.to]
-    out = check_output_path(args.out, "OUT", suffixes)
+    out = check_output_path(args.out, "OUT", suffixes, inputs=[args.bag])
     if args.to == "tum":  # streamed: memory is one batch of messages, whatever the bag's size
         seen: list[Any] = []
 
@@ -142,7 +142,7 @@ def _write_marginals(args: argparse.Namespace) -> int:
     ros = _ros()
     inp = Path(args.input)
     is_g2o = inp.is_file() and inp.suffix.lower() in (".g2o", ".txt")
-    out = check_output_path(args.output, "OUT")
+    out = check_output_path(args.output, "OUT", inputs=[args.input, getattr(args, "bag", None)])
     ros.check_topic(args.out_topic, "--out-topic")  # before the optimization, not after
     if not (math.isfinite(args.prior_sigma) and args.prior_sigma > 0.0):
         raise CLIError(f"--prior-sigma: expected a finite number > 0, got {args.prior_sigma!r}")

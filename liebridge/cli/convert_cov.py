@@ -17,6 +17,7 @@ from .._validate import FloatArray
 from ..conventions import Convention, group_input
 from ..conventions.convert import convert_covariance, convert_information, is_exactly_linear
 from ..io import poses as layouts
+from ..io.atomic import atomic_write
 from ._common import (
     CLIError,
     array_argument,
@@ -24,6 +25,7 @@ from ._common import (
     convention_arg,
     format_matrix,
     option_value,
+    save_npy,
     tangent_label,
 )
 
@@ -129,7 +131,7 @@ def _run(args: argparse.Namespace) -> int:
     a, b = convention_arg(args.src, "--from"), convention_arg(args.dst, "--to")
     out_path = None
     if args.out is not None:
-        out_path = check_output_path(args.out, "--out")
+        out_path = check_output_path(args.out, "--out", inputs=[args.pose, args.cov])
     if args.information and args.method == "unscented":
         raise CLIError(
             "--method unscented applies to covariances; convert the inverse of the information "
@@ -173,10 +175,11 @@ def _run(args: argparse.Namespace) -> int:
     if out_path is None:
         print(text, end="")
     elif out_path.suffix.lower() == ".npy":
-        np.save(out_path, out)
+        save_npy(out_path, out, "--out")
         print(f"wrote {out_path} (shape {out.shape}) — {header[2][2:]}")
     else:
-        out_path.write_text(text, encoding="utf-8")
+        with atomic_write(out_path, "w", name="--out") as fh:
+            fh.write(text)
         print(f"wrote {out_path} — {header[2][2:]}")
     return 0
 

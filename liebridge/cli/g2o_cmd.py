@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import os
 from typing import Any
 
 import numpy as np
@@ -39,12 +38,8 @@ def _convert(args: argparse.Namespace) -> int:
     src, dst = args.information
     from .optimize import resolve_dataset
 
-    out = check_output_path(args.output, "OUT")
     inp = resolve_dataset(args.input, "IN")  # a file, or a name in GTSAM's example data
-    if out.exists() and (out.resolve() == inp.resolve() or os.path.samefile(out, inp)):
-        raise CLIError(
-            "OUT is the input file (the same file, or a link to it); write to another path"
-        )
+    out = check_output_path(args.output, "OUT", inputs=[inp])
     g = g2o_io.read(inp, information=src, edge3=args.edge3)
     g_out = dataclasses.replace(g, information_reading=dst)
     g2o_io.write(out, g_out)

@@ -31,6 +31,8 @@ from ._common import (
     convention_arg,
     need_matplotlib,
     option_value,
+    save_figure,
+    save_npy,
     say,
 )
 
@@ -207,7 +209,7 @@ def plot_trajectories(
         ax.legend(loc="upper left")
     fig.suptitle(title)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path)
     plt.close(fig)
 
 
@@ -216,10 +218,10 @@ def _run(args: argparse.Namespace) -> int:
     conv = convention_arg(args.convention, "--convention")
     plt = None
     if args.plot is not None:
-        check_output_path(args.plot, "--plot", _PLOT_SUFFIXES)
+        check_output_path(args.plot, "--plot", _PLOT_SUFFIXES, inputs=[args.file])
         plt = need_matplotlib()  # fail before the long part, not after
     if args.marginals is not None:
-        check_output_path(args.marginals, "--marginals", (".npy",))
+        check_output_path(args.marginals, "--marginals", (".npy",), inputs=[args.file])
     path = resolve_dataset(args.file)
 
     from ..io import g2o as g2o_io
@@ -291,7 +293,7 @@ def _run(args: argparse.Namespace) -> int:
             cov = cg.marginal_covariances(keys)
         except RuntimeError as exc:  # an ill-conditioned system at the optimum
             raise _gtsam_error(exc, "the marginal covariances") from None
-        np.save(args.marginals, cov)
+        save_npy(args.marginals, cov, "--marginals")
         sigma = position_sigma(cov, cg.poses(keys), conv)
         timings.append(f"marginals {time.perf_counter() - t0:.2f} s")
         print(

@@ -24,7 +24,7 @@ import numpy as np
 
 from .._validate import FloatArray
 from ..lie import se2
-from ._common import CLIError, check_connected, need_matplotlib, say
+from ._common import CLIError, check_connected, need_matplotlib, save_figure, save_npy, say
 
 #: σ of the gauge prior on the first vertex, in each of (vx, vy, ω).
 PRIOR_SIGMA = 1e-4
@@ -138,7 +138,7 @@ def plot_2d(
         axes[1].legend(loc="best")
     fig.suptitle(title)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path)
     plt.close(fig)
 
 
@@ -207,7 +207,7 @@ def run(args: argparse.Namespace, path: Path, params: Any, plt: Any, t_start: fl
         cov = convert_covariance(cov_gtsam, X, "gtsam_pose2", conv)
         timings.append(f"marginals {time.perf_counter() - t0:.2f} s")
         if args.marginals is not None:
-            np.save(args.marginals, cov)
+            save_npy(args.marginals, cov, "--marginals")
             print(f"marginals: {args.marginals} (shape {cov.shape}, {conv.name}'s tangent)")
     if args.plot is not None:
         t0 = time.perf_counter()

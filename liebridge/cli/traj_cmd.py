@@ -29,8 +29,15 @@ from ._common import (
     need_matplotlib,
     npy_argument,
     one_line,
+    save_figure,
     say,
 )
+
+
+def _inputs(args: argparse.Namespace) -> list[str | None]:
+    """List the files a ``traj`` command reads (REF, EST, ``--cov``): never overwritten."""
+    return [args.ref, args.est, getattr(args, "cov", None)]
+
 
 __all__ = ["add_parser"]
 
@@ -90,7 +97,7 @@ def _read(
         raise CLIError(f"{what}: {exc}") from None
     for w in caught:  # one line each on stderr, never Python's two-line warning format
         say(f"liebridge traj: warning: {what}: {one_line(str(w.message))}")
-    return out
+    return out.stamps, out.T
 
 
 def _prepare(
@@ -214,7 +221,7 @@ def _plot(
     ax.grid(True, alpha=0.3)
     fig.suptitle(f"liebridge traj {args.traj_command}: {args.est} vs {args.ref}", fontsize=9)
     fig.tight_layout()
-    fig.savefig(args.plot, dpi=110)
+    save_figure(fig, args.plot)
     plt.close(fig)
     say(f"wrote {args.plot}")
 
@@ -223,7 +230,7 @@ def _ape(args: argparse.Namespace) -> int:
     from .. import traj
 
     if args.plot:
-        check_output_path(args.plot, "--plot", (".png", ".pdf", ".svg"))
+        check_output_path(args.plot, "--plot", (".png", ".pdf", ".svg"), inputs=_inputs(args))
     p = _prepare(args)
     err = traj.ape(p.T_ref, p.T_aligned, args.pose_relation)
     result = {"metric": "ape", "pose_relation": args.pose_relation, **_stats_dict(err)}
@@ -238,7 +245,7 @@ def _rpe(args: argparse.Namespace) -> int:
     from .. import traj
 
     if args.plot:
-        check_output_path(args.plot, "--plot", (".png", ".pdf", ".svg"))
+        check_output_path(args.plot, "--plot", (".png", ".pdf", ".svg"), inputs=_inputs(args))
     if args.unit == "frames" and not float(args.delta).is_integer():
         raise CLIError(f"--delta: expected an integer for --unit frames, got {args.delta:g}")
     p = _prepare(args)
@@ -294,7 +301,7 @@ def _nees(args: argparse.Namespace) -> int:
 
     conv = convention_arg(args.convention, "--convention")
     if args.plot:
-        check_output_path(args.plot, "--plot", (".png", ".pdf", ".svg"))
+        check_output_path(args.plot, "--plot", (".png", ".pdf", ".svg"), inputs=_inputs(args))
     cov = npy_argument(args.cov, "--cov")
     if cov.ndim != 3 or cov.shape[1:] != (6, 6):
         raise CLIError(f"--cov: expected an array of shape (N, 6, 6), got {cov.shape}")

@@ -22,6 +22,7 @@ import functools
 import math
 import re
 import types
+import warnings
 from typing import Any, Literal
 
 import numpy as np
@@ -299,7 +300,7 @@ def convert_covariance(
     return validate.finite_output(out.reshape((*batch, *out.shape[1:])), "convert_covariance")
 
 
-#: Batch elements per pass of the unscented transform (issue 23: 10⁶ covariances at once needed
+#: Batch elements per pass of the unscented transform (10⁶ covariances at once needed
 #: ≈ 20 GB; in chunks of this size the peak is ≈ 20 kB × 4096 ≈ 80 MB, at the same speed).
 UNSCENTED_CHUNK = 4096
 
@@ -366,31 +367,64 @@ def convert_information(info: Any, X: Any, src: ConventionLike, dst: ConventionL
     return validate.finite_output(out, "convert_information")
 
 
+def _is_convention_like(x: Any) -> bool:
+    return isinstance(x, (str, Convention, Bundle, NavChart))
+
+
 def convert_jacobian(
     J: Any,
-    src: ConventionLike,
-    dst: ConventionLike,
+    X: Any = None,
+    src: Any = None,
+    dst: Any = None,
     *,
-    at_input: Any = None,
     at_output: Any = None,
+    at_input: Any = None,
 ) -> FloatArray:
     """Re-express a Jacobian ``J_out_in`` whose group input and/or output changes convention.
 
-    ``J_dst = M(Y) · J_src · M(X)⁻¹`` with ``M(·) = tangent_map(·, src, dst)``; pass ``at_input=X``
-    to convert the columns (a group input at ``X``), ``at_output=Y`` to convert the rows (a group
-    output at ``Y``), or both. ``None`` leaves that side as it is (a vector input or output).
+    ``J_dst = M(Y) · J_src · M(X)⁻¹`` with ``M(·) = tangent_map(·, src, dst)``: ``X`` (the group
+    input's point) converts the columns, ``at_output=Y`` (the group output's point) the rows.
+    ``None`` leaves that side as it is (a vector input or output). The argument order is the
+    conversions' family order ``f(value, X, src, dst)`` (:func:`convert_covariance`,
+    :func:`convert_tangent`).
 
     Parameters
     ----------
     J : array_like, shape (..., m, n)
+    X : array_like, shape (..., 4, 4) or (..., 3, 3), or None
+        The input point; None for a vector input.
     src, dst : Convention or str
-    at_input : array_like, shape (..., 4, 4) or (..., 3, 3), optional
     at_output : array_like, shape (..., 4, 4) or (..., 3, 3), optional
+        The output point; None for a vector output.
+    at_input : optional
+        Deprecated spelling of ``X`` (the order of earlier releases,
+        ``convert_jacobian(J, src, dst, at_input=X, at_output=Y)``, still works with a
+        ``DeprecationWarning``).
 
     Returns
     -------
     ndarray, shape (..., m, n)
     """
+    if dst is None and _is_convention_like(X) and _is_convention_like(src):
+        warnings.warn(
+            "convert_jacobian(J, src, dst, at_input=X) is the order of earlier releases; write "
+            "convert_jacobian(J, X, src, dst, at_output=Y)",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        X, src, dst = at_input, X, src
+    elif at_input is not None:
+        if X is not None:
+            raise TypeError("X: given twice (positionally and as at_input)")
+        warnings.warn(
+            "convert_jacobian(..., at_input=X) is deprecated; pass X second",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        X = at_input
+    if src is None or dst is None:
+        raise TypeError("convert_jacobian(J, X, src, dst): src and dst are required")
+    at_input = X
     if _convert_ext is not None and type(J) is np.ndarray and J.ndim >= 2:
         out = _jacobian_compiled(J, src, dst, at_input, at_output)
         if out is not None:

@@ -1,5 +1,7 @@
 """GTSAM factors in any convention, the optimizer and IMU preintegration (a façade).
 
+Old path: ``lb.factors`` keeps working (earlier releases); new code writes ``lb.gtsam``, ``lb.imu``.
+
 The code lives in :mod:`liebridge.gtsam` (``between``, ``prior``, ``optimize``) and
 :mod:`liebridge.imu` (``preintegrate``, ``preintegrate_windows``, ``ImuPreintegrator``, ``imu``,
 ``imu_kernel``); this module re-exports it under the import path of earlier releases.

@@ -1,5 +1,7 @@
 """GTSAM glue: ``gtsam.Pose3`` and ``gtsam.Values`` ↔ batched ``(..., 4, 4)`` arrays.
 
+Old path: also reachable as ``lb.gtsam_glue`` (earlier releases); new code writes ``lb.gtsam``.
+
 The array side is liebridge's canonical form: ``T = [[R, t], [0, 1]]``, float64, the same matrix
 ``gtsam.Pose3.matrix()`` returns (GTSAM's ``Pose3`` *is* the canonical convention: right
 perturbation, tangent ``(ω, v)``). Nothing here changes a convention; it moves data.
@@ -28,6 +30,8 @@ import numpy as np
 
 from .. import _validate as validate
 from .._validate import FloatArray
+from ..lie import se3, so3
+from ..uncertain import UncertainPose
 from .groups import GTSAM_GROUPS, gtsam_group
 
 __all__ = [
@@ -197,16 +201,31 @@ def from_values_pose3(values: Any, keys: Any) -> FloatArray:
 GROUPS = GTSAM_GROUPS
 
 
-def to_gtsam(X: Any, group: str) -> Any:
+def to_gtsam(X: Any, group: str | None = None) -> Any:
     """Build the GTSAM object of ``group`` from one matrix, or a list from a batch ``(N, n, n)``.
+
+    The one ``to_gtsam`` of liebridge (``liebridge.gtsam.uncertain.to_gtsam`` is this function;
+    ``G2OGraph.to_gtsam`` is a method building a whole graph).
 
     Parameters
     ----------
-    X : array_like, shape (n, n) or (N, n, n)
+    X : array_like, shape (n, n) or (N, n, n), or UncertainPose
         Elements as liebridge's matrices (see :data:`GROUPS`), validated (a rotation block must be
-        orthonormal, a scale positive, the constant rows exact).
+        orthonormal, a scale positive, the constant rows exact). An
+        :class:`~liebridge.uncertain.UncertainPose` gives ``(object, covariance)``: the
+        ``gtsam.Pose3`` or ``gtsam.Rot3`` (a list for a batch) and its covariance in GTSAM's
+        tangent ``(ω, v)`` — what ``gtsam.noiseModel.Gaussian.Covariance`` takes for a
+        ``PriorFactorPose3`` on that pose.
     group : {"se3", "so3", "se2", "so2", "sim3", "se23"}
+        Required for arrays; for an UncertainPose it is implied (``"so3"`` or ``"se3"``).
     """
+    if isinstance(X, UncertainPose):
+        implied = (so3.GROUP if X.is_rotation else se3.GROUP).name
+        if group is not None and group != implied:
+            raise ValueError(f"group: {group!r} given for an UncertainPose of {implied!r}")
+        return to_gtsam(X.T, implied), np.array(X.gtsam_cov())
+    if group is None:
+        raise TypeError(f"group: required for an array X (one of {tuple(GROUPS)})")
     rec = gtsam_group(group)
     n, make = rec.group.matrix, rec.to_object
     arr = rec.group.element(X, "X")

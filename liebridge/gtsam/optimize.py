@@ -81,10 +81,9 @@ class _Damping:
 
     Only the graph's keys are damped: a key of ``values`` that no factor uses is not in the
     elimination ordering, and GTSAM's LM returns it unchanged (a damping prior on it made every
-    solve fail, and the run "converge" at the initial values — issue 21, class 5).
+    solve fail, and the run "converge" at the initial values).
     Cached per λ as one ``GaussianFactorGraph``, appended to the linear system in one call (one
-    ``push_back`` per factor and a deep ``clone`` per try cost ≈ 20 % of a sphere2500 run,
-    issue 23).
+    ``push_back`` per factor and a deep ``clone`` per try cost ≈ 20 % of a sphere2500 run).
     """
 
     def __init__(
@@ -273,7 +272,7 @@ class _LMSettings:
 
 
 def _lm_settings(params: Any) -> _LMSettings:
-    """Read and validate ``params`` before any work (issue 21, classes 11 and 13).
+    """Read and validate ``params`` before any work.
 
     Every value that could make the damping loop spin forever (λ NaN, ≤ 0 or infinite, a factor
     ≤ 1, bounds that cannot hold) or never stop (NaN tolerances) is a ``ValueError``; a parameter

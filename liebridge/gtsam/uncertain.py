@@ -20,6 +20,7 @@ import numpy as np
 from .._validate import FloatArray
 from ..conventions import ConventionLike, get, tangent_map
 from ..uncertain import UncertainPose
+from .glue import to_gtsam
 
 __all__ = ["joint_marginal", "marginal", "to_gtsam"]
 
@@ -80,15 +81,3 @@ def joint_marginal(
     B = UncertainPose(Tb, 0.5 * (cbb + cbb.T), "gtsam").to(c)
     cross = tangent_map(Ta, "gtsam", c) @ cab @ tangent_map(Tb, "gtsam", c).T
     return A, B, np.asarray(cross, dtype=np.float64)
-
-
-def to_gtsam(A: UncertainPose) -> tuple[Any, FloatArray]:
-    """One uncertain pose as ``(gtsam.Pose3 or gtsam.Rot3, covariance in GTSAM's tangent)``.
-
-    The covariance is what ``gtsam.noiseModel.Gaussian.Covariance`` takes for a
-    ``PriorFactorPose3`` on that pose.
-    """
-    if A.batch_shape:
-        raise ValueError(f"A: expected one pose, got batch shape {A.batch_shape} (index it)")
-    obj = gtsam.Rot3(np.array(A.T)) if A.is_rotation else gtsam.Pose3(np.array(A.T))
-    return obj, np.array(A.gtsam_cov())

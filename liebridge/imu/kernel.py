@@ -73,7 +73,7 @@ from typing import Any
 import numpy as np
 
 from .._validate import FloatArray
-from ..lie import series
+from ..lie import series, so3
 from .inputs import Params
 
 __all__ = [
@@ -158,11 +158,6 @@ def thread_workspace() -> Workspace:
 # small 3×3 helpers
 
 
-def hat(x: FloatArray) -> FloatArray:
-    """Single-vector skew matrix ``[x]×`` (no validation)."""
-    return np.array([[0.0, -x[2], x[1]], [x[2], 0.0, -x[0]], [-x[1], x[0], 0.0]])
-
-
 _NEXT, _PREV = np.array([1, 2, 0]), np.array([2, 0, 1])
 
 
@@ -175,8 +170,8 @@ def _sum_hat_times(M: FloatArray) -> FloatArray:
 
 
 _I3 = np.eye(3)
-#: [e_b]× as a (9, 3) map: ``hat(x).ravel() = _HAT9 @ x``
-_HAT9 = np.stack([hat(e).ravel() for e in np.eye(3)], axis=1)
+#: [e_b]× as a (9, 3) map: ``so3.hat(x).ravel() = _HAT9 @ x``
+_HAT9 = np.stack([so3.hat(e).ravel() for e in np.eye(3)], axis=1)
 #: sign pattern of the gyroscope covariance's V-sums (−1 between the rotation and the rest)
 _SIGN9 = np.ones((9, 9))
 _SIGN9[3:9, 0:3] = _SIGN9[0:3, 3:9] = -1.0
@@ -606,7 +601,7 @@ def _c_buffer(x: FloatArray) -> FloatArray:
 
     ``np.ascontiguousarray`` keeps a misaligned view (e.g. ``np.frombuffer(b, offset=1)``) as it
     is; the C kernel reads doubles through the pointer, undefined behaviour when misaligned
-    (issue 21, class 12; the kernel itself refuses such a buffer).
+    (the kernel itself refuses such a buffer).
     """
     return np.require(x, dtype=np.float64, requirements=["C_CONTIGUOUS", "ALIGNED"])
 
@@ -725,9 +720,9 @@ def compose(d1: Delta, d2: Delta) -> Delta:
     R1, p1, v1, T2 = d1.R, d1.p, d1.v, d2.delta_t
     # transition of block 2 in body charts: blockdiag(R2ᵀ) [[I,0,0],[−[p2]×,I,T2 I],[−[v2]×,0,I]]
     F = np.eye(9)
-    F[3:6, 0:3] = -hat(d2.p)
+    F[3:6, 0:3] = -so3.hat(d2.p)
     F[3:6, 6:9] = T2 * np.eye(3)
-    F[6:9, 0:3] = -hat(d2.v)
+    F[6:9, 0:3] = -so3.hat(d2.v)
     F = _blockdiag3(d2.R.T) @ F
     cov = F @ d1.cov @ F.T + d2.cov
     J1, J2 = d1.J, d2.J
@@ -735,9 +730,9 @@ def compose(d1: Delta, d2: Delta) -> Delta:
     J = np.zeros((9, 6))
     J[0:3, 3:6] = d2.R.T @ D1 + J2[0:3, 3:6]
     J[3:6] = J1[3:6] + T2 * J1[6:9] + R1 @ J2[3:6]
-    J[3:6, 3:6] -= R1 @ hat(d2.p) @ D1
+    J[3:6, 3:6] -= R1 @ so3.hat(d2.p) @ D1
     J[6:9] = J1[6:9] + R1 @ J2[6:9]
-    J[6:9, 3:6] -= R1 @ hat(d2.v) @ D1
+    J[6:9, 3:6] -= R1 @ so3.hat(d2.v) @ D1
     return Delta(
         delta_t=d1.delta_t + T2,
         n=d1.n + d2.n,
@@ -757,7 +752,7 @@ def integrate_blocks(
     Raises
     ------
     ValueError
-        The inputs are finite but so large that the result is not (issue 21, class 6): the
+        The inputs are finite but so large that the result is not: the
         message gives the largest ``|acc|``, ``|gyro|``, ``dt`` and ``|bias|``.
     """
     n = dt.shape[0]

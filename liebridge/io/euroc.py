@@ -1,4 +1,4 @@
-"""EuRoC MAV ground truth (``state_groundtruth_estimate0/data.csv``), read and written.
+r"""EuRoC MAV ground truth (``state_groundtruth_estimate0/data.csv``), read and written.
 
 Comma-separated, one state per line, a ``#`` header line::
 
@@ -13,7 +13,11 @@ dataset (Burri et al., IJRR 2016) and its ``state_groundtruth_estimate0`` files;
 the same columns (``evo/tools/file_interface.py::read_euroc_csv_trajectory``).
 
 The integer nanoseconds are parsed exactly and converted to seconds as
-``ns // 10⁹ + (ns mod 10⁹)·1e-9``. Velocities and biases are returned as they are.
+``ns // 10⁹ + (ns mod 10⁹)·1e-9``; a stamp beyond int64 nanoseconds (|t| ≥ 2⁶³ ns ≈ 9.22e9 s,
+the year 2262) is refused, in reading and in writing, never wrapped. Velocities and biases are
+returned as they are (``Trajectory.extra``). ``\n``, ``\r\n`` and ``\r`` line ends all read.
+Writing goes through :func:`liebridge.io.atomic.atomic_write` with the TUM writers' quaternion
+sign rule (:func:`liebridge.io.trajectory.tum_quaternions`).
 """
 
 from __future__ import annotations
@@ -26,7 +30,9 @@ import numpy as np
 
 from .._validate import FloatArray
 from . import poses as _layouts
-from .sanity import check_quaternions, hemisphere_continuous
+from .atomic import atomic_write
+from .sanity import check_quaternions
+from .trajectory import Trajectory, read_text_bytes, tum_quaternions
 
 __all__ = ["HEADER", "read_euroc", "write_euroc"]
 
@@ -42,27 +48,28 @@ def _seconds(ns: np.ndarray[Any, np.dtype[np.int64]]) -> FloatArray:
     return np.asarray((ns // 10**9).astype(np.float64) + (ns % 10**9) * 1e-9, dtype=np.float64)
 
 
-def read_euroc(path: PathLike, *, check: bool = True) -> tuple[FloatArray, FloatArray, FloatArray]:
+#: Largest magnitude of an int64 nanosecond stamp.
+_INT64_MAX = 2**63 - 1
+
+
+def read_euroc(path: PathLike | int, *, check: bool = True) -> Trajectory:
     """Read a EuRoC ground-truth CSV.
 
     Returns
     -------
-    timestamps : ndarray, shape (N,)
-        Seconds.
-    poses : ndarray, shape (N, 4, 4)
-        ``T_world_body`` (quaternion normalised).
-    extra : ndarray, shape (N, K)
-        The columns after the quaternion (velocity, gyro and accelerometer biases: K = 9),
-        K = 0 for a pose-only file.
+    Trajectory
+        ``stamps`` (N,) seconds; ``T`` (N, 4, 4) ``T_world_body`` (quaternion normalised);
+        ``extra`` (N, K): the columns after the quaternion (velocity, gyro and accelerometer
+        biases: K = 9), K = 0 for a pose-only file. Unpacks as ``stamps, T``.
 
     Raises
     ------
     ValueError
-        Fewer than 8 columns, a field that is not a number, a quaternion norm off by more than
-        ``1e-3``, naming the file and line.
+        Fewer than 8 columns, a field that is not a number, a stamp that is not an integer or
+        lies beyond int64 nanoseconds, a quaternion norm off by more than ``1e-3``, naming the
+        file and line.
     """
-    with open(path, "rb") as fh:
-        raw = fh.read().replace(b"\r", b"")
+    raw = read_text_bytes(path)
     lines = raw.split(b"\n")
     body = [
         (k, ln) for k, ln in enumerate(lines, start=1) if ln.strip() and not ln.startswith(b"#")
@@ -83,6 +90,7 @@ def read_euroc(path: PathLike, *, check: bool = True) -> tuple[FloatArray, Float
         ns = np.loadtxt(_io.BytesIO(text), delimiter=",", usecols=0, dtype=np.int64, ndmin=1)
         data = np.loadtxt(_io.BytesIO(text), delimiter=",", ndmin=2, dtype=np.float64)
     except ValueError as exc:
+        _name_bad_stamp(path, body)
         raise ValueError(f"{path}: {exc} (rows count data lines, from 1)") from None
     if not np.isfinite(data).all():
         r = int(np.argwhere(~np.isfinite(data))[0, 0])
@@ -96,27 +104,59 @@ def read_euroc(path: PathLike, *, check: bool = True) -> tuple[FloatArray, Float
     if check:
         check_quaternions(q, "wxyz", t, source=str(path))
     x = np.concatenate([data[:, 1:4], q / np.linalg.norm(q, axis=-1, keepdims=True)], axis=-1)
-    return t, _layouts.to_matrix(x, layout="xyz_qwxyz"), np.ascontiguousarray(data[:, 8:])
+    T = _layouts.to_matrix(x, layout="xyz_qwxyz")
+    return Trajectory(t, T, source=str(path), extra=np.ascontiguousarray(data[:, 8:]))
 
 
-def write_euroc(path: PathLike, timestamps: Any, poses: Any) -> None:
-    """Write a pose-only EuRoC CSV (integer nanoseconds, ``wxyz``, hemisphere-continuous).
+def _name_bad_stamp(path: PathLike | int, body: list[tuple[int, bytes]]) -> None:
+    """Raise naming the first stamp that is not an integer within int64 nanoseconds, if any."""
+    for k, ln in body:
+        stamp = ln.split(b",", 1)[0].strip()
+        try:
+            ns_k = int(stamp)
+        except ValueError:
+            raise ValueError(
+                f"{path}:{k}: timestamp {stamp.decode(errors='replace')!r} is not an integer "
+                "number of nanoseconds"
+            ) from None
+        if abs(ns_k) > _INT64_MAX:
+            raise ValueError(
+                f"{path}:{k}: timestamp {ns_k} ns is beyond int64 nanoseconds (|t| ≥ 2^63 ns, "
+                f"{ns_k / 1e9:.4g} s); not representable"
+            )
+
+
+def write_euroc(path: PathLike | int, timestamps: Any, poses: Any = None) -> None:
+    """Write a pose-only EuRoC CSV (integer nanoseconds, ``wxyz``, the one sign rule).
 
     Parameters
     ----------
-    timestamps : array_like, shape (N,)
-        Seconds; rounded to the nearest nanosecond.
+    path : str, os.PathLike or int
+        Written through :func:`liebridge.io.atomic.atomic_write`.
+    timestamps : array_like, shape (N,), or Trajectory
+        Seconds; rounded to the nearest nanosecond. |t| ≥ 2⁶³ ns (≈ 9.22e9 s) is refused (an
+        int64 nanosecond stamp cannot hold it). A Trajectory supplies the poses too.
     poses : array_like, shape (N, 4, 4)
         ``T_world_body``.
     """
+    if isinstance(timestamps, Trajectory) and poses is None:
+        timestamps, poses = timestamps.stamps, timestamps.T
     t, T = _layouts.stamped_poses(timestamps, poses)
-    x = _layouts.from_matrix(T, layout="xyz_qwxyz")
-    x[:, 3:] = hemisphere_continuous(x[:, 3:])
+    big = np.flatnonzero(~(np.abs(t) < 9.2e9))
+    if big.size:
+        i = int(big[0])
+        raise ValueError(
+            f"timestamps: {big.size} of {t.size} beyond int64 nanoseconds (|t| < 9.2e9 s), "
+            f"first at batch index ({i},): {t[i]:.6g} s"
+        )
+    x = _layouts.from_matrix(T, layout="xyz_qxyzw")
+    q = tum_quaternions(x[:, 3:])
+    x = np.concatenate([x[:, :3], q[:, [3, 0, 1, 2]]], axis=-1)
     sec = np.floor(t)  # whole seconds apart: t·1e9 in one float would round to 256 ns at 1.4e9 s
     ns = sec.astype(np.int64) * 10**9 + np.round((t - sec) * 1e9).astype(np.int64)
-    with open(path, "w", encoding="utf-8") as fh:
+    with atomic_write(path, "w") as fh:
         fh.write(HEADER + "\n")
         fh.writelines(
-            f"{n}," + ",".join(repr(float(a)) for a in xi) + "\n"
-            for n, xi in zip(ns, x, strict=True)
+            f"{n}," + ",".join(repr(a) for a in xi) + "\n"
+            for n, xi in zip(ns.tolist(), x.tolist(), strict=True)
         )

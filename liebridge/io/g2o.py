@@ -1,5 +1,7 @@
 """g2o / TORO-iSAM pose-graph files with explicit information semantics.
 
+Old path: also reachable as ``lb.g2o`` (earlier releases); new code writes ``lb.io.g2o``.
+
 Read with :func:`read`, write with :func:`write`, hand to GTSAM with :meth:`G2OGraph.to_gtsam`.
 Inside, every information matrix is over **GTSAM's tangent** of the edge error,
 ``ξ = (ω, v) = Log(Z⁻¹·Ti⁻¹·Tj)`` (rotation first; what ``gtsam.BetweenFactorPose3`` whitens),
@@ -165,7 +167,7 @@ def _swap_blocks(A: FloatArray) -> FloatArray:
 def _symmetrised(A: FloatArray) -> FloatArray:
     """Return ``(A + Aᵀ)/2`` without overflow (halves first), exact where ``A`` is symmetric.
 
-    ``0.5·(A + Aᵀ)`` turns entries ≥ 9e307 into ``inf`` (issue 21, class 3), and halving a
+    ``0.5·(A + Aᵀ)`` turns entries ≥ 9e307 into ``inf``, and halving a
     subnormal loses its last bit, so entries that already equal their mirror are kept as they are.
     """
     At = np.swapaxes(A, -1, -2)
@@ -174,7 +176,7 @@ def _symmetrised(A: FloatArray) -> FloatArray:
 
 #: Entrywise factors of ``Λ_gtsam = Mᵀ Λ_g2o M`` after the block swap, in (ω, v) order: the
 #: rotation block /4, the cross blocks /2. Powers of two, applied entrywise: exact (no matmul
-#: that would turn ``-0.0`` into ``0.0`` or round), issue 21, class 4.
+#: that would turn ``-0.0`` into ``0.0`` or round).
 _G2O_TO_GTSAM_SCALE = np.block(
     [[np.full((3, 3), 0.25), np.full((3, 3), 0.5)], [np.full((3, 3), 0.5), np.ones((3, 3))]]
 )
@@ -190,7 +192,7 @@ def _ids(x: Any, name: str) -> KeyArray:
             raise ValueError(f"{name}: expected integer ids") from None
     elif not np.issubdtype(a.dtype, np.integer):
         raise ValueError(f"{name}: expected integer ids, got dtype {a.dtype}")
-    if a.dtype != object:  # integer arrays: checked in place (no Python int per id; issue 23)
+    if a.dtype != object:  # integer arrays: checked in place (no Python int per id)
         bad = a < 0 if a.dtype.kind == "i" else a > validate.MAX_KEY
         if not bad.any():
             return a.astype(np.uint64, copy=False)
@@ -216,7 +218,7 @@ def _triu_to_upper(vals: FloatArray) -> FloatArray:
     return m
 
 
-#: Rows per pass of the batched conversions and checks: bounds their temporaries (issue 23).
+#: Rows per pass of the batched conversions and checks: bounds their temporaries.
 _CHUNK = 1 << 15
 
 
@@ -309,7 +311,7 @@ class G2OGraph:
 
     @classmethod
     def _adopt(cls, **fields: Any) -> G2OGraph:
-        """Build from arrays the reader has just made and hands over (issue 23: not copied).
+        """Build from arrays the reader has just made and hands over (not copied).
 
         The same checks as the constructor; the arrays are made read-only in place instead of
         copied, so the reader's peak memory stays within 3× of the arrays returned.
@@ -495,7 +497,7 @@ def _unit_rows(x: FloatArray) -> FloatArray:
 
     A quaternion within :data:`_UNIT_NORM_SLACK` of unit norm is kept bit for bit (dividing
     again could flip its last bits); the others are divided by their norm. The reader and
-    :class:`G2OGraph` both apply it, so ``read(write(g))`` reproduces ``g`` (issue 21, class 4).
+    :class:`G2OGraph` both apply it, so ``read(write(g))`` reproduces ``g``.
     """
     norm = np.linalg.norm(x[:, 3:], axis=-1)
     off = np.abs(norm - 1.0) > _UNIT_NORM_SLACK
@@ -543,7 +545,7 @@ def read(
     Notes
     -----
     A well-formed file is parsed by ``numpy.loadtxt``, one pass per line type (:func:`read_tagged`;
-    issue 23: a 254 MiB file within 2× of ``loadtxt`` alone, memory within 3× of the arrays
+    a 254 MiB file within 2× of ``loadtxt`` alone, memory within 3× of the arrays
     returned). Anything unusual — a malformed line, a quaternion norm off by more than full
     precision allows and beyond the precision it was printed with, an id out of range, a
     duplicate vertex, a singular Euler chart, an information matrix that is not positive
@@ -726,7 +728,7 @@ def _name_bad_information(info: FloatArray) -> None:
 
 
 #: ``_swap_blocks(_triu_to_sym(nums))`` as one gather: the index into the 21 numbers of each
-#: entry of the (ω, v) matrix (the same values, moved; issue 23).
+#: entry of the (ω, v) matrix (the same values, moved).
 _SWAPPED_TRIU = _swap_blocks(_triu_to_sym(np.arange(21.0))).astype(np.intp).reshape(36)
 
 
@@ -790,7 +792,7 @@ def read_tagged(
     skip: Sequence[str] = (),
     sinks: dict[str, RowSink] | None = None,
 ) -> tuple[dict[str, _Table], list[int], dict[str, int]] | None:
-    """Parse a well-formed graph file with ``numpy.loadtxt``, one pass per tag (issue 23).
+    """Parse a well-formed graph file with ``numpy.loadtxt``, one pass per tag.
 
     ``columns[tag] = (n_ids, n_values)``: lines ``TAG id... value...``, the ids unsigned
     integers, the values finite floats. Returns ``(tables by tag, FIX ids, count of each tag
@@ -804,7 +806,7 @@ def read_tagged(
     usual layout), else picked out by :func:`itertools.compress`. Memory is the tables, never
     a copy of the file. The rows of a tag in ``sinks`` are instead parsed
     :data:`_STREAM_ROWS` at a time (``loadtxt`` on :func:`itertools.islice` of the tag's lines)
-    and handed to its :class:`RowSink` (issue 23: the table of the whole file is never held, and
+    and handed to its :class:`RowSink` (the table of the whole file is never held, and
     its memory is not touched twice); that tag's table then has ``values`` of width 0.
     """
     if not isinstance(path, str | os.PathLike):
@@ -1110,7 +1112,7 @@ def _read_edge3_only(
     return tables, [], {}
 
 
-# ---------------------------------------------------------------- EDGE3 fast path (issue 23)
+# ---------------------------------------------------------------- EDGE3 fast path
 
 
 class _Edge3Sink(RowSink):
@@ -1435,7 +1437,7 @@ def _chain_odometry(edges: KeyArray, measured: FloatArray) -> tuple[KeyArray, Fl
     :func:`_prefix_blocks` on ``(q, t)`` instead of one 4×4 product per vertex. ``None`` if
     the ids have a gap or a vertex has no odometry edge (the loop then raises its error).
     Returns ``(ids, "xyz_qxyzw" rows)`` (quaternions ``w ≥ 0``). Memory: a few columns of the
-    vertex count besides the result (issue 23: fresh memory is most of the cost).
+    vertex count besides the result (fresh memory is most of the cost).
     """
     lo, hi = int(edges.min()), int(edges.max())
     n = hi - lo  # steps: vertices lo + 1 .. hi

@@ -1,5 +1,7 @@
 """Pose layouts: flat vectors ↔ homogeneous ``(..., 4, 4)`` matrices, with the order explicit.
 
+Old path: also reachable as ``lb.poses`` (earlier releases); new code writes ``lb.io.poses``.
+
 Every layout names where the translation and the quaternion sit and the quaternion's storage
 order; liebridge never guesses it. All quaternions are Hamilton (see
 :mod:`liebridge.lie.quaternion`).

@@ -1,13 +1,23 @@
-"""Trajectory text files: TUM and KITTI, read and written at full float precision.
+r"""Trajectory text files: TUM and KITTI, read and written at full float precision.
+
+Old path: also reachable as ``lb.trajectory_io`` (earlier releases); new code writes ``lb.io``.
 
 TUM (TUM RGB-D benchmark, Sturm et al. 2012; also the format of ``evo``)
     One pose per line, ``timestamp tx ty tz qx qy qz qw``: the translation and the Hamilton
     quaternion, scalar **last** (layout ``"xyz_qxyzw"`` in :mod:`liebridge.io.poses`), of
-    ``T_world_body``. Lines starting with ``#`` (and anything after a ``#``) are comments; commas
-    and tabs separate like spaces (as the benchmark's ``associate.py`` accepts).
+    ``T_world_body``. ``#`` starts a comment (a whole line or the rest of one); commas and tabs
+    separate like spaces (as the benchmark's ``associate.py`` accepts); ``\n``, ``\r\n`` and
+    old-Mac ``\r`` line ends all read; a UTF-8 byte-order mark is skipped. A first line of
+    column **names** (every field a name such as ``timestamp tx ... qw``; with or without ``#``)
+    is a header: skipped, and if it names ``qw`` before ``qx`` the quaternion order is taken as
+    ``wxyz``. A first line with any number in it is data (``x1.0 0 0 0 0 0 0 1`` is an error
+    naming field 1, never a silently skipped header).
 KITTI (KITTI odometry ``poses/XX.txt``)
     One pose per line, 12 numbers: the top 3×4 block ``[R | t]`` of ``T_world_camera``,
-    row-major (layout ``"kitti"``). No timestamps.
+    row-major (layout ``"kitti"``). No timestamps: the frame index is the stamp.
+
+Every reader returns a :class:`Trajectory` (``stamps``, ``T``, ``cov``, ``frame_id``,
+``child_frame_id``, ``source``), which unpacks as ``stamps, T = read_tum(path)``.
 
 Reading validates every line: a wrong number of fields, a field that is not a number, NaN/Inf,
 a quaternion whose norm is off, or a rotation block that is not orthonormal raises ``ValueError``
@@ -16,11 +26,18 @@ printed with (:func:`liebridge.io.poses.text_quaternion_tol`,
 :func:`~liebridge.io.poses.text_rotation_tol`): a 4-decimal TUM ground truth loads, a
 ``repr``-precision file is held to ``1e-6``. Quaternions are normalised; KITTI rotation blocks are
 returned exactly as printed (project with :func:`liebridge.lie.so3.project` if you need them
-orthonormal to machine precision).
+orthonormal to machine precision). A well-formed file is parsed in one ``numpy.loadtxt`` pass; a
+second, per-line pass runs only to name a fault.
 
 Writing uses ``repr`` of every float (the shortest text that reads back to the same double), so
-KITTI files and TUM timestamps and translations round-trip bit for bit; TUM quaternions are
-written with ``w ≥ 0``.
+KITTI files and TUM timestamps and translations round-trip bit for bit. **The one quaternion sign
+rule** of every TUM writer (:func:`write_tum`, ``io.write_trajectory``, ``ros.write_tum``, ``bag
+export --to tum``): the first quaternion has ``w ≥ 0`` and each next one the sign that makes
+``q_i·q_{i−1} ≥ 0`` (hemisphere continuity), so component-wise interpolation and plots of the file
+behave; it is a function of the rotations alone (never of the sign a source happened to store).
+Tempting and false: "``w ≥ 0`` on every line" — that flips the sign wherever a trajectory turns
+through π. Every writer goes through :func:`liebridge.io.atomic.atomic_write` (temporary file and
+rename; never through a hard link, never renamed onto a device or FIFO).
 """
 
 from __future__ import annotations
@@ -28,11 +45,11 @@ from __future__ import annotations
 import io as _io
 import math
 import os
-import secrets
-import shutil
+import re
 import warnings
-from collections.abc import Iterator
-from contextlib import contextmanager, suppress
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
 from typing import IO, Any
 
 import numpy as np
@@ -40,10 +57,87 @@ import numpy as np
 from .. import _validate as validate
 from .._validate import FloatArray
 from . import poses as _layouts
+from .atomic import atomic_write
+from .sanity import check_quaternions, hemisphere_continuous
 
-__all__ = ["read_kitti", "read_tum", "write_kitti", "write_tum"]
+__all__ = [
+    "Trajectory",
+    "read_kitti",
+    "read_tum",
+    "stamp_text",
+    "write_kitti",
+    "write_tum",
+    "write_tum_text",
+]
 
 PathLike = str | os.PathLike[str]
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """A trajectory as read from a file or a bag: stamped poses, optional covariances, frames.
+
+    Returned by :func:`read_tum`, :func:`read_kitti`, :func:`liebridge.io.read_euroc`,
+    :func:`liebridge.io.read_trajectory` and :func:`liebridge.ros.read_trajectory`. It unpacks as
+    ``stamps, T = trajectory`` (the two arrays earlier releases returned).
+
+    Attributes
+    ----------
+    stamps : ndarray, shape (N,)
+        Seconds (a KITTI file's frame index, as float).
+    T : ndarray, shape (N, 4, 4)
+        ``T_{frame_id}_{child_frame_id}``: poses of the child frame in the parent frame, rotation
+        blocks orthonormal to the precision the source printed.
+    cov : ndarray, shape (N, 6, 6), or None
+        Pose covariances in the convention named by ``convention`` (files carry none).
+    frame_id, child_frame_id : str
+        The parent (world) and child (body) frames; ``"world"`` and ``"body"`` when the source
+        does not say.
+    source : str
+        Where it came from: the file path, or ``"BAG:TOPIC"``.
+    convention : str or None
+        The preset ``cov`` is in (None when ``cov`` is None).
+    extra : ndarray, shape (N, K), or None
+        Columns after the pose (EuRoC ground truth: velocity, gyroscope and accelerometer biases,
+        ``K = 9``); None for formats without them.
+    """
+
+    stamps: FloatArray
+    T: FloatArray
+    cov: FloatArray | None = None
+    frame_id: str = "world"
+    child_frame_id: str = "body"
+    source: str = ""
+    convention: str | None = None
+    extra: FloatArray | None = None
+
+    def __post_init__(self) -> None:
+        n = self.stamps.shape[0] if self.stamps.ndim == 1 else -1
+        if n < 0:
+            raise ValueError(f"stamps: expected shape (N,), got {self.stamps.shape}")
+        if self.T.shape != (n, 4, 4):
+            raise ValueError(f"T: expected shape ({n}, 4, 4) to match stamps, got {self.T.shape}")
+        if self.cov is not None and self.cov.shape != (n, 6, 6):
+            raise ValueError(f"cov: expected shape ({n}, 6, 6), got {self.cov.shape}")
+        if self.extra is not None and (self.extra.ndim != 2 or self.extra.shape[0] != n):
+            raise ValueError(f"extra: expected shape ({n}, K), got {self.extra.shape}")
+        for name in ("frame_id", "child_frame_id", "source"):
+            if not isinstance(getattr(self, name), str):
+                raise TypeError(f"{name}: expected str, got {type(getattr(self, name)).__name__}")
+
+    def __len__(self) -> int:
+        return int(self.stamps.shape[0])
+
+    def __iter__(self) -> Iterator[FloatArray]:
+        """``stamps, T = trajectory``."""
+        return iter((self.stamps, self.T))
+
+    def __repr__(self) -> str:
+        cov = "" if self.cov is None else f", cov in {self.convention!r}"
+        return (
+            f"Trajectory({len(self)} poses T_{self.frame_id}_{self.child_frame_id}{cov}, "
+            f"source={self.source!r})"
+        )
 
 
 def text_lines(path: PathLike) -> Iterator[tuple[int, str]]:
@@ -74,39 +168,25 @@ def text_lines(path: PathLike) -> Iterator[tuple[int, str]]:
 def open_text(path: PathLike | int, mode: str) -> Iterator[IO[str]]:
     """Open ``path`` as UTF-8 text for reading (``"r"``) or writing (``"w"``).
 
-    * A file descriptor (int) is used and left open for the caller (``open(fd)`` would close
-      it on exit; issue 21, class 13).
-    * Writing a path that is a regular file or does not exist goes to a temporary file in the
-      same directory, renamed over ``path`` when complete: a failed write leaves ``path`` as it
-      was, and a hard link to another file (an input) is replaced, never written through
-      (class 10). Other paths (``/dev/null``, a pipe) are written directly.
+    Reading: a file descriptor (int) is used and left open for the caller. Writing goes through
+    :func:`liebridge.io.atomic.atomic_write` (a temporary file renamed over ``path`` when
+    complete; a hard link is replaced, never written through; a FIFO or character device is
+    written directly, never replaced; a descriptor is left open).
     """
     if isinstance(path, bool):
         raise TypeError(f"path: expected a path or a file descriptor, got {path!r}")
+    if mode == "w":
+        with atomic_write(path, "w") as fh:
+            yield fh
+        return
+    if mode != "r":
+        raise ValueError(f"mode: expected 'r' or 'w', got {mode!r}")
     if isinstance(path, int):
-        with open(path, mode, encoding="utf-8", closefd=False) as fh:
+        with open(path, encoding="utf-8", closefd=False) as fh:
             yield fh
         return
-    if mode != "w" or (os.path.exists(path) and not os.path.isfile(path)):
-        with open(path, mode, encoding="utf-8") as fh:
-            yield fh
-        return
-    target = os.fspath(path)
-    tmp = os.path.join(
-        os.path.dirname(os.path.abspath(target)), f".liebridge-{secrets.token_hex(8)}.tmp"
-    )
-    # a new file: created with mode 0o666 minus the umask, as open(path, "w") would do
-    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-    try:
-        with open(fd, "w", encoding="utf-8") as fh:
-            yield fh
-        if os.path.exists(target):
-            shutil.copymode(target, tmp)
-        os.replace(tmp, target)
-    except BaseException:
-        with suppress(OSError):
-            os.unlink(tmp)
-        raise
+    with open(path, encoding="utf-8") as fh:
+        yield fh
 
 
 def _data_lines(path: PathLike) -> list[tuple[int, list[str]]]:
@@ -143,7 +223,9 @@ def field_numbers(
     return vals, None
 
 
-def _numbers(path: PathLike, lineno: int, fields: list[str], n: int, what: str) -> list[float]:
+def _numbers(
+    path: PathLike | int, lineno: int, fields: list[str], n: int, what: str
+) -> list[float]:
     if len(fields) != n:
         raise ValueError(f"{path}:{lineno}: expected {n} numbers ({what}), got {len(fields)}")
     names = what.split() if len(what.split()) == n else [f"{what} [{k}]" for k in range(n)]
@@ -157,36 +239,158 @@ def _fmt(x: float) -> str:
     return repr(float(x))
 
 
-def _fast_table(path: PathLike, ncols: int) -> FloatArray | None:
-    """All data lines of ``path`` as a ``(N, ncols)`` table in one ``numpy.loadtxt`` pass.
+_NAME = re.compile(r"^[A-Za-z_\[\]]")
+_TUM_WHAT = "timestamp tx ty tz qx qy qz qw"
 
-    Returns ``None`` whenever the file is anything but well formed UTF-8 with ``ncols`` finite
-    numbers on every data line (a header without ``#``, a bad field, a wrong count, NaN/Inf):
-    the caller then runs its line-by-line reader, which names the line and the fault exactly.
-    Memory: the file's bytes, one cleaned copy and the table (issue 23: 1.7 GB for a 10⁶-line
-    TUM file read line by line).
-    """
-    if isinstance(path, int):
+
+def _is_names(fields: Sequence[str]) -> bool:
+    """Whether every field is a column name (name-like and not a number: ``nan`` is a number)."""
+    if not fields:
+        return False
+    for f in fields:
+        if not _NAME.match(f):
+            return False
+        try:
+            float(f)
+        except ValueError:
+            continue
+        return False
+    return True
+
+
+def _header_order(fields: Sequence[str]) -> str | None:
+    """``"wxyz"``/``"xyzw"`` from column names (``qw``, ``q_w``, ``q_RS_w`` ...), else None."""
+    names = [n.lower() for n in fields]
+
+    def pos(axis: str) -> int:
+        return next((i for i, n in enumerate(names) if n.startswith("q") and n.endswith(axis)), -1)
+
+    iw, ix = pos("w"), pos("x")
+    if iw < 0 or ix < 0:
         return None
+    return "wxyz" if iw < ix else "xyzw"
+
+
+def read_text_bytes(path: PathLike | int) -> bytes:
+    r"""Read a UTF-8 text file as bytes with ``\n`` line ends (``\r\n`` and ``\r`` converted).
+
+    A leading byte-order mark is dropped. A byte sequence that is not UTF-8 raises ``ValueError``
+    naming the file and the line that holds it. An int is a file descriptor, read and left open.
+    """
+    if isinstance(path, bool):
+        raise TypeError(f"path: expected a path or a file descriptor, got {path!r}")
+    if isinstance(path, int):
+        with open(path, "rb", closefd=False) as fh:
+            raw = fh.read()
+    else:
+        with open(path, "rb") as fh:
+            raw = fh.read()
+    if raw.startswith(b"\xef\xbb\xbf"):
+        raw = raw[3:]
+    if b"\r" in raw:
+        raw = raw.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
+    if not raw.isascii():
+        try:
+            raw.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            line = raw.count(b"\n", 0, exc.start) + 1
+            raise ValueError(f"{path}:{line}: not UTF-8 text ({exc.reason})") from None
+    return raw
+
+
+def _first_line(raw: bytes) -> tuple[int, int]:
+    """Start and end offsets of the first non-blank line of ``raw`` (``(0, 0)`` if none)."""
+    pos = 0
+    while pos < len(raw):
+        nl = raw.find(b"\n", pos)
+        end = len(raw) if nl < 0 else nl
+        if raw[pos:end].strip():
+            return pos, end
+        pos = end + 1
+    return 0, 0
+
+
+def _fields(line: bytes) -> list[str]:
+    """Split one line into fields before any ``#``, commas and tabs separating like spaces."""
+    body = line.split(b"#", 1)[0].replace(b",", b" ").replace(b"\t", b" ")
+    return [f.decode() for f in body.split()]
+
+
+def read_tum(
+    path: PathLike | int, *, quat_order: str | None = None, check: bool = True
+) -> Trajectory:
+    """Read a TUM trajectory file.
+
+    Parameters
+    ----------
+    path : str, os.PathLike or int
+        Text file with lines ``timestamp tx ty tz qx qy qz qw`` (see the module docstring for
+        comments, separators, line ends and the header rule). An int is a file descriptor, read
+        and left open.
+    quat_order : {"xyzw", "wxyz"}, optional
+        Storage order of the quaternion columns; default: from the header if it names them, else
+        ``"xyzw"`` (TUM's).
+    check : bool
+        Run :func:`liebridge.io.sanity.check_quaternions` (a warning, never an error).
+
+    Returns
+    -------
+    Trajectory
+        ``stamps`` (N,) seconds and ``T`` (N, 4, 4) ``T_world_body`` with the quaternions
+        normalised; ``cov`` None. An empty file (comments only) gives N = 0.
+
+    Raises
+    ------
+    ValueError
+        On a malformed line, naming the file and line number: wrong number of fields, a field
+        that is not a number (a first line mixing names and numbers included), NaN/Inf, a
+        quaternion norm off beyond the precision it was printed with; not UTF-8.
+    """
+    if quat_order is not None and quat_order not in ("xyzw", "wxyz"):
+        raise ValueError(f"quat_order: expected 'xyzw' or 'wxyz', got {quat_order!r}")
+    raw = read_text_bytes(path)
+    lo, hi = _first_line(raw)
+    header_order = None
+    if hi > lo:
+        first = raw[lo:hi].strip()
+        commented = first.startswith(b"#")
+        fields = _fields(first.lstrip(b"#") if commented else first)
+        if _is_names(fields):
+            header_order = _header_order(fields)
+            if not commented:  # a header without '#': made a comment, line numbers kept
+                raw = raw[:lo] + b"#" + raw[lo:]
+    order = quat_order or header_order or "xyzw"
+    if b"," in raw or b"\t" in raw:
+        raw = raw.replace(b",", b" ").replace(b"\t", b" ")
+    data = _loadtxt(raw, 8)
+    if data is None:
+        _tum_locate(path, raw)
+    assert data is not None
+    q = data[:, 4:8]
+    err = np.abs(np.linalg.norm(q, axis=-1) - 1.0)
+    suspect = np.flatnonzero(err > _layouts.QUATERNION_TOL).tolist()
+    for r, (lineno, fields) in sorted(_rows_text(raw, suspect).items()):
+        tol = _layouts.text_quaternion_tol(fields[4:8])
+        if err[r] > tol:
+            raise ValueError(
+                f"{path}:{lineno}: quaternion norm off by {err[r]:.3g} (tolerance {tol:g} for "
+                f"numbers printed with this precision)"
+            )
+    del raw
+    t = np.ascontiguousarray(data[:, 0])
+    if check and len(t):
+        check_quaternions(q, order, t, source=str(path))
+    return Trajectory(t, _tum_poses(data, order), source=str(path))
+
+
+def _loadtxt(text: bytes, ncols: int) -> FloatArray | None:
+    """All data lines of ``text`` as an ``(N, ncols)`` finite table, or None if any is not."""
     with warnings.catch_warnings():  # "input contained no data": an empty table is fine
         warnings.simplefilter("ignore", UserWarning)
-        try:  # the file itself, read in chunks by numpy: memory ≈ the table
-            data = np.loadtxt(path, comments="#", ndmin=2, dtype=np.float64, encoding="utf-8")
-        except ValueError:  # commas, tabs, a BOM, not UTF-8 or a bad line: bytes, cleaned
-            with open(path, "rb") as fh:
-                raw = fh.read()
-            try:
-                raw.decode("utf-8")
-            except UnicodeDecodeError:
-                return None
-            if raw.startswith(b"\xef\xbb\xbf"):
-                raw = raw[3:]
-            text = raw.replace(b",", b" ").replace(b"\t", b" ")
-            del raw
-            try:
-                data = np.loadtxt(_io.BytesIO(text), comments="#", ndmin=2, dtype=np.float64)
-            except ValueError:
-                return None
+        try:
+            data = np.loadtxt(_io.BytesIO(text), comments="#", ndmin=2, dtype=np.float64)
+        except ValueError:
+            return None
     if data.size == 0:
         data = data.reshape(0, ncols)
     if data.shape[1] != ncols or not np.isfinite(data).all():
@@ -194,19 +398,24 @@ def _fast_table(path: PathLike, ncols: int) -> FloatArray | None:
     return data
 
 
-def _data_line_text(path: PathLike, rows: list[int]) -> dict[int, tuple[int, list[str]]]:
-    """``(line_number, fields)`` of the data lines numbered ``rows`` (0-based) of ``path``."""
+def _tum_locate(path: PathLike | int, text: bytes) -> None:
+    """Name the first malformed data line of ``text`` (the slow path, on failure only)."""
+    for k, line in enumerate(text.split(b"\n"), start=1):
+        fields = [f.decode() for f in line.split(b"#", 1)[0].split()]
+        if fields:
+            _numbers(path, k, fields, 8, _TUM_WHAT)
+    raise ValueError(f"{path}: cannot parse as a TUM trajectory ({_TUM_WHAT})")
+
+
+def _rows_text(text: bytes, rows: list[int]) -> dict[int, tuple[int, list[str]]]:
+    """``(line_number, fields)`` of the data lines numbered ``rows`` (0-based) of ``text``."""
     wanted = set(rows)
     out: dict[int, tuple[int, list[str]]] = {}
     if not wanted:
         return out
-    with open(path, "rb") as fh:
-        raw = fh.read()
-    if raw.startswith(b"\xef\xbb\xbf"):
-        raw = raw[3:]
     r = 0
-    for k, line in enumerate(raw.split(b"\n"), start=1):
-        fields = line.split(b"#", 1)[0].replace(b",", b" ").split()
+    for k, line in enumerate(text.split(b"\n"), start=1):
+        fields = line.split(b"#", 1)[0].split()
         if not fields:
             continue
         if r in wanted:
@@ -217,80 +426,176 @@ def _data_line_text(path: PathLike, rows: list[int]) -> dict[int, tuple[int, lis
     return out
 
 
-def read_tum(path: PathLike) -> tuple[FloatArray, FloatArray]:
-    """Read a TUM trajectory file.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        Text file with lines ``timestamp tx ty tz qx qy qz qw``.
-
-    Returns
-    -------
-    timestamps : ndarray, shape (N,)
-    poses : ndarray, shape (N, 4, 4)
-        ``T_world_body`` with the quaternion normalised.
-
-    Raises
-    ------
-    ValueError
-        On a malformed line, naming the file and line number.
-    """
-    what = "timestamp tx ty tz qx qy qz qw"
-    fast = _fast_table(path, 8)
-    if fast is not None:  # one loadtxt pass (issue 23); quaternions judged by their text below
-        data = fast
-        err = np.abs(np.linalg.norm(data[:, 4:8], axis=-1) - 1.0)
-        suspect = np.flatnonzero(err > _layouts.QUATERNION_TOL).tolist()
-        for r, (lineno, fields) in sorted(_data_line_text(path, suspect).items()):
-            tol = _layouts.text_quaternion_tol(fields[4:8])
-            if err[r] > tol:
-                raise ValueError(
-                    f"{path}:{lineno}: quaternion norm off by {err[r]:.3g} (tolerance {tol:g} "
-                    f"for numbers printed with this precision)"
-                )
-        return _tum_poses(data)
-    rows, linenos = [], []
-    for lineno, fields in _data_lines(path):
-        vals = _numbers(path, lineno, fields, 8, what)
-        q = np.array(vals[4:8])
-        err = abs(float(np.linalg.norm(q)) - 1.0)
-        tol = _layouts.text_quaternion_tol(fields[4:8])
-        if err > tol:
-            raise ValueError(
-                f"{path}:{lineno}: quaternion norm off by {err:.3g} (tolerance {tol:g} for "
-                f"numbers printed with this precision)"
-            )
-        rows.append(vals)
-        linenos.append(lineno)
-    return _tum_poses(np.array(rows, dtype=np.float64).reshape(-1, 8))
-
-
-#: Rows converted per pass from quaternions to matrices (bounds the temporaries; issue 23).
+#: Rows converted per pass from quaternions to matrices (bounds the temporaries).
 _POSE_CHUNK = 1 << 16
 
 
-def _tum_poses(data: FloatArray) -> tuple[FloatArray, FloatArray]:
+def _tum_poses(data: FloatArray, order: str = "xyzw") -> FloatArray:
     T = np.empty((data.shape[0], 4, 4))
+    layout = "xyz_qxyzw" if order == "xyzw" else "xyz_qwxyz"
     for lo in range(0, max(data.shape[0], 1), _POSE_CHUNK):
         d = data[lo : lo + _POSE_CHUNK]
         q = d[:, 4:8] / np.linalg.norm(d[:, 4:8], axis=-1, keepdims=True)
         x = np.concatenate([d[:, 1:4], q], axis=-1)
-        T[lo : lo + _POSE_CHUNK] = _layouts.to_matrix(x, layout="xyz_qxyzw")
-    return data[:, 0].copy(), T
+        T[lo : lo + _POSE_CHUNK] = _layouts.to_matrix(x, layout=layout)
+    return T
 
 
-def write_tum(path: PathLike, timestamps: Any, poses: Any) -> None:
-    """Write a TUM trajectory file (``repr`` precision, quaternion ``w ≥ 0``).
+def stamp_text(sec: Any, nanosec: Any) -> list[str]:
+    """Exact decimal seconds of integer ``(sec, nanosec)`` stamps, nine decimals, sign-correct.
+
+    ``sec + nanosec·1e-9`` is formed in integers: ``(-2, 500000000)`` (−1.5 s, as ROS stores it
+    with a non-negative ``nanosec``) gives ``"-1.500000000"``. Tempting and false:
+    ``f"{sec}.{nanosec:09d}"``, which prints ``-2.500000000``.
+    """
+    s = np.asarray(sec).reshape(-1)
+    ns = np.asarray(nanosec).reshape(-1)
+    if s.shape != ns.shape:
+        raise ValueError(f"nanosec: expected shape {s.shape} to match sec, got {ns.shape}")
+    out = []
+    for a, b in zip(s.tolist(), ns.tolist(), strict=True):
+        total = int(a) * 1_000_000_000 + int(b)
+        m = abs(total)
+        out.append(f"{'-' if total < 0 else ''}{m // 1_000_000_000}.{m % 1_000_000_000:09d}")
+    return out
+
+
+def tum_quaternions(q_xyzw: Any) -> FloatArray:
+    """Apply the one sign rule of the TUM writers: first ``w ≥ 0``, then ``q_i·q_{i−1} ≥ 0``.
+
+    Only signs change (negation is exact), so the stored doubles are kept bit for bit up to sign.
+    """
+    q = hemisphere_continuous(q_xyzw)
+    if len(q) and q[0, 3] < 0:
+        q = -q
+    return q
+
+
+#: Rows formatted per write call (bounds the text held at once).
+_WRITE_CHUNK = 1 << 15
+
+
+def write_tum_text(
+    path: PathLike | int,
+    stamps: Sequence[str],
+    xyz: Any,
+    q_xyzw: Any,
+    *,
+    quat_order: str = "xyzw",
+    comment: str | None = None,
+) -> None:
+    """Write a TUM file from stamp texts, positions and quaternions: the one TUM writer.
+
+    :func:`write_tum` (float seconds, poses as matrices) and :func:`liebridge.ros.write_tum`
+    (exact ROS stamps via :func:`stamp_text`, the messages' doubles, streamed in batches through
+    :func:`write_tum_chunks`) both end here. Positions and quaternions are written with
+    ``repr``; quaternions follow :func:`tum_quaternions`.
 
     Parameters
     ----------
-    path : str or os.PathLike
-    timestamps : array_like, shape (N,)
+    path : str, os.PathLike or int
+        Written through :func:`liebridge.io.atomic.atomic_write`.
+    stamps : sequence of str, length N
+        The stamp column as it should read.
+    xyz : array_like, shape (N, 3)
+    q_xyzw : array_like, shape (N, 4)
+        Unit quaternions, scalar last.
+    quat_order : {"xyzw", "wxyz"}
+        Column order in the file; ``"wxyz"`` writes a header that says so (read back by
+        :func:`read_tum`).
+    comment : str, optional
+        Appended to the header line (e.g. the frames).
+    """
+    write_tum_chunks(path, [(stamps, xyz, q_xyzw)], quat_order=quat_order, comment=comment)
+
+
+def write_tum_chunks(
+    path: PathLike | int,
+    chunks: Any,
+    *,
+    quat_order: str = "xyzw",
+    comment: str | None = None,
+) -> None:
+    """Write a TUM file from an iterable of ``(stamps, xyz, q_xyzw)`` chunks, as they come.
+
+    The same file as :func:`write_tum_text` of the concatenated chunks (the one quaternion sign
+    rule carried across chunk boundaries), in memory of one chunk: a bag of any size streams
+    through it. Nothing is left at ``path`` if a chunk raises.
+    """
+    if quat_order not in ("xyzw", "wxyz"):
+        raise ValueError(f"quat_order: expected 'xyzw' or 'wxyz', got {quat_order!r}")
+    names = "qx qy qz qw" if quat_order == "xyzw" else "qw qx qy qz"
+    head = f"# timestamp tx ty tz {names}" + (f"  ({comment})" if comment else "") + "\n"
+    if "\n" in head[:-1] or "\r" in head:
+        raise ValueError(f"comment: must be one line, got {comment!r}")
+    r = repr
+    prev: FloatArray | None = None  # the last quaternion written (sign continuity)
+    with atomic_write(path, "w") as fh:
+        fh.write(head)
+        for stamps, xyz, q_xyzw in chunks:
+            p = validate.as_float_array(xyz, "xyz")
+            n = len(stamps)
+            if p.shape != (n, 3):
+                raise ValueError(f"xyz: expected shape ({n}, 3) to match stamps, got {p.shape}")
+            q = validate.as_float_array(q_xyzw, "q_xyzw")
+            if q.shape != (n, 4):
+                raise ValueError(f"q_xyzw: expected shape ({n}, 4) to match stamps, got {q.shape}")
+            if n == 0:
+                continue
+            validate.check_finite(p, "xyz", core_ndim=1)
+            validate.check_finite(q, "q_xyzw", core_ndim=1)
+            q = tum_quaternions(q) if prev is None else hemisphere_continuous(q)
+            if prev is not None and float(q[0] @ prev) < 0.0:
+                q = -q  # continuity with the previous chunk (negation is exact)
+            prev = np.array(q[-1])
+            if quat_order == "wxyz":
+                q = q[:, [3, 0, 1, 2]]
+            for lo in range(0, n, _WRITE_CHUNK):
+                fh.writelines(
+                    f"{st} {r(a)} {r(b)} {r(c)} {r(d)} {r(e)} {r(f)} {r(g)}\n"
+                    for st, (a, b, c), (d, e, f, g) in zip(
+                        stamps[lo : lo + _WRITE_CHUNK],
+                        p[lo : lo + _WRITE_CHUNK].tolist(),
+                        q[lo : lo + _WRITE_CHUNK].tolist(),
+                        strict=True,
+                    )
+                )
+
+
+def write_tum(
+    path: PathLike | int,
+    timestamps: Any,
+    poses: Any = None,
+    *,
+    quat_order: str = "xyzw",
+    comment: str | None = None,
+) -> None:
+    """Write a TUM trajectory file (``repr`` precision, the one quaternion sign rule).
+
+    Parameters
+    ----------
+    path : str, os.PathLike or int
+        Written through :func:`liebridge.io.atomic.atomic_write`.
+    timestamps : array_like, shape (N,), or Trajectory
+        Seconds, written with ``repr`` (−1.5 is ``-1.5``). A :class:`Trajectory` supplies both
+        columns (``poses`` then omitted) and its frames as the header comment.
     poses : array_like, shape (N, 4, 4)
         ``T_world_body``; rotation blocks must be orthonormal within
         :data:`liebridge.io.poses.ROTATION_TOL`.
+    quat_order : {"xyzw", "wxyz"}
+        Column order (TUM's is ``xyzw``; ``wxyz`` is said in the header).
+    comment : str, optional
+        Appended to the header line.
     """
+    if isinstance(timestamps, Trajectory):
+        if poses is not None:
+            raise TypeError("poses: omit it when passing a Trajectory")
+        traj = timestamps
+        timestamps, poses = traj.stamps, traj.T
+        if comment is None:
+            comment = f"T_{traj.frame_id}_{traj.child_frame_id}"
+    if poses is None:
+        raise TypeError("poses: required (an (N, 4, 4) array) unless timestamps is a Trajectory")
     t = validate.as_float_array(timestamps, "timestamps")
     if t.ndim != 1:
         raise ValueError(f"timestamps: expected shape (N,), got {t.shape}")
@@ -301,24 +606,25 @@ def write_tum(path: PathLike, timestamps: Any, poses: Any) -> None:
             f"poses: expected shape ({t.shape[0]}, 4, 4) to match timestamps, got {T.shape}"
         )
     x = _layouts.from_matrix(T, layout="xyz_qxyzw")
-    lines = ["# timestamp tx ty tz qx qy qz qw\n"]
-    lines += [" ".join(map(_fmt, (ti, *xi))) + "\n" for ti, xi in zip(t, x, strict=True)]
-    with open_text(path, "w") as fh:
-        fh.writelines(lines)
+    stamps = [repr(v) for v in t.tolist()]
+    write_tum_text(path, stamps, x[:, :3], x[:, 3:], quat_order=quat_order, comment=comment)
 
 
-def read_kitti(path: PathLike) -> FloatArray:
+def read_kitti(path: PathLike | int) -> Trajectory:
     """Read a KITTI odometry pose file.
 
     Parameters
     ----------
-    path : str or os.PathLike
-        Text file with 12 numbers per line, the 3×4 block ``[R | t]`` row-major.
+    path : str, os.PathLike or int
+        Text file with 12 numbers per line, the 3×4 block ``[R | t]`` row-major (``#`` comments,
+        commas and tabs, any line ends, as for TUM). An int is a file descriptor, left open.
 
     Returns
     -------
-    ndarray, shape (N, 4, 4)
-        ``T_world_camera``, the numbers exactly as printed (rotation not projected).
+    Trajectory
+        ``T`` (N, 4, 4) ``T_world_camera``, the numbers exactly as printed (rotation not
+        projected); ``stamps`` the frame index ``0, 1, ...`` as float (KITTI has no stamps);
+        ``child_frame_id`` ``"camera"``.
 
     Raises
     ------
@@ -327,31 +633,29 @@ def read_kitti(path: PathLike) -> FloatArray:
         printed precision), naming the file and line number.
     """
     what = "r11 r12 r13 tx r21 r22 r23 ty r31 r32 r33 tz"  # the 3x4 [R | t], row-major
-    fast = _fast_table(path, 12)
-    if fast is not None:  # one loadtxt pass (issue 23); rotations judged by their text below
-        errs, dets = _rotation_errors(fast.reshape(-1, 3, 4)[:, :, :3])
-        suspect = np.flatnonzero((errs > _layouts.ROTATION_TOL) | (dets < 0)).tolist()
-        for r, (lineno, fields) in sorted(_data_line_text(path, suspect).items()):
-            tol = _layouts.text_rotation_tol([fields[i] for i in (0, 1, 2, 4, 5, 6, 8, 9, 10)])
-            if errs[r] > tol or dets[r] < 0:
-                raise ValueError(
-                    f"{path}:{lineno}: rotation block is not a rotation: max|RᵀR − I| = "
-                    f"{errs[r]:.3g} (tolerance {tol:g}), det = {float(dets[r]):.3g}"
-                )
-        return _kitti_poses(fast)
-    rows = []
-    for lineno, fields in _data_lines(path):
-        vals = _numbers(path, lineno, fields, 12, what)
-        R = np.array(vals).reshape(3, 4)[:, :3]
+    raw = read_text_bytes(path)
+    if b"," in raw or b"\t" in raw:
+        raw = raw.replace(b",", b" ").replace(b"\t", b" ")
+    data = _loadtxt(raw, 12)
+    if data is None:
+        for k, line in enumerate(raw.split(b"\n"), start=1):
+            fields = [f.decode() for f in line.split(b"#", 1)[0].split()]
+            if fields:
+                _numbers(path, k, fields, 12, what)
+        raise ValueError(f"{path}: cannot parse as a KITTI pose file ({what})")
+    errs, dets = _rotation_errors(data.reshape(-1, 3, 4)[:, :, :3])
+    suspect = np.flatnonzero((errs > _layouts.ROTATION_TOL) | (dets < 0)).tolist()
+    for r, (lineno, fields) in sorted(_rows_text(raw, suspect).items()):
         tol = _layouts.text_rotation_tol([fields[i] for i in (0, 1, 2, 4, 5, 6, 8, 9, 10)])
-        err = float(np.abs(R.T @ R - np.eye(3)).max())
-        if err > tol or np.linalg.det(R) < 0:
+        if errs[r] > tol or dets[r] < 0:
             raise ValueError(
-                f"{path}:{lineno}: rotation block is not a rotation: max|RᵀR − I| = {err:.3g} "
-                f"(tolerance {tol:g}), det = {float(np.linalg.det(R)):.3g}"
+                f"{path}:{lineno}: rotation block is not a rotation: max|RᵀR − I| = "
+                f"{errs[r]:.3g} (tolerance {tol:g}), det = {float(dets[r]):.3g}"
             )
-        rows.append(vals)
-    return _kitti_poses(np.array(rows, dtype=np.float64).reshape(-1, 12))
+    del raw
+    T = _kitti_poses(data)
+    stamps = np.arange(T.shape[0], dtype=np.float64)
+    return Trajectory(stamps, T, child_frame_id="camera", source=str(path))
 
 
 def _rotation_errors(R: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -372,18 +676,24 @@ def _kitti_poses(data: FloatArray) -> FloatArray:
     return T
 
 
-def write_kitti(path: PathLike, poses: Any) -> None:
+def write_kitti(path: PathLike | int, poses: Any) -> None:
     """Write a KITTI odometry pose file (12 numbers per line, ``repr`` precision).
 
     Parameters
     ----------
-    path : str or os.PathLike
-    poses : array_like, shape (N, 4, 4)
+    path : str, os.PathLike or int
+        Written through :func:`liebridge.io.atomic.atomic_write`.
+    poses : array_like, shape (N, 4, 4), or Trajectory
         Rotation blocks must be orthonormal within :data:`liebridge.io.poses.ROTATION_TOL`.
     """
+    if isinstance(poses, Trajectory):
+        poses = poses.T
     T = validate.pose(poses, "poses")
     if T.ndim != 3:
         raise ValueError(f"poses: expected shape (N, 4, 4), got {T.shape}")
     x = _layouts.from_matrix(T, layout="kitti")
-    with open_text(path, "w") as fh:
-        fh.writelines(" ".join(map(_fmt, xi)) + "\n" for xi in x)
+    with atomic_write(path, "w") as fh:
+        for lo in range(0, x.shape[0], _WRITE_CHUNK):
+            fh.writelines(
+                " ".join(map(repr, xi)) + "\n" for xi in x[lo : lo + _WRITE_CHUNK].tolist()
+            )

@@ -46,6 +46,7 @@ from .graph import (
     odometry_from_navstate,
 )
 from .messages import MESSAGE_TYPES, RosMessages, from_poses, normalize_msgtype
+from .trajectory import read_trajectory, to_trajectory
 
 __all__ = [
     "MESSAGE_TYPES",
@@ -67,7 +68,9 @@ __all__ = [
     "odometry_from_gtsam",
     "odometry_from_navstate",
     "read_messages",
+    "read_trajectory",
     "require_rosbags",
+    "to_trajectory",
     "transform_messages",
     "twist_frame_check",
     "twist_from_parent_frame",

@@ -11,6 +11,7 @@ into place when complete: a failure leaves no half-written bag.
 
 from __future__ import annotations
 
+import itertools
 import os
 import re
 import shutil
@@ -24,7 +25,10 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from .._validate import FloatArray
 from ..conventions import ConventionLike, get, single_group
+from ..io.atomic import atomic_path, atomic_write
+from ..io.trajectory import stamp_text, write_tum_chunks
 from .messages import MESSAGE_TYPES, RosMessages, normalize_msgtype
 
 __all__ = [
@@ -506,25 +510,29 @@ def _needs(mt: str, name: str) -> bool:
 def atomic_output(path: PathLike) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; rename it onto ``path`` only on success.
 
-    Works for files (replaced atomically) and for directories (a ROS 2 bag: ``path`` must not
-    exist yet). On any exception the temporary is removed and ``path`` is untouched.
+    :func:`liebridge.io.atomic.atomic_path` under the bag writers' name: files are replaced
+    atomically (a symbolic link is followed, a hard link is never written through); a directory
+    (a ROS 2 bag) is renamed into place and ``path`` must not exist yet. A FIFO or a character
+    device (``/dev/null``) is never renamed onto: the result is written to the temporary first
+    and then copied through. Anything else that is not a regular file is refused. On any
+    exception the temporary is removed and ``path`` is untouched. Errors are :class:`BagError`.
     """
-    target = Path(path)
-    parent = target.parent if str(target.parent) else Path(".")
-    if not parent.is_dir():
-        raise BagError(f"{target}: directory {str(parent)!r} does not exist")
-    tmpdir = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".tmp", dir=parent))
     try:
-        tmp = tmpdir / target.name
-        yield tmp
-        if tmp.is_dir():
-            if target.exists():
-                raise BagError(f"{target}: exists already; a ROS 2 bag directory is not replaced")
-            os.rename(tmp, target)
-        else:
-            os.replace(tmp, target)
-    finally:
-        shutil.rmtree(tmpdir, ignore_errors=True)
+        with atomic_path(path, name=str(path)) as tmp:
+            if tmp is not None:
+                yield tmp
+                return
+            with tempfile.TemporaryDirectory(prefix=".liebridge-", suffix=".tmp") as d:
+                staged = Path(d) / Path(path).name
+                yield staged
+                if staged.is_dir():
+                    raise ValueError(f"{path}: a bag directory cannot be written to a device")
+                with open(staged, "rb") as src, atomic_write(path, "wb") as dst:
+                    shutil.copyfileobj(src, dst)
+    except ValueError as exc:
+        if isinstance(exc, BagError):
+            raise
+        raise BagError(str(exc)) from None
 
 
 def _time(types: Any, sec: int, nsec: int) -> Any:
@@ -745,44 +753,51 @@ def write_messages(
 def write_tum(path: PathLike, msgs: RosMessages | Iterable[RosMessages]) -> None:
     """Write ``msgs``'s poses as a TUM file: ``stamp x y z qx qy qz qw`` per line.
 
-    The stamp is written exactly as ``sec.nanosec`` (nine decimals), position and quaternion with
-    ``repr`` (the stored doubles, quaternion sign as in the message): nothing is rounded.
-    The file says the frames in a comment line.
+    The stamp is written exactly as decimal seconds with nine decimals from the integer
+    ``sec``/``nanosec`` (sign-correct: −1.5 s is ``-1.500000000``;
+    :func:`liebridge.io.trajectory.stamp_text`); position and quaternion with ``repr`` (the
+    stored doubles; the quaternion's sign by the TUM writers' one rule, first ``w ≥ 0`` then
+    hemisphere continuity). The header comment names the frames. Written by the one TUM writer,
+    :func:`liebridge.io.trajectory.write_tum_chunks`, through the one atomic-write helper.
 
     ``msgs`` may be an iterable of batches (:func:`iter_messages`): they are written as they
     come, so memory stays one batch. Every batch must hold the same pair of frames (one
-    trajectory); otherwise a ``ValueError`` names the message, and nothing is left at ``path``.
+    trajectory); otherwise a ``BagError`` names the message, and nothing is left at ``path``.
     """
     batches = iter((msgs,)) if isinstance(msgs, RosMessages) else iter(msgs)
-    with atomic_output(path) as tmp, open(tmp, "w", encoding="utf-8") as fh:
-        frames: tuple[str, str | None] | None = None
+    first: RosMessages | None = None
+    for m in batches:  # the first batch with messages names the frames of the header
+        if not isinstance(m, RosMessages):
+            raise TypeError(f"msgs: expected RosMessages, got {type(m).__name__}")
+        first = m
+        if len(m):
+            break
+    if first is None:
+        raise ValueError("msgs: no batch of messages given")
+    frames = first.trajectory_frames() if len(first) else ("", None)
+    parent, child = frames[0], frames[1] or "body"
+
+    def chunks() -> Iterator[tuple[list[str], FloatArray, FloatArray]]:
         done = 0
-        for m in batches:
+        for m in itertools.chain((first,), batches):
             if not isinstance(m, RosMessages):
                 raise TypeError(f"msgs: expected RosMessages, got {type(m).__name__}")
-            here = m.trajectory_frames()  # one trajectory: one pair of frames
-            if frames is None or (done == 0 and len(m)):
-                frames = here
-                parent, child = frames[0], frames[1] or "body"
-                if fh.tell() == 0:
-                    fh.write(
-                        f"# timestamp tx ty tz qx qy qz qw  (T_{parent or 'parent'}_{child}; "
-                        f"topic {m.topic})\n"
-                    )
-            elif len(m) and here != frames:
+            if len(m) and done and m.trajectory_frames() != frames:
                 raise ValueError(
-                    f"topic {m.topic}, message {done}: frames {here} differ from the first "
-                    f"message's {frames}; the topic holds poses in several frames, not one "
-                    "trajectory"
+                    f"topic {m.topic}, message {done}: frames {m.trajectory_frames()} differ "
+                    f"from the first message's {frames}; the topic holds poses in several "
+                    "frames, not one trajectory"
                 )
-            fh.writelines(_tum_lines(m))
+            yield (
+                stamp_text(m.stamp_sec, m.stamp_nanosec),
+                np.asarray(m.position, dtype=np.float64).reshape(-1, 3),
+                np.asarray(m.orientation_xyzw, dtype=np.float64).reshape(-1, 4),
+            )
             done += len(m)
 
-
-def _tum_lines(msgs: RosMessages) -> Iterator[str]:
-    r = repr
-    for s, ns, p, q in zip(
-        msgs.stamp_sec, msgs.stamp_nanosec, msgs.position, msgs.orientation_xyzw, strict=True
-    ):
-        nums = " ".join(r(float(x)) for x in (*p, *q))
-        yield f"{int(s)}.{int(ns):09d} {nums}\n"
+    try:
+        write_tum_chunks(
+            path, chunks(), comment=f"T_{parent or 'parent'}_{child}; topic {first.topic}"
+        )
+    except ValueError as exc:
+        raise BagError(str(exc)) from None

@@ -136,12 +136,15 @@ def _positions(x: Any, name: str) -> FloatArray:
     return p
 
 
-def umeyama(p_est: Any, p_ref: Any, kind: AlignmentKind | str = "se3") -> Alignment:
+def umeyama(p_ref: Any, p_est: Any, kind: AlignmentKind | str = "se3") -> Alignment:
     """Least-squares alignment of positions ``p_ref ≈ s R p_est + t``.
+
+    Reference first, estimate second, like :func:`align` (``align(T_ref, T_est)``). Tempting and
+    false: evo's order — ``umeyama_alignment(x, y)`` takes the estimate ``x`` first.
 
     Parameters
     ----------
-    p_est, p_ref : array_like, shape (N, 3)
+    p_ref, p_est : array_like, shape (N, 3)
         Associated positions, N ≥ 3.
     kind : {"se3", "sim3", "4dof", "none"}
 
@@ -153,10 +156,10 @@ def umeyama(p_est: Any, p_ref: Any, kind: AlignmentKind | str = "se3") -> Alignm
     """
     if kind not in ALIGNMENTS:
         raise ValueError(f"kind: expected one of {', '.join(ALIGNMENTS)}, got {kind!r}")
-    x = _positions(p_est, "p_est")
     y = _positions(p_ref, "p_ref")
+    x = _positions(p_est, "p_est")
     if x.shape != y.shape:
-        raise ValueError(f"p_est, p_ref: different numbers of positions, {len(x)} and {len(y)}")
+        raise ValueError(f"p_ref, p_est: different numbers of positions, {len(y)} and {len(x)}")
     if kind == "none":
         return Alignment("none", np.eye(3), np.zeros(3), 1.0)
     if len(x) < _MIN_POSES:
@@ -231,4 +234,4 @@ def align(T_ref: Any, T_est: Any, kind: AlignmentKind | str = "se3") -> Alignmen
     Te = validate.pose(T_est, "T_est")
     if Tr.ndim != 3 or Te.ndim != 3:
         raise ValueError(f"T_ref, T_est: expected shape (N, 4, 4), got {Tr.shape}, {Te.shape}")
-    return umeyama(Te[:, :3, 3], Tr[:, :3, 3], kind)
+    return umeyama(Tr[:, :3, 3], Te[:, :3, 3], kind)
