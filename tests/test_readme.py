@@ -16,7 +16,9 @@ def test_quick_start_runs():
 
 
 def test_the_two_commands_are_the_ones_ci_runs():
-    commands = re.findall(r"```bash\n(.+?)\n```", README)[:2]
+    venv, *commands = re.findall(r"```bash\n(.+?)\n```", README)[:3]
+    assert venv == "python3 -m venv .venv && . .venv/bin/activate"  # what .ci/run does too
+    assert "python3 -m venv" in (ROOT / ".ci" / "run").read_text()
     assert commands[0] == "python -m pip install . && liebridge optimize"
     install, test = commands[1].split(" && ")
     ci = (ROOT / ".ci" / "run").read_text()
