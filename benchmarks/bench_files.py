@@ -78,12 +78,15 @@ def nbytes(out):
     if type(out).__module__.startswith("evo"):  # PosePath3D / PoseTrajectory3D and its cache
         held = [*vars(out).values(), *vars(out._cache).values()]
         return sum(nbytes(v) for v in held if isinstance(v, (np.ndarray, list)))
-    fields = [f for f in ("vertex_ids", "vertex_xyz_qxyzw", "vertex_xytheta", "edges",
-              "measured_xyz_qxyzw", "measured_xytheta", "information") if hasattr(out, f)]
+    fields = [f for f in ("stamps", "T", "vertex_ids", "vertex_xyz_qxyzw", "vertex_xytheta",
+              "edges", "measured_xyz_qxyzw", "measured_xytheta", "information")
+              if hasattr(out, f)]
     return sum(getattr(out, f).nbytes for f in fields)
 
 if kind == "read_tum":
-    from liebridge.io.trajectory import read_tum as fn
+    from liebridge.io.trajectory import read_tum
+    def fn(path):  # the poses are random rotations: the order check would only warn
+        return read_tum(path, check=False)
 elif kind == "read_kitti":
     from liebridge.io.trajectory import read_kitti as fn
 elif kind in ("read_g2o_3d", "read_g2o_edge3"):
@@ -215,7 +218,7 @@ def trajectories(lines: int, repeat: int, d: Path) -> list[dict[str, Any]]:
     tio.write_kitti(kitti, T)
     rows = []
     for op, path, fn, evo_kind in (
-        ("read_tum", tum, tio.read_tum, "evo_tum"),
+        ("read_tum", tum, lambda p: tio.read_tum(p, check=False), "evo_tum"),
         ("read_kitti", kitti, tio.read_kitti, "evo_kitti"),
     ):
         rows.append(

@@ -5,8 +5,8 @@ and — tempting and false — the obvious checks cannot see it: the norm, the s
 and the implied angular rate ``2·acos|q_i·q_{i+1}|/Δt`` are all unchanged by permuting the
 components. They catch other faults (unnormalised or garbled numbers, columns shifted, time in
 the wrong unit). What does reveal the order is the **hemisphere**: writers commonly store
-``w ≥ 0`` (liebridge's :mod:`~liebridge.io.trajectory`, GTSAM's ``Rot3::toQuaternion``, the TUM
-tools), and a sample pair whose sign flips is where the true ``w`` crosses 0. So:
+``w ≥ 0`` (GTSAM's ``Rot3::toQuaternion``, the TUM tools), and a sample pair whose sign flips
+is where the true ``w`` crosses 0. So:
 
 * norms: ``|‖q‖ − 1| > norm_tol`` (count, first index, worst);
 * sign flips: ``q_i·q_{i+1} < 0`` (count, first index; reported, and part of the warning only
@@ -20,10 +20,10 @@ tools), and a sample pair whose sign flips is where the true ``w`` crosses 0. So
   the wrong unit make most steps fast).
 
 :func:`check_quaternions` returns a :class:`QuaternionReport` and emits one
-:class:`QuaternionOrderWarning` listing what it found. :func:`hemisphere_continuous` is what the
-writers of :mod:`~liebridge.io.trajfile` apply: each sample takes the sign nearest the previous
-one (``q_i·q_{i−1} ≥ 0``), so component-wise interpolation and differencing of the written file
-behave.
+:class:`QuaternionOrderWarning` listing what it found. :func:`hemisphere_continuous` is what
+liebridge's TUM and EuRoC writers apply (:func:`liebridge.io.trajectory.tum_quaternions`: the first
+quaternion with ``w ≥ 0``, then each sample the sign nearest the previous one,
+``q_i·q_{i−1} ≥ 0``), so component-wise interpolation and differencing of the written file behave.
 """
 
 from __future__ import annotations

@@ -348,28 +348,32 @@ def read_tum(
     """
     if quat_order is not None and quat_order not in ("xyzw", "wxyz"):
         raise ValueError(f"quat_order: expected 'xyzw' or 'wxyz', got {quat_order!r}")
-    raw = read_text_bytes(path)
-    lo, hi = _first_line(raw)
-    header_order = None
-    if hi > lo:
-        first = raw[lo:hi].strip()
-        commented = first.startswith(b"#")
-        fields = _fields(first.lstrip(b"#") if commented else first)
-        if _is_names(fields):
-            header_order = _header_order(fields)
-            if not commented:  # a header without '#': made a comment, line numbers kept
-                raw = raw[:lo] + b"#" + raw[lo:]
-    order = quat_order or header_order or "xyzw"
-    if b"," in raw or b"\t" in raw:
-        raw = raw.replace(b",", b" ").replace(b"\t", b" ")
-    data = _loadtxt(raw, 8)
-    if data is None:
-        _tum_locate(path, raw)
+    data, raw, header_order = _tum_fast(path)
+    if data is None:  # anything unusual: the bytes, cleaned, and a line-by-line diagnosis
+        raw = read_text_bytes(path)
+        lo, hi = _first_line(raw)
+        header_order = None
+        if hi > lo:
+            first = raw[lo:hi].strip()
+            commented = first.startswith(b"#")
+            fields = _fields(first.lstrip(b"#") if commented else first)
+            if _is_names(fields):
+                header_order = _header_order(fields)
+                if not commented:  # a header without '#': made a comment, line numbers kept
+                    raw = raw[:lo] + b"#" + raw[lo:]
+        if b"," in raw or b"\t" in raw:
+            raw = raw.replace(b",", b" ").replace(b"\t", b" ")
+        data = _loadtxt(raw, 8)
+        if data is None:
+            _tum_locate(path, raw)
     assert data is not None
+    order = quat_order or header_order or "xyzw"
     q = data[:, 4:8]
     err = np.abs(np.linalg.norm(q, axis=-1) - 1.0)
     suspect = np.flatnonzero(err > _layouts.QUATERNION_TOL).tolist()
-    for r, (lineno, fields) in sorted(_rows_text(raw, suspect).items()):
+    if suspect and raw is None:
+        raw = read_text_bytes(path).replace(b",", b" ").replace(b"\t", b" ")
+    for r, (lineno, fields) in sorted(_rows_text(raw or b"", suspect).items()):
         tol = _layouts.text_quaternion_tol(fields[4:8])
         if err[r] > tol:
             raise ValueError(
@@ -381,6 +385,46 @@ def read_tum(
     if check and len(t):
         check_quaternions(q, order, t, source=str(path))
     return Trajectory(t, _tum_poses(data, order), source=str(path))
+
+
+def _tum_fast(path: PathLike | int) -> tuple[FloatArray | None, bytes | None, str | None]:
+    """One ``numpy.loadtxt`` pass over the file itself, when its start looks plain.
+
+    Returns ``(table or None, None, header order)``: None when the file is a descriptor, starts
+    with a byte-order mark or a header without ``#``, or is anything but well formed (commas, a
+    bad field, NaN/Inf, not UTF-8): the caller then reads the bytes. Memory ≈ the table.
+    """
+    if isinstance(path, int):
+        return None, None, None
+    with open(path, "rb") as fh:
+        head = fh.read(1 << 16)
+    if head.startswith(b"\xef\xbb\xbf"):
+        return None, None, None
+    head = head.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
+    lo, hi = _first_line(head)
+    order = None
+    if hi > lo:
+        first = head[lo:hi].strip()
+        commented = first.startswith(b"#")
+        try:
+            fields = _fields(first.lstrip(b"#") if commented else first)
+        except UnicodeDecodeError:
+            return None, None, None
+        if _is_names(fields):
+            if not commented:
+                return None, None, None
+            order = _header_order(fields)
+    with warnings.catch_warnings():  # "input contained no data": an empty table is fine
+        warnings.simplefilter("ignore", UserWarning)
+        try:
+            data = np.loadtxt(path, comments="#", ndmin=2, dtype=np.float64, encoding="utf-8")
+        except (ValueError, UnicodeDecodeError):
+            return None, None, None
+    if data.size == 0:
+        data = data.reshape(0, 8)
+    if data.shape[1] != 8 or not np.isfinite(data).all():
+        return None, None, None
+    return data, None, order
 
 
 def _loadtxt(text: bytes, ncols: int) -> FloatArray | None:
