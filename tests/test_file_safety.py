@@ -116,14 +116,7 @@ _OWN_RENAME = "keeps its own write/rename instead of io.atomic.atomic_write"
 #: Writers whose modules do not use the one helper yet, and the cases they fail: kept visible
 #: (strict xfail: the test fails once they are fixed, so the mark goes; "hang" cases are skipped
 #: because the writer would block forever on a FIFO without a reader).
-NOT_YET: dict[tuple[str, str], str] = {
-    ("io.g2o2d.write", "symlink"): f"replaces the link itself: {_OWN_RENAME}",
-    ("io.g2o2d.write", "fifo-no-reader"): f"hang: opens the FIFO blocking; {_OWN_RENAME}",
-    ("io.g2o2d.write", "directory"): f"IsADirectoryError, not ValueError; {_OWN_RENAME}",
-    ("frames.write_kalibr", "hardlink"): f"writes through the link: {_OWN_RENAME}",
-    ("frames.write_kalibr", "fifo-no-reader"): f"hang: opens the FIFO blocking; {_OWN_RENAME}",
-    ("frames.write_kalibr", "directory"): f"IsADirectoryError, not ValueError; {_OWN_RENAME}",
-}
+NOT_YET: dict[tuple[str, str], str] = {}
 
 
 def _known_gap(request: pytest.FixtureRequest, name: str, case: str) -> None:

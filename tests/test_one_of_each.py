@@ -149,10 +149,6 @@ def test_one_definition_per_concept(name: str) -> None:
     assert len(_module_level_defs(name)) == 1, _module_level_defs(name)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="lie/numdiff.py and check/jacobian.py both define it; the fold needs a lie/ change",
-)
 def test_numerical_jacobian_is_defined_once() -> None:
     assert len(_module_level_defs("numerical_jacobian")) == 1
 

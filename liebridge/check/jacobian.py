@@ -74,7 +74,7 @@ def numerical_jacobian(
     owner = getattr(retract, "__self__", None)
     if dim is None and isinstance(owner, Convention):  # conv.retract: its group's record knows
         dim = owner.dim(x)
-    return numdiff.numerical_jacobian(
+    return numdiff.central_differences(
         f, x, retract=retract, local=local, out_local=out_local, dim=dim, eps=eps
     )
 

@@ -22,7 +22,7 @@ from .. import _validate as validate
 from .._validate import FloatArray
 from ..lie import GROUPS, Group
 from ..lie import group as lie_group
-from ..lie.numdiff import numerical_jacobian
+from ..lie.numdiff import central_differences
 from .convention import ORDERS, SIDES, Convention
 from .engine import engine_for
 from .registry import get, matching_presets
@@ -171,7 +171,7 @@ def detect_convention(
             "wxyz",
             group=g.name,
         )
-        M = numerical_jacobian(
+        M = central_differences(
             lambda Z: Z,
             X,
             retract=lambda A, d: _as_matrix(retract(A, d), g=g),

@@ -71,6 +71,7 @@ import numpy as np
 from .. import _validate as validate
 from .._validate import FloatArray
 from ..io import poses as pose_io
+from ..io.atomic import atomic_write
 from ..lie import unchecked as U
 from .transform import Transform, frame_name
 from .tree import TransformTree
@@ -789,7 +790,8 @@ def write_kalibr(
         text = "%YAML:1.0\n" + yaml.dump(
             data, Dumper=Dumper, default_flow_style=None, width=2147483647
         )
-    Path(path).write_text(text, encoding="utf-8")
+    with atomic_write(path, "w") as fh:  # the one helper: whole or nothing, links and FIFOs safe
+        fh.write(text)
 
 
 def _plain(x: Any, where: str) -> Any:

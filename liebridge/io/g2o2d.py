@@ -53,6 +53,7 @@ import numpy.typing as npt
 
 from .. import _validate as validate
 from .._validate import FloatArray
+from .atomic import atomic_write
 from .g2o import (
     _covariances,
     _ids,
@@ -479,11 +480,5 @@ def write(path: PathLike, graph: G2OGraph2D) -> None:
         lines.append(f"EDGE_SE2 {int(i)} {int(j)} " + " ".join(r(c) for c in nums) + "\n")
     if graph.fixed:
         lines.append("FIX " + " ".join(str(k) for k in graph.fixed) + "\n")
-    if os.path.exists(path) and not os.path.isfile(path):  # a device or pipe: write through
-        with open(path, "w", encoding="utf-8") as fh:
-            fh.writelines(lines)
-        return
-    tmp = f"{os.fspath(path)}.tmp{os.getpid()}"  # never a half-written file, never the input
-    with open(tmp, "w", encoding="utf-8") as fh:
+    with atomic_write(path, "w") as fh:  # the one helper: whole or nothing, links and FIFOs safe
         fh.writelines(lines)
-    os.replace(tmp, path)

@@ -36,7 +36,7 @@ def _tangent_dim(x: FloatArray) -> int:
     return int(x.shape[-1])
 
 
-def numerical_jacobian(
+def central_differences(
     f: Callable[[Any], Any],
     x: Any,
     *,
@@ -51,7 +51,8 @@ def numerical_jacobian(
     Column ``j`` is ``(out_local(y0, f(retract(x, +ε e_j))) − out_local(y0, f(retract(x, −ε e_j))))
     / 2ε`` with ``y0 = f(x)``.
 
-    The parameters are those of :func:`liebridge.check.numerical_jacobian` (documented there,
+    The engine of :func:`liebridge.check.numerical_jacobian`, the one public name for users
+    (layers below ``check`` call this). The parameters are those of it (documented there,
     with the convention shorthands it adds): ``retract(x, d)`` perturbs the input (default
     ``x + d``), ``local(y0, y)`` reads the output back (default: the input's ``local`` if given,
     else ``y − y0``), ``out_local`` overrides it, ``dim`` is the input tangent dimension (1, 3,
