@@ -4,6 +4,12 @@
   in a temporary directory (a page that does not run, or whose asserts fail, fails here);
 * nothing shipped (package, examples, docs, CLI output) points users at documents the repository
   does not have, and every ``docs/...md`` it cites exists.
+
+Also here (folded in from its twin file): Every Python block of docs/groups.md runs (the page's
+worked examples are executed).
+
+Also here (folded in from its twin file): Every Python block of docs/groups-in-gtsam.md runs (the
+page's worked examples are executed).
 """
 
 from __future__ import annotations
@@ -83,3 +89,37 @@ def test_conventions_json_cites_no_unshipped_document() -> None:
     ).stdout
     assert '"gtsam"' in out
     assert not UNSHIPPED.search(out)
+
+
+# --------------------------------------------------------------------------- docs_groups
+# Every Python block of docs/groups.md runs (the page's worked examples are executed).
+
+GROUPS_DOC = Path(__file__).resolve().parents[1] / "docs" / "groups.md"
+GROUPS_BLOCKS = re.findall(r"```python\n(.*?)```", GROUPS_DOC.read_text(encoding="utf-8"), re.S)
+
+
+@pytest.mark.parametrize(
+    "code", GROUPS_BLOCKS, ids=[f"block{i}" for i in range(len(GROUPS_BLOCKS))]
+)
+def test_groups_page_block_runs(code: str) -> None:
+    exec(compile(code, str(GROUPS_DOC), "exec"), {})
+
+
+# --------------------------------------------------------------------------- docs_groups_gtsam
+# Every Python block of docs/groups-in-gtsam.md runs (the page's worked examples are executed).
+
+GTSAM_GROUPS_DOC = Path(__file__).resolve().parents[1] / "docs" / "groups-in-gtsam.md"
+GTSAM_GROUPS_BLOCKS = re.findall(
+    r"```python\n(.*?)```", GTSAM_GROUPS_DOC.read_text(encoding="utf-8"), re.S
+)
+
+
+def test_the_page_has_examples() -> None:
+    assert len(GTSAM_GROUPS_BLOCKS) >= 2
+
+
+@pytest.mark.parametrize(
+    "code", GTSAM_GROUPS_BLOCKS, ids=[f"block{i}" for i in range(len(GTSAM_GROUPS_BLOCKS))]
+)
+def test_groups_in_gtsam_page_block_runs(code: str) -> None:
+    exec(compile(code, str(GTSAM_GROUPS_DOC), "exec"), {})

@@ -394,7 +394,7 @@ GTSAM_ROT2 = Convention(
     rotation="exp",
     quat_order="wxyz",
     group="so2",
-    source="V GTSAM 4.3.0 PyPI wheel (Rot2.retract, Rot2.Expmap); tests/test_conventions_groups.py",
+    source="V GTSAM 4.3.0 PyPI wheel (Rot2.retract, Rot2.Expmap); tests/test_conventions.py",
     notes="Rot2.retract(θ) = R·Exp(θ) = Exp(θ)·R (SO(2) is commutative). No quaternions.",
 )
 """GTSAM ``Rot2``: the angle."""

@@ -11,7 +11,7 @@ marginal is over that class's own tangent (:func:`liebridge.gtsam.build.gtsam_co
 ``Pose2`` ``(vx, vy, ω)`` of ``X̂·Exp(δ)`` (preset ``gtsam_pose2``), ``Similarity3``
 ``(ω, u, λ)`` of ``X̂·Exp(δ)`` (``gtsam_similarity3``), ``NavState`` ``(δθ, δp, δv)`` of its
 split body retraction (``gtsam_navstate``). Checked by Monte Carlo of GTSAM's own ``retract`` in
-``tests/test_gtsam_factors_groups.py``.
+``tests/test_pose_factors.py``.
 """
 
 from __future__ import annotations

@@ -40,7 +40,7 @@ factor there. GTSAM's between error is ``Local(Z, H)`` of its class
 (``gtsam_navstate``; NOT ``Log(Z⁻¹H)`` with the SE₂(3) exponential). Its prior error is
 ``−Local(X, Z)`` (``gtsam/nonlinear/PriorFactor.h``), which is ``Log(Z⁻¹X)`` on the Lie-group
 charts but, for ``NavState``, differs from liebridge's prior residual ``local(Z, X)`` at second
-order (measured in ``tests/test_gtsam_factors_groups.py``). A ``Similarity3`` matrix is
+order (measured in ``tests/test_pose_factors.py``). A ``Similarity3`` matrix is
 ``[sR t; 0 1]`` (``p ↦ sRp + t``; GTSAM's constructor takes ``t/s``, the glue converts). For a
 convention with an embedding (``ros_pose2``) ``cov`` is in the convention's tangent (ROS's 6×6
 over ``(x, y, z, roll, pitch, yaw)``) and only its ``(x, y, yaw)`` block is used.

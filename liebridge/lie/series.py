@@ -187,7 +187,7 @@ def sim3_coeffs(theta: FloatArray, lam: FloatArray) -> tuple[FloatArray, FloatAr
     They cancel as ``|z| → 0``; there (``|z| <`` :data:`SIM3_SMALL`) the integrals are evaluated
     by 12-point Gauss–Legendre quadrature, whose error for an entire integrand with ``|z| ≤ 2``
     is below 1e-30 (so the result is exact to rounding; checked against 50-digit mpmath in
-    ``tests/test_lie_groups.py``). At λ = 0 they are SO(3)'s ``(1, B, C)``.
+    ``tests/test_lie_kernels.py``). At λ = 0 they are SO(3)'s ``(1, B, C)``.
     """
     theta = np.asarray(theta, dtype=np.float64)
     lam = np.asarray(lam, dtype=np.float64)
