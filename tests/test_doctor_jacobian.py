@@ -305,10 +305,10 @@ def test_se2_correct_and_side_mismatch():
 
 @pytest.mark.parametrize("preset", [p for p in PRESETS if not p.is_euler], ids=lambda p: p.name)
 def test_no_false_alarm_se3_and_so3(preset):
-    J = lb.convert_jacobian(act_right(X), "gtsam", preset, at_input=X)
+    J = lb.convert_jacobian(act_right(X), X, "gtsam", preset)
     d = diagnose_jacobian(act, J, X, solver_convention=preset)
     assert d.verdict == "correct", d
-    Jr_ = lb.convert_jacobian(-R @ so3.hat(P), "gtsam", preset, at_input=R)
+    Jr_ = lb.convert_jacobian(-R @ so3.hat(P), R, "gtsam", preset)
     d = diagnose_jacobian(lambda Rm: Rm @ P, Jr_, R, solver_convention=preset)
     assert d.verdict == "correct", d
 
@@ -317,7 +317,7 @@ def test_no_false_alarm_se3_and_so3(preset):
     "preset", [p for p in GROUP_PRESETS if p.group == "se2"], ids=lambda p: p.name
 )
 def test_no_false_alarm_se2(preset):
-    J = lb.convert_jacobian(act2_right(X2), "gtsam_pose2", preset, at_input=X2)
+    J = lb.convert_jacobian(act2_right(X2), X2, "gtsam_pose2", preset)
     d = diagnose_jacobian(act2, J, X2, solver_convention=preset)
     assert d.verdict == "correct", d
 
@@ -410,7 +410,7 @@ def _fields_cause(found, want):
 @pytest.mark.parametrize("wrote, solver", PAIRS, ids=lambda p: p.name)
 def test_a_jacobian_of_one_convention_given_to_a_solver_of_another(wrote, solver):
     """The user's Jacobian is right for ``wrote``; the solver retracts like ``solver``."""
-    J = lb.convert_jacobian(act_right(X), "gtsam", wrote, at_input=X)
+    J = lb.convert_jacobian(act_right(X), X, "gtsam", wrote)
     d = diagnose_jacobian(act, J, X, solver_convention=solver)
     assert d.verdict == "convention_mismatch", d
     assert wrote.name in d.explanation  # the class found names the preset the user wrote for
@@ -425,7 +425,7 @@ def test_a_jacobian_of_one_convention_given_to_a_solver_of_another(wrote, solver
 
 @pytest.mark.parametrize("preset", list(DISTINCT.values()), ids=lambda p: p.name)
 def test_old_skew_sign_in_every_convention(preset):
-    J = lb.convert_jacobian(act_right(X), "gtsam", preset, at_input=X)
+    J = lb.convert_jacobian(act_right(X), X, "gtsam", preset)
     rot = [0, 1, 2] if preset.order == "rot_first" else [3, 4, 5]
     J_bad = J.copy()
     J_bad[:, rot] *= -1.0
