@@ -44,7 +44,7 @@ class TangentJacobianCost(lbc.costs.BetweenCost):
     """The common mistake: ∂r/∂ω (GTSAM's right tangent) padded with a zero column as ∂r/∂q."""
 
     def residual_and_jacobians(self, parameters):  # type: ignore[no-untyped-def]
-        """The right residual; the quaternion Jacobians replaced by ``[0 | ∂r/∂ω]``."""
+        """Return the right residual with the quaternion Jacobians replaced by ``[0 | ∂r/∂ω]``."""
         r, J = super().residual_and_jacobians(parameters)
         Ti = lbc.pose_from_blocks(parameters[0], parameters[1])
         Tj = lbc.pose_from_blocks(parameters[2], parameters[3])
