@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -261,3 +263,51 @@ def test_bad_input_names_the_argument() -> None:
     np.testing.assert_allclose(
         lbc.pose_from_blocks(*lbc.pose_blocks(T, "xyzw"), "xyzw"), T, atol=1e-12
     )
+
+
+def test_split_chart_costs_define_a_different_objective(gtsam_solution) -> None:
+    """``ros`` residuals are not a linear image of GTSAM's: their optimum is another point."""
+    graph, init, result, _ = gtsam_solution
+    cp = lbc.problem_from_values(graph, init, convention="ros")
+    cp.solve()
+    values = gtsam.Values()
+    for k, T in cp.poses().items():
+        values.insert(k, gtsam.Pose3(T))
+    f, f_gtsam = graph.error(values), graph.error(result)
+    assert f > f_gtsam * (1 + 1e-6)
+
+
+def test_g2o_graph_as_a_pyceres_problem() -> None:
+    """The g2o route (FIX as constant blocks) reaches the optimum of the GTSAM route."""
+    path = gtsam.findExampleDataFile("pose3example.txt")
+    g = lbc.graph_from_g2o(path)
+    graph, init = g.to_gtsam()
+    first = int(g.vertex_ids[0])
+    T0 = init.atPose3(first).matrix()
+    prior = 1e-6 * np.eye(6)
+    graph.add(
+        gtsam.PriorFactorPose3(first, gtsam.Pose3(T0), gtsam.noiseModel.Gaussian.Covariance(prior))
+    )
+    a = lbc.problem_from_values(graph, init, quat_order="xyzw")
+    b = lbc.problem_from_values(g, quat_order="xyzw")
+    c = lbc.prior_cost(T0, prior, quat_order="xyzw")
+    b.costs.append(c)
+    b.problem.add_residual_block(c, None, list(b.blocks[first]))
+    a.solve(), b.solve()
+    assert b.cost() == pytest.approx(a.cost(), rel=1e-9)
+    for k in a.blocks:
+        np.testing.assert_allclose(b.poses()[k], a.poses()[k], atol=1e-6)
+
+
+def test_the_example_runs_and_its_numbers_hold() -> None:
+    script = Path(__file__).resolve().parents[1] / "examples" / "ceres_pose_graph.py"
+    out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    diffs = [float(x) for x in re.findall(r"relative difference ([0-9.e+-]+)", out.stdout)]
+    assert len(diffs) == 4 and max(diffs[:3]) <= 1e-6 and diffs[3] > 0.1
+    marg = float(re.search(r"max relative error ([0-9.e+-]+)", out.stdout).group(1))
+    assert marg <= 1e-6
+    wrong = float(
+        re.search(r"full angle \(Rᵀ Σ R\): relative error ([0-9.]+)", out.stdout).group(1)
+    )
+    assert wrong == pytest.approx(0.75, abs=0.01)
