@@ -311,3 +311,13 @@ def test_the_example_runs_and_its_numbers_hold() -> None:
         re.search(r"full angle \(Rᵀ Σ R\): relative error ([0-9.]+)", out.stdout).group(1)
     )
     assert wrong == pytest.approx(0.75, abs=0.01)
+
+
+def test_the_docs_page_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    page = Path(__file__).resolve().parents[1] / "docs" / "ceres.md"
+    blocks = re.findall(r"^```python\n(.*?)^```", page.read_text(encoding="utf-8"), re.M | re.S)
+    assert blocks
+    monkeypatch.chdir(tmp_path)
+    namespace: dict[str, object] = {"__name__": "docs_ceres"}
+    for code in blocks:
+        exec(compile(code, str(page), "exec"), namespace)

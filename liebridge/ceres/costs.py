@@ -19,10 +19,12 @@ from .. import _validate as validate
 from .. import lie
 from .._validate import FloatArray
 from ..conventions import get, single_group
+from ..conventions import unchecked as cu
 from ..conventions.convert import convert_covariance, tangent_map
 from ..conventions.registry import Convention
 from ..io import g2o as g2o_io
 from ..lie import quaternion as quat
+from ..lie import unchecked as lu
 
 try:
     import pyceres
@@ -123,8 +125,8 @@ def _pose_and_map(q_raw: FloatArray, t: FloatArray, order: str) -> tuple[FloatAr
     """
     qw = _wxyz(q_raw, order)
     nq = float(np.sqrt(qw @ qw))
-    if not nq > 0:
-        raise ValueError("quaternion block: zero or non-finite norm")
+    if not (nq > 0 and np.isfinite(nq) and np.all(np.isfinite(t))):
+        raise ValueError("pose blocks: zero or non-finite quaternion, or non-finite translation")
     w, x, y, z = qw / nq
     R = np.array(
         [
@@ -207,12 +209,15 @@ class BetweenCost(_PoseCost):
         """Residual and the four stored-block Jacobians ``(6, 4), (6, 3), (6, 4), (6, 3)``."""
         Ti, Di = _pose_and_map(parameters[0], parameters[1], self.quat_order)
         Tj, Dj = _pose_and_map(parameters[2], parameters[3], self.quat_order)
-        Y = lie.se3.inverse(Ti) @ Tj
+        # the blocks were checked (finite, q ≠ 0) by _pose_and_map: the unchecked kernels apply
+        Y = lu.se3_inverse(Ti) @ Tj
         conv, L = self.convention, self.sqrt_information
-        r = L @ conv.local(self.measured, Y)
+        r = L @ cu.local(conv, self.measured, Y)
+        if not np.all(np.isfinite(r)):
+            raise ValueError("between cost: non-finite residual")
         # ∂r/∂ξ_j (Y·Exp(ξ_j)); T_i·Exp(ξ_i) moves Y to Y·Exp(−Ad(Y⁻¹) ξ_i)
-        G = L @ conv.local_jacobian(self.measured, Y) @ conv.from_canonical(Y)
-        Ji = -(G @ lie.se3.adjoint(lie.se3.inverse(Y))) @ Di
+        G = L @ cu.local_jacobian(conv, self.measured, Y) @ cu.from_canonical(conv, Y)
+        Ji = -(G @ lu.se3_adjoint(lu.se3_inverse(Y))) @ Di
         Jj = G @ Dj
         return r, [Ji[:, :4], Ji[:, 4:], Jj[:, :4], Jj[:, 4:]]
 
@@ -231,8 +236,10 @@ class PriorCost(_PoseCost):
         """Residual and the two stored-block Jacobians ``(6, 4), (6, 3)``."""
         T, D = _pose_and_map(parameters[0], parameters[1], self.quat_order)
         conv, L = self.convention, self.sqrt_information
-        r = L @ conv.local(self.prior, T)
-        J = L @ conv.local_jacobian(self.prior, T) @ conv.from_canonical(T) @ D
+        r = L @ cu.local(conv, self.prior, T)
+        if not np.all(np.isfinite(r)):
+            raise ValueError("prior cost: non-finite residual")
+        J = L @ cu.local_jacobian(conv, self.prior, T) @ cu.from_canonical(conv, T) @ D
         return r, [J[:, :4], J[:, 4:]]
 
 
