@@ -502,7 +502,11 @@ def problem_from_values(
     if not isinstance(values, gtsam.Values):
         raise TypeError("values: a gtsam.Values with the initial poses is required")
     for key in values.keys():
-        add(int(key), values.atPose3(key).matrix())
+        try:
+            T = values.atPose3(key).matrix()
+        except RuntimeError:
+            raise TypeError(f"values: key {int(key)} does not hold a gtsam.Pose3") from None
+        add(int(key), T)
     for k in range(graph.size()):
         f = graph.at(k)
         if f is None:
