@@ -322,3 +322,42 @@ def test_the_docs_page_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> 
     namespace: dict[str, object] = {"__name__": "docs_ceres"}
     for code in blocks:
         exec(compile(code, str(page), "exec"), namespace)
+
+
+def test_monte_carlo_spread_of_ceres_estimates_matches_covariance() -> None:
+    """Re-solve one small graph under sampled measurement noise: the estimates' spread (GTSAM's
+    tangent about the truth) is the covariance read back from Ceres."""
+    rng = np.random.default_rng(21)
+    truth = [np.eye(4), se3.exp([0.1, 0.2, -0.1, 1, 0, 0]), se3.exp([0.3, -0.1, 0.2, 2, 1, 0])]
+    edges = [(0, 1), (1, 2), (0, 2)]
+    C = np.diag([1e-4, 2e-4, 1e-4, 4e-4, 1e-4, 2e-4])
+    C0 = 1e-4 * np.eye(6)
+
+    def solve(noisy: bool):
+        graph = gtsam.NonlinearFactorGraph()
+        d0 = rng.multivariate_normal(np.zeros(6), C0) if noisy else np.zeros(6)
+        prior = gtsam.noiseModel.Gaussian.Covariance(C0)
+        graph.add(gtsam.PriorFactorPose3(0, gtsam.Pose3(truth[0] @ se3.exp(d0)), prior))
+        for i, j in edges:
+            d = rng.multivariate_normal(np.zeros(6), C) if noisy else np.zeros(6)
+            Z = se3.inverse(truth[i]) @ truth[j] @ se3.exp(d)
+            noise = gtsam.noiseModel.Gaussian.Covariance(C)
+            graph.add(gtsam.BetweenFactorPose3(i, j, gtsam.Pose3(Z), noise))
+        init = gtsam.Values()
+        for k, T in enumerate(truth):
+            init.insert(k, gtsam.Pose3(T))
+        cp = lbc.problem_from_values(graph, init, quat_order="xyzw")
+        cp.solve()
+        return cp
+
+    xi = np.array([se3.log(se3.inverse(truth[2]) @ solve(True).poses()[2]) for _ in range(400)])
+    predicted = solve(False).covariance(2, convention="gtsam")
+    sampled = np.cov(xi.T)
+    assert np.linalg.norm(sampled - predicted) <= 0.2 * np.linalg.norm(predicted)
+    # the half-angle tangent block read as GTSAM's: 4x off in rotation, far outside sampling noise
+    wrong = predicted.copy()
+    wrong[:3, :] /= 2
+    wrong[:, :3] /= 2
+    rot = np.s_[:3, :3]
+    assert np.linalg.norm(sampled[rot] - predicted[rot]) <= 0.2 * np.linalg.norm(predicted[rot])
+    assert np.linalg.norm(sampled[rot] - wrong[rot]) > 0.5 * np.linalg.norm(predicted[rot])
