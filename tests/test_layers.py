@@ -26,7 +26,7 @@ FLOORS: list[set[str]] = [
     {"uncertain"},
     {"check", "io"},
     {"frames", "traj", "continuous", "doctor", "registration"},
-    {"gtsam"},
+    {"gtsam", "ceres"},
     {"imu"},
     {"ros"},
     {"batch"},
