@@ -246,6 +246,16 @@ def has_duplicates(ids: KeyArray) -> bool:
     return bool((s[1:] == s[:-1]).any())
 
 
+def _check_vertex_refs(ids: Any, e: Any) -> None:
+    """Raise unless the vertex ids are unique and every edge names two of them."""
+    if has_duplicates(ids):
+        raise ValueError("vertex_ids: ids are not unique")
+    missing = ~np.isin(e, ids)
+    if missing.any():
+        k = int(np.argwhere(missing)[0][0])
+        raise ValueError(f"edges[{k}]: {tuple(int(x) for x in e[k])} refers to a missing vertex")
+
+
 def _symmetrised_copy(A: FloatArray, copy: bool = True) -> FloatArray:
     """Return :func:`_symmetrised` ``(A)`` ``(M, n, n)`` read-only, chunk by chunk.
 
@@ -349,14 +359,7 @@ class G2OGraph:
             raise ValueError(
                 f"information_reading: expected 'g2o' or 'gtsam', got {self.information_reading!r}"
             )
-        if has_duplicates(ids):
-            raise ValueError("vertex_ids: ids are not unique")
-        missing = ~np.isin(e, ids)
-        if missing.any():
-            k = int(np.argwhere(missing)[0][0])
-            raise ValueError(
-                f"edges[{k}]: {tuple(int(x) for x in e[k])} refers to a missing vertex"
-            )
+        _check_vertex_refs(ids, e)
         object.__setattr__(self, "vertex_ids", _readonly(ids, copy))
         object.__setattr__(self, "vertex_xyz_qxyzw", _readonly(vx, copy))
         object.__setattr__(self, "edges", _readonly(e, copy))

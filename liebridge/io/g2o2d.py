@@ -55,6 +55,7 @@ from .. import _validate as validate
 from .._validate import FloatArray
 from .atomic import atomic_write
 from .g2o import (
+    _check_vertex_refs,
     _covariances,
     _ids,
     _Parser,
@@ -195,14 +196,7 @@ class G2OGraph2D:
             raise ValueError(
                 f"edge2_order: expected 'g2o', 'toro' or 'none', got {self.edge2_order!r}"
             )
-        if has_duplicates(ids):
-            raise ValueError("vertex_ids: ids are not unique")
-        missing = ~np.isin(e, ids)
-        if missing.any():
-            k = int(np.argwhere(missing)[0][0])
-            raise ValueError(
-                f"edges[{k}]: {tuple(int(x) for x in e[k])} refers to a missing vertex"
-            )
+        _check_vertex_refs(ids, e)
         object.__setattr__(self, "vertex_ids", _readonly(ids, copy))
         object.__setattr__(self, "vertex_xytheta", _readonly(vx, copy))
         object.__setattr__(self, "edges", _readonly(e, copy))
