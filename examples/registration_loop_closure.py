@@ -231,7 +231,7 @@ def main() -> None:
         f"95% bounds of the mean NEES (6 dof): [{lo:.2f}, {hi:.2f}]"
     )
     if "open3d" not in res:
-        print('open3d not usable here: its rows are skipped (pip install "liebridge[open3d]")')
+        print('open3d not usable here: rows skipped (pip install ".[open3d]" from the checkout)')
     print(
         f"{'library':<16} {'variant':<24} {'x2 err (mm)':>11} {'(mrad)':>8} {'mean NEES':>11}"
         f"  consistent"

@@ -520,7 +520,7 @@ def _bad_cases(tmp: Path) -> dict[str, tuple[list[str], str, dict[str, str] | No
         ),
         "optimize-no-matplotlib": (
             ["optimize", "pose3example.txt", "--plot", str(tmp / "x.png")],
-            'plotting needs matplotlib, an optional extra: pip install "liebridge[plot]"',
+            'plotting needs matplotlib, an optional extra: pip install ".[plot]" from the checkout',
             env,
         ),
         "optimize-plot-suffix": (

@@ -373,7 +373,7 @@ def test_missing_pyyaml_is_one_clear_error(
     import sys
 
     monkeypatch.setitem(sys.modules, "yaml", None)
-    with pytest.raises(ImportError, match=r"liebridge\[calib\]"):
+    with pytest.raises(ImportError, match=r"pip install \"\.\[calib\]\""):
         read_kalibr(kalibr_file)
 
 

@@ -10,7 +10,7 @@
   :mod:`liebridge.ros`) and the jobs.
 
 The command line is ``liebridge batch evaluate|convert``; see ``docs/fleet.md``. The dask
-engine needs the extra ``dask`` (``pip install "liebridge[dask]"``).
+engine needs the extra ``dask`` (``pip install ".[dask]" (from the checkout)``).
 """
 
 from .engine import CONNECT_TIMEOUT, ENGINES, local_cluster, map_jobs

@@ -77,7 +77,7 @@ def map_jobs(
     ValueError
         An unknown engine, ``workers < 1``, or ``scheduler`` with an engine other than dask.
     ImportError
-        ``dask`` without ``dask.distributed`` installed (``pip install "liebridge[dask]"``).
+        ``dask`` without ``dask.distributed`` (``pip install ".[dask]"`` from the checkout).
     ConnectionError
         No scheduler answered at ``scheduler`` within ``connect_timeout``.
     """
@@ -126,7 +126,7 @@ def _import_distributed() -> Any:
     except ImportError:
         raise ImportError(
             "the dask engine needs dask.distributed, an optional extra: "
-            'pip install "liebridge[dask]"'
+            'pip install ".[dask]" (from the checkout)'
         ) from None
     return distributed
 

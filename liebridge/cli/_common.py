@@ -287,7 +287,7 @@ def need_matplotlib() -> Any:
         import matplotlib
     except ImportError:
         raise CLIError(
-            'plotting needs matplotlib, an optional extra: pip install "liebridge[plot]"'
+            'plotting needs matplotlib, an optional extra: pip install ".[plot]" from the checkout'
         ) from None
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

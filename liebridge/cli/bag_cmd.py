@@ -227,7 +227,7 @@ def add_parser(sub: Any) -> None:
         "bag",
         help="ROS 1/2 bags without ROS: info, export a topic, write GTSAM marginals as messages",
         description="ROS 1 (.bag) and ROS 2 (sqlite3, mcap) bags via the rosbags library "
-        '(pip install "liebridge[ros]").',
+        '(pip install ".[ros]" from the checkout).',
     )
     bsub = p.add_subparsers(dest="bag_command", metavar="SUBCOMMAND")
     i = bsub.add_parser("info", help="topics, types, counts; which topics liebridge reads")

@@ -189,7 +189,7 @@ def _run(args: argparse.Namespace, func: Any, jobs: list[dict[str, Any]], prog: 
             wrote = plot_summary(result.rows, summary, title=f"{prog}:")
         except ImportError:
             say(f"{prog}: no summary plot: matplotlib is not installed "
-                '(pip install "liebridge[plot]")')  # fmt: skip
+                '(pip install ".[plot]" from the checkout)')  # fmt: skip
         else:
             if wrote:
                 say(f"{prog}: wrote {summary}")

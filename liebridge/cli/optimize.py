@@ -371,7 +371,7 @@ def add_parser(sub: Any) -> None:
         metavar="OUT.png",
         help="write a 3D plot of the initial and optimized trajectories, axes in the file's "
         "length unit (m); with --marginals the optimized poses are coloured by their position σ "
-        '(needs matplotlib: pip install "liebridge[plot]")',
+        '(needs matplotlib: pip install ".[plot]" from the checkout)',
     )
     p.add_argument(
         "--marginals",

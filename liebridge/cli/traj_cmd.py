@@ -367,7 +367,7 @@ def _common(q: argparse.ArgumentParser) -> None:
         "--ref-topic",
         metavar="TOPIC",
         help="REF is a ROS 1/2 bag and this its pose topic (PoseWithCovarianceStamped, "
-        'Odometry, PoseStamped...; needs pip install "liebridge[ros]")',
+        'Odometry, PoseStamped...; needs pip install ".[ros]" (from the checkout))',
     )
     q.add_argument("--est-topic", metavar="TOPIC", help="EST is a bag: its pose topic")
     q.add_argument("--ref-format", default="auto", choices=("auto", "tum", "kitti", "euroc"))

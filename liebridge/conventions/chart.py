@@ -21,6 +21,7 @@ output); each kind supplies ``dim``, ``element``, ``describe`` and the unchecked
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from typing import TYPE_CHECKING, Any
 
 from .. import _validate as validate
@@ -33,7 +34,7 @@ if TYPE_CHECKING:
     from .convention import Embed
 
 
-class Chart:
+class Chart(ABC):
     """Base of every chart kind (see the module docstring). Not instantiated by itself."""
 
     name: str
@@ -46,35 +47,38 @@ class Chart:
     embed: Embed | None = None
 
     # ----------------------------------------------------------------- what each kind supplies
-    def dim(self, X: Any = None) -> int:  # pragma: no cover - abstract
+    @abstractmethod
+    def dim(self, X: Any = None) -> int:
         """Length of the tangent (at ``X``, where it depends on the element's kind)."""
-        raise NotImplementedError
+        ...
 
-    def element(self, X: Any, name: str = "X") -> FloatArray:  # pragma: no cover - abstract
+    @abstractmethod
+    def element(self, X: Any, name: str = "X") -> FloatArray:
         """Validate ``X`` as an element this chart perturbs."""
-        raise NotImplementedError
+        ...
 
-    def describe(self) -> str:  # pragma: no cover - abstract
+    @abstractmethod
+    def describe(self) -> str:
         """One line: the name and what the chart is."""
-        raise NotImplementedError
+        ...
 
-    def _increment(self, d: Any, so3: bool, name: str = "d") -> FloatArray:  # pragma: no cover
-        raise NotImplementedError
+    @abstractmethod
+    def _increment(self, d: Any, so3: bool, name: str = "d") -> FloatArray: ...
 
-    def _retract(self, X: FloatArray, d: FloatArray) -> FloatArray:  # pragma: no cover
-        raise NotImplementedError
+    @abstractmethod
+    def _retract(self, X: FloatArray, d: FloatArray) -> FloatArray: ...
 
-    def _local(self, X: FloatArray, Y: FloatArray) -> FloatArray:  # pragma: no cover
-        raise NotImplementedError
+    @abstractmethod
+    def _local(self, X: FloatArray, Y: FloatArray) -> FloatArray: ...
 
-    def _local_jacobian(self, X: FloatArray, Y: FloatArray) -> FloatArray:  # pragma: no cover
-        raise NotImplementedError
+    @abstractmethod
+    def _local_jacobian(self, X: FloatArray, Y: FloatArray) -> FloatArray: ...
 
-    def _to_canonical(self, X: FloatArray) -> FloatArray:  # pragma: no cover
-        raise NotImplementedError
+    @abstractmethod
+    def _to_canonical(self, X: FloatArray) -> FloatArray: ...
 
-    def _from_canonical(self, X: FloatArray) -> FloatArray:  # pragma: no cover
-        raise NotImplementedError
+    @abstractmethod
+    def _from_canonical(self, X: FloatArray) -> FloatArray: ...
 
     # ----------------------------------------------------------------- shared descriptors
     @property

@@ -464,7 +464,7 @@ def _yaml() -> Any:
     except ImportError:
         raise ImportError(
             "reading and writing calibration YAML needs PyYAML, an optional extra: "
-            'pip install "liebridge[calib]"'
+            'pip install ".[calib]" (from the checkout)'
         ) from None
     return yaml
 

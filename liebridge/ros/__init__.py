@@ -1,8 +1,8 @@
 """ROS 1 / ROS 2 messages and bags without a ROS install, conventions explicit at the boundary.
 
 Layer above :mod:`liebridge.gtsam` and :mod:`liebridge.imu`, below the command line. Needs the
-optional extra ``ros`` (the pure-Python ``rosbags`` library): ``pip install "liebridge[ros]"``;
-it is imported when a bag is opened, with that hint if missing.
+optional extra ``ros`` (the pure-Python ``rosbags`` library): ``pip install ".[ros]"`` from the
+checkout; it is imported when a bag is opened, with that hint if missing.
 
 * :func:`read_messages` / :func:`write_messages`: one topic of a bag ↔ :class:`RosMessages`
   (raw fields bit for bit, plus ``T``, ``cov`` in any convention, ``twist`` in the child frame);

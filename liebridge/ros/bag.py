@@ -3,7 +3,7 @@
 ``rosbags`` (PyPI, Apache-2.0; checked with 0.11.9) reads ROS 1 ``.bag`` files and ROS 2 bags
 (sqlite3 ``.db3`` or ``.mcap`` storage, as a bag directory or a bare storage file) and carries
 the standard message definitions (``rosbags.typesys.Stores.ROS1_NOETIC`` /
-``ROS2_HUMBLE``). It is the optional extra ``ros``: ``pip install "liebridge[ros]"``.
+``ROS2_HUMBLE``). It is the optional extra ``ros``: ``pip install ".[ros]" (from the checkout)``.
 
 Everything written goes to a temporary file or directory beside the target first and is renamed
 into place when complete: a failure leaves no half-written bag.
@@ -68,7 +68,7 @@ def require_rosbags() -> Any:
     except ImportError:  # pragma: no cover - exercised only without the extra
         raise ImportError(
             'liebridge.ros needs the "rosbags" package, an optional extra: '
-            'pip install "liebridge[ros]"'
+            'pip install ".[ros]" (from the checkout)'
         ) from None
     return rosbags
 
