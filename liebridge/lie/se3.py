@@ -231,6 +231,7 @@ def _jl_inv(xi: FloatArray) -> FloatArray:
     return _blocks(Ji, 0.0 * Ji, -Ji @ _q(w, xi[..., 3:]) @ Ji, Ji)
 
 
+@arrays.numpy_only
 def hat(xi: Any) -> FloatArray:
     """Map a twist ``(ω, v)`` ``(..., 6)`` to ``[[hat(ω), v], [0, 0]]``, ``(..., 4, 4)``."""
     xi = validate.vector(xi, "xi", 6)
@@ -240,6 +241,7 @@ def hat(xi: Any) -> FloatArray:
     return out
 
 
+@arrays.numpy_only
 def vee(X: Any) -> FloatArray:
     """Inverse of :func:`hat`: ``(..., 4, 4)`` → ``(ω, v)`` ``(..., 6)``."""
     X = validate.square(X, "X", 4)
@@ -302,6 +304,7 @@ def adjoint(T: Any) -> FloatArray:
     return validate.finite_output(_adjoint(validate.pose(T, "T")), "se3.adjoint")
 
 
+@arrays.numpy_only
 def ad(xi: Any) -> FloatArray:
     """Small adjoint ``ad_ξ = [[hat(ω), 0], [hat(v), hat(ω)]]`` in (ω, v), ``(..., 6, 6)``.
 
@@ -370,5 +373,6 @@ GROUP = register_shipped(
         probe=_exp(np.array([0.4, -0.7, 0.5, 1.5, -2.0, 0.8])), label="SE(3)",
         note="and SO(3): a 3×3 rotation given to these",
         tangent_doc="(ω, v)",
+        array_api=True,
     )
 )  # fmt: skip
