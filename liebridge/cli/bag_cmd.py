@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -69,13 +70,23 @@ def _info(args: argparse.Namespace) -> int:
 
 
 def _read(ros: Any, bag: str, topic: str, convention: Any, path_message: Any = None) -> Any:
-    return ros.read_messages(
-        bag,
-        topic,
-        convention=convention,
-        progress=_progress(f"read {topic}"),
-        path_message=path_message,
-    )
+    try:
+        return ros.read_messages(
+            bag,
+            topic,
+            convention=convention,
+            progress=_progress(f"read {topic}"),
+            path_message=path_message,
+        )
+    except ValueError as exc:
+        raise CLIError(_flags(one_line(str(exc)))) from None
+
+
+def _flags(text: str) -> str:
+    """Name the CLI flag where a library message names the ``increment`` argument."""
+    text = re.sub(r"^msgs: ", "", text)  # the Python argument's name, not the command's
+    text = text.replace("path_message", "--path-message")
+    return re.sub(r"\bincrement '(\w+)'", r"--increment \1", text)
 
 
 def _default_increment(msgtype: str) -> str:
@@ -103,15 +114,16 @@ def _export_g2o(ros: Any, args: argparse.Namespace, m: Any, out: Path) -> None:
         Z, cz = ros.increment_covariances(m, increment)
         info, rank = ros.increment_information(cz)
     except ValueError as exc:
-        raise CLIError(f"--topic {args.topic}: {one_line(str(exc))}") from None
+        raise CLIError(f"--topic {args.topic}: {_flags(one_line(str(exc)))}") from None
     if (rank == 0).any():
         k = int(np.argmax(rank == 0))
-        other = "--increment twist" if m.msgtype == "nav_msgs/msg/Odometry" else "--to tum"
+        odom = m.msgtype == "nav_msgs/msg/Odometry" and increment != "twist"
+        which = "twist" if increment == "twist" else "pose"
         raise CLIError(
             f"--topic {args.topic}: the covariance of the increment from message {k} to {k + 1} "
             f"is all zero ({int((rank == 0).sum())} of {len(rank)} increments; the messages' "
-            f"covariances are zero, ROS's 'unknown'): no information to write as a g2o edge "
-            f"(try {other})"
+            f"{which} covariances are zero, ROS's 'unknown'): no information to write as a g2o "
+            f"edge (try {'--increment twist' if odom else '--to tum'})"
         )
     n = len(m)
     g = g2o_io.G2OGraph.from_matrices(
@@ -151,7 +163,10 @@ def _export(args: argparse.Namespace) -> int:
                 seen.append((len(m), m.trajectory_frames() if len(m) else None))
                 yield m
 
-        ros.write_tum(out, batches())
+        try:
+            ros.write_tum(out, batches())
+        except ValueError as exc:
+            raise CLIError(_flags(one_line(str(exc)))) from None
         n = sum(k for k, _ in seen)
         frames = next((f for _, f in seen if f is not None), ("", None))
         print(
@@ -228,7 +243,22 @@ def _write_marginals(args: argparse.Namespace) -> int:
             raise CLIError("--topic: required when IN is a bag (the trajectory topic to optimize)")
         m = _read(ros, args.input, args.topic, "ros", args.path_message)
         graph = gtsam.NonlinearFactorGraph()
-        for f in ros.odometry_factors(m, increment=args.increment):
+        try:
+            _, cz = ros.increment_covariances(m, args.increment)
+            rank = ros.increment_information(cz)[1]
+            if (rank < 6).any():
+                k = int(np.argmax(rank < 6))
+                raise CLIError(
+                    f"--topic {args.topic}: the covariance of the increment from message {k} to "
+                    f"{k + 1} has rank {int(rank[k])} of 6 ({int((rank < 6).sum())} of "
+                    f"{len(rank)} increments; zero or planar message covariances): GTSAM's "
+                    "marginals need every edge of full rank; 'bag export --to g2o' writes it "
+                    "with its rank-deficient information"
+                )
+            factors = ros.odometry_factors(m, increment=args.increment)
+        except ValueError as exc:
+            raise CLIError(f"--topic {args.topic}: {_flags(one_line(str(exc)))}") from None
+        for f in factors:
             graph.add(f)
         keys = list(range(len(m)))
         initial = gtsam.Values()

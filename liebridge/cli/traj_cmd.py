@@ -93,7 +93,8 @@ def _read_topic(
             if covs is not None and msgs.cov is not None:
                 covs.append(np.array(msgs.cov, dtype=np.float64))
     except (ValueError, OSError, ImportError) as exc:
-        raise CLIError(f"{what}: {one_line(str(exc))}") from None
+        text = one_line(str(exc)).replace("path_message", "--path-message")
+        raise CLIError(f"{what}: {text}") from None
     cov = np.concatenate(covs) if covs else None
     return np.concatenate(stamps), np.concatenate(poses), cov, msgtype
 

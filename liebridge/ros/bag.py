@@ -417,7 +417,7 @@ def _path_index(path: Path, topic: str, path_message: int | None, total: int) ->
         raise BagError(f"{path}: topic {topic} (nav_msgs/msg/Path) has no messages")
     if not -total <= k < total:
         raise BagError(
-            f"{path}: topic {topic}: path message {k} does not exist; the topic has {total} "
+            f"{path}: topic {topic}: path_message {k} does not exist; the topic has {total} "
             f"nav_msgs/Path messages (index 0..{total - 1}, or -1 for the last)"
         )
     return k % total
@@ -495,7 +495,7 @@ def _column_batches(
                     if not msg.poses:
                         raise BagError(
                             f"{path}: topic {topic}, message {k}: the nav_msgs/Path holds no "
-                            "poses (choose another message with --path-message / path_message)"
+                            "poses (choose another message with path_message)"
                         )
                     k += 1
                     break

@@ -135,7 +135,7 @@ def increment_covariances(
                 f"{int(msgs.message_index[k]) if msgs.message_index is not None else k} as "
                 f"independent odometry increments would (increment covariance has eigenvalue "
                 f"{lam[k]:.3g}); absolute estimates (e.g. amcl) need increment 'independent', "
-                "Odometry may use 'twist'"
+                "Odometry may use increment 'twist'"
             )
         return Z, cz
     if msgs.twist_covariance is None:
