@@ -4,7 +4,10 @@ The pipeline is evo's: read both files (TUM, KITTI or EuRoC, detected), associat
 (``--max-diff`` 0.01 s, ``--offset`` 0 s), align the estimate to the reference (``--align``:
 ``none`` by default as evo, ``se3``, ``sim3``, ``4dof``), then compute the metric. ``nees``
 also moves the estimate's covariances (``--cov`` ``(N, 6, 6)`` ``.npy``, one per pose of EST, in
-``--convention``) under the alignment, as that convention requires. ``--format json`` prints
+``--convention``; without ``--cov``, those EST carries: a bag topic's ``PoseWithCovarianceStamped``
+/ ``Odometry`` covariances, or the ``.npz`` of ``bag export --to npz``) under the alignment, as
+that convention requires. A ``nav_msgs/Path`` topic is one message (``--path-message``, default
+the last). ``--format json`` prints
 one JSON object on stdout (``rmse mean median std min max`` and more; ``anees`` for ``nees``);
 ``--plot`` writes the trajectories, the errors over time and, for ``nees``, the NEES against
 its χ² bounds. Every input error is one line on stderr.
