@@ -500,8 +500,8 @@ def _common(q: argparse.ArgumentParser) -> None:
         type=int,
         default=None,
         metavar="INDEX",
-        help="nav_msgs/Path topics (each message a whole trajectory): the message to read "
-        "(default -1, the last; 0 the first)",
+        help="nav_msgs/Path topics (each message a whole trajectory): the message to read, "
+        "for --ref-topic and --est-topic alike (default -1, the last; 0 the first)",
     )
     q.add_argument("--ref-format", default="auto", choices=("auto", "tum", "kitti", "euroc"))
     q.add_argument("--est-format", default="auto", choices=("auto", "tum", "kitti", "euroc"))
