@@ -47,10 +47,20 @@ def _convert(args: argparse.Namespace) -> int:
             parsed, system=src, camera=args.camera, imu_frame=args.imu_frame
         )
         shift = C.read_timeshift(parsed, system=src, camera=args.camera)
+        earlier = _earlier(C, parsed, src, to.system, args)
     except ImportError as exc:
         raise CLIError(str(exc)) from None
-    ext = C.export_extrinsic(T_cam_imu, to.system, timeshift_cam_imu=shift)
-    snippet = C.format_parameter(ext, args.camera)
+    try:
+        ext = C.export_extrinsic(
+            T_cam_imu,
+            to.system,
+            timeshift_cam_imu=shift,
+            camera=args.camera,
+            earlier_cameras=earlier,
+        )
+    except ValueError as exc:
+        raise CLIError(f"--camera {args.camera} --to {to.system}: {exc}") from None
+    snippet = C.format_parameter(ext)
     if args.format == "json":
         out = ext.as_dict()
         out.update(camera=args.camera, from_system=src, snippet=snippet)
@@ -71,6 +81,31 @@ def _convert(args: argparse.Namespace) -> int:
     print("snippet:")
     print(snippet.rstrip("\n"))
     return 0
+
+
+def _earlier(C: Any, parsed: Any, src: str, to: str, args: argparse.Namespace) -> list[Any]:
+    """``T_cam_imu`` of cam0 … cam(N−1) when ``to`` stores camera N with or relative to them.
+
+    ORB-SLAM3 keeps the second camera as ``Stereo.T_c1_c2`` (from the first), OKVIS and Basalt
+    keep every camera in one list: their snippet for ``cam1`` needs ``cam0`` from FILE too.
+    """
+    idx = int(args.camera[3:])  # read_extrinsic has checked the camN form
+    if idx == 0 or to not in ("orbslam3", "okvis", "basalt"):
+        return []
+    if to == "orbslam3" and idx > 1:
+        return []  # export_extrinsic says that ORB-SLAM3 keeps two cameras
+    out = []
+    for k in range(idx):
+        try:
+            out.append(
+                C.read_extrinsic(parsed, system=src, camera=f"cam{k}", imu_frame=args.imu_frame)
+            )
+        except ValueError as exc:
+            raise CLIError(
+                f"--to {to} --camera {args.camera} needs cam{k}'s extrinsic too ({to} stores "
+                f"{args.camera} with the earlier cameras): {exc}"
+            ) from None
+    return out
 
 
 def add_parser(sub: Any) -> None:
