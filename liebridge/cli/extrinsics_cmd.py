@@ -67,6 +67,8 @@ def _convert(args: argparse.Namespace) -> int:
         print(json.dumps(out))
         return 0
     tf = ext.transform
+    if ext.parameter == C.ORBSLAM3_STEREO.parameter:  # the second camera, from the first
+        to = C.ORBSLAM3_STEREO
     print(f"{to.system} {ext.parameter} (from {src} file {path}, camera {args.camera}):")
     print(format_matrix(tf.T + 0.0, "  "))
     print(f"frames: target {tf.target_frame}, source {tf.source_frame}")

@@ -77,6 +77,7 @@ from .transform import Transform, frame_name
 from .tree import TransformTree
 
 __all__ = [
+    "ORBSLAM3_STEREO",
     "REQUIRED_KEYS",
     "SYSTEMS",
     "TIME_OFFSETS",
@@ -198,6 +199,20 @@ SYSTEMS: dict[str, ExtrinsicFormat] = {
         ),
     )
 }
+
+
+#: ORB-SLAM3's second camera: ``Stereo.T_c1_c2`` (what :func:`export_extrinsic` gives for
+#: ``cam1``), its storage, its use and the source read.
+ORBSLAM3_STEREO = ExtrinsicFormat(
+    "orbslam3",
+    "Stereo.T_c1_c2",
+    "T_imu_cam",  # not a camera–IMU matrix: T_c1_c2 maps camera-2 coordinates to camera 1's
+    "!!opencv-matrix 4x4, dt: f, beside IMU.T_b_c1 (the first camera's)",
+    "Tlr = T_c1_c2 (p_c1 = Tlr p_c2); cv::stereoRectify gets R12, t12 = Tlr^-1 (first camera "
+    "to second); baseline b = |t_lr|; the second camera's pose in the body: T_b_c1 * T_c1_c2",
+    "UZ-SLAMLab/ORB_SLAM3 src/Settings.cc (readCamera2, precomputeRectificationMaps)",
+    ("c2", "c1"),
+)
 
 
 def system_names() -> tuple[str, ...]:
