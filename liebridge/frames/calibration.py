@@ -50,11 +50,18 @@ coordinates to camera n. The time offset goes to the systems that keep one, same
 their own key and unit (:data:`TIME_OFFSETS`): OpenVINS ``timeshift_cam_imu``, VINS-Fusion
 ``td``, Basalt ``cam_time_offset_ns``.
 
+Second cameras (``camera="cam1"``): Kalibr and OpenVINS ``cam1``, VINS-Fusion ``body_T_cam1``;
+ORB-SLAM3 ``Stereo.T_c1_c2`` = ``T_cam0_cam1`` (camera-2 coordinates to camera 1's: ORB_SLAM3
+``src/Settings.cc`` reads it into ``Tlr_`` and gives ``Tlr_.inverse()`` to ``cv::stereoRectify``
+as the first-to-second camera motion, :data:`ORBSLAM3_STEREO`); OKVIS and Basalt keep one list,
+entry N being camera N, so their snippet for camera N is the whole list up to it.
+
 YAML needs PyYAML (the ``calib`` extra), imported only when a file is read or written. Files in
-OpenCV's dialect (``%YAML:1.0`` and ``!!opencv-matrix`` nodes, as ORB-SLAM3, VINS-Fusion,
-OpenVINS and OKVIS use) are read too, and :func:`format_parameter` writes each system's
-parameter in that system's own syntax (checked by reading it back with OpenCV's
-``FileStorage`` in the tests).
+OpenCV's dialect (``%YAML:1.0``, ``!!opencv-matrix`` nodes, ``Key:value`` and ``data:[...]``
+without a space after the colon, as ORB-SLAM3, VINS-Fusion, OpenVINS and OKVIS use) are read as
+``cv2.FileStorage`` reads them, and :func:`format_parameter` writes each system's parameter in
+that system's own syntax (both checked against OpenCV's ``FileStorage`` in the tests). A key a
+system's file lacks is one ``ValueError`` naming the file and the key (:data:`REQUIRED_KEYS`).
 """
 
 from __future__ import annotations
