@@ -110,7 +110,7 @@ __all__ = [
 ]
 
 PathLike = str | Path
-Holds = Literal["T_cam_imu", "T_imu_cam"]
+Holds = Literal["T_cam_imu", "T_imu_cam", "T_cam0_cam1"]
 
 
 # ----------------------------------------------------------------------------- the systems
@@ -119,7 +119,9 @@ class ExtrinsicFormat:
     """How one system names, orients and stores the camera–IMU extrinsic.
 
     ``holds`` is the direction in liebridge's naming: ``"T_cam_imu"`` maps IMU coordinates to
-    camera coordinates, ``"T_imu_cam"`` camera coordinates to IMU coordinates.
+    camera coordinates, ``"T_imu_cam"`` camera coordinates to IMU coordinates,
+    ``"T_cam0_cam1"`` (ORB-SLAM3's ``Stereo.T_c1_c2``, :data:`ORBSLAM3_STEREO`) the second
+    camera's coordinates to the first's.
     """
 
     system: str
@@ -213,10 +215,10 @@ SYSTEMS: dict[str, ExtrinsicFormat] = {
 ORBSLAM3_STEREO = ExtrinsicFormat(
     "orbslam3",
     "Stereo.T_c1_c2",
-    "T_imu_cam",  # not a camera–IMU matrix: T_c1_c2 maps camera-2 coordinates to camera 1's
+    "T_cam0_cam1",  # not a camera–IMU matrix: camera-2 coordinates to camera 1's
     "!!opencv-matrix 4x4, dt: f, beside IMU.T_b_c1 (the first camera's)",
     "Tlr = T_c1_c2 (p_c1 = Tlr p_c2); cv::stereoRectify gets R12, t12 = Tlr^-1 (first camera "
-    "to second); baseline b = |t_lr|; the second camera's pose in the body: T_b_c1 * T_c1_c2",
+    "to second); baseline b = |t_lr|; hence T_b_c2 = T_b_c1 * T_c1_c2",
     "UZ-SLAMLab/ORB_SLAM3 src/Settings.cc (readCamera2, precomputeRectificationMaps)",
     ("c2", "c1"),
 )
