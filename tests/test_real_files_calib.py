@@ -454,6 +454,20 @@ def test_second_camera_cli_label_is_the_snippets(
             assert "body_T_cam0" not in text
 
 
+def test_second_camera_from_a_one_camera_file_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """An rvec/tvec file holds one camera: cam0 is not read from it a second time."""
+    path = tmp_path / "pnp.yaml"
+    path.write_text(VALID["opencv"])
+    for to in ("orbslam3", "okvis", "basalt"):
+        argv = ["extrinsics", "convert", str(path), "--to", to, "--camera", "cam1"]
+        rc, out, err = _one_line_cli(argv, capsys)
+        assert rc == 2 and out == "" and "holds one camera" in err and err.count("\n") == 1
+    rc, _, _ = _one_line_cli(["extrinsics", "convert", str(path), "--to", "vins_fusion"], capsys)
+    assert rc == 0
+
+
 def test_orbslam3_second_camera_is_stereo_T_c1_c2_as_euroc_ships_it() -> None:
     """EuRoC's two T_BS give exactly the Stereo.T_c1_c2 ORB-SLAM3 ships (not its inverse).
 

@@ -96,6 +96,11 @@ def _earlier(C: Any, parsed: Any, src: str, to: str, args: argparse.Namespace) -
         return []
     if to == "orbslam3" and idx > 1:
         return []  # export_extrinsic says that ORB-SLAM3 keeps two cameras
+    if src == "opencv":  # one rvec/tvec: reading "cam0" from it would give cam1 again
+        raise CLIError(
+            f"--to {to} --camera {args.camera} needs cam0's extrinsic too ({to} stores "
+            f"{args.camera} with the earlier cameras), but an rvec/tvec file holds one camera"
+        )
     out = []
     for k in range(idx):
         try:
