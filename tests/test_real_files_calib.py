@@ -30,6 +30,7 @@ from scipy.spatial.transform import Rotation
 from liebridge.cli import main
 from liebridge.frames import (
     CalibrationFile,
+    OrbSlam3PrecisionWarning,
     Transform,
     calibration,
     export_extrinsic,
@@ -234,6 +235,26 @@ def test_opencv_dialect_tight_keys_only_under_opencv_header(tmp_path: Path) -> N
     assert CalibrationFile.read(path).data == {"A.b": 2, "c": [1, 2], "url": "http://x.org/a:b"}
     path.write_text("a: 1\nb: x:y\n")  # no header: a plain scalar with a colon stays one
     assert CalibrationFile.read(path).data == {"a": 1, "b": "x:y"}
+
+
+def test_orbslam3_double_matrix_is_read_with_a_warning_orbslam3_would_misread_it(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """ORB-SLAM3's Converter::toSophus takes at<float> of any matrix: dt: d is misread there."""
+    path = tmp_path / "orb.yaml"
+    path.write_text(ORBSLAM3_EUROC.replace("dt: f", "dt: d"))
+    with pytest.warns(OrbSlam3PrecisionWarning, match=r"IMU\.T_b_c1 is dt: d, but ORB-SLAM3"):
+        T = read_extrinsic(path)
+    np.testing.assert_allclose(T.inverse().T, EUROC_T_B_C0, atol=1e-12)  # read as written
+    rc, out, err = _one_line_cli(
+        ["extrinsics", "convert", str(path), "--to", "kalibr", "--camera", "cam1"], capsys
+    )
+    assert rc == 0 and out
+    lines = err.splitlines()
+    assert len(lines) == 2 and all(
+        line.startswith("liebridge extrinsics convert: warning: ") for line in lines
+    )
+    assert "IMU.T_b_c1" in lines[0] and "Stereo.T_c1_c2" in lines[1]
 
 
 def test_opencv_dialect_error_lines_are_the_files(tmp_path: Path) -> None:

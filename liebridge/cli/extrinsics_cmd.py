@@ -15,10 +15,11 @@ from __future__ import annotations
 
 import argparse
 import json
+import warnings
 from pathlib import Path
 from typing import Any
 
-from ._common import CLIError, format_matrix
+from ._common import CLIError, format_matrix, one_line, say
 
 __all__ = ["add_parser"]
 
@@ -43,9 +44,13 @@ def _convert(args: argparse.Namespace) -> int:
                     f"{path}: cannot tell which system wrote it (no T_cam_imu, T_imu_cam, T_SC, "
                     "IMU.T_b_c1, body_T_camN or rvec/tvec found); give --from SYSTEM"
                 )
-        T_cam_imu = C.read_extrinsic(
-            parsed, system=src, camera=args.camera, imu_frame=args.imu_frame
-        )
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", C.OrbSlam3PrecisionWarning)
+            T_cam_imu = C.read_extrinsic(
+                parsed, system=src, camera=args.camera, imu_frame=args.imu_frame
+            )
+        for w in caught:  # one line each on stderr, never Python's two-line warning format
+            say(f"liebridge extrinsics convert: warning: {one_line(str(w.message))}")
         shift = C.read_timeshift(parsed, system=src, camera=args.camera)
         earlier = _earlier(C, parsed, src, to.system, args)
     except ImportError as exc:
@@ -104,9 +109,10 @@ def _earlier(C: Any, parsed: Any, src: str, to: str, args: argparse.Namespace) -
     out = []
     for k in range(idx):
         try:
-            out.append(
-                C.read_extrinsic(parsed, system=src, camera=f"cam{k}", imu_frame=args.imu_frame)
-            )
+            with warnings.catch_warnings():  # said once already, for the camera asked for
+                warnings.simplefilter("ignore", C.OrbSlam3PrecisionWarning)
+                T = C.read_extrinsic(parsed, system=src, camera=f"cam{k}", imu_frame=args.imu_frame)
+            out.append(T)
         except ValueError as exc:
             raise CLIError(
                 f"--to {to} --camera {args.camera} needs cam{k}'s extrinsic too ({to} stores "

@@ -68,6 +68,7 @@ from __future__ import annotations
 
 import json
 import re
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -92,6 +93,7 @@ __all__ = [
     "ExtrinsicFormat",
     "KalibrCamchain",
     "KalibrCamera",
+    "OrbSlam3PrecisionWarning",
     "SystemExtrinsic",
     "detect_file_system",
     "detect_system",
@@ -1160,9 +1162,10 @@ def read_extrinsic(
                 "first, Stereo.T_c1_c2 from the first to the second)"
             )
         key = "IMU.T_b_c1" if "IMU.T_b_c1" in data or "Tbc" not in data else "Tbc"
-        T, tol = _pose(need(data, key), f"{path}: {key}")
+        T, tol = _pose(_orbslam3_float(need(data, key), path, key), f"{path}: {key}")
         if idx == 1:  # T_b_c2 = T_b_c1 · T_c1_c2 (Settings.cc reads Stereo.T_c1_c2 as Tlr)
-            T12, tol12 = _pose(need(data, "Stereo.T_c1_c2"), f"{path}: Stereo.T_c1_c2")
+            key = "Stereo.T_c1_c2"
+            T12, tol12 = _pose(_orbslam3_float(need(data, key), path, key), f"{path}: {key}")
             T, tol = T @ T12, max(tol, tol12)
     elif name == "vins_fusion":
         key = f"body_T_cam{idx}"
@@ -1188,6 +1191,28 @@ def read_extrinsic(
             raise ValueError(f"{where}: {exc}") from None
         tol = validate.ROTATION_TOL
     return Transform(T, imu_frame, camera, tol=tol).inverse()  # all of these hold T_imu_cam
+
+
+class OrbSlam3PrecisionWarning(UserWarning):
+    """An ORB-SLAM3 matrix that ORB-SLAM3 itself would misread (not ``dt: f``)."""
+
+
+def _orbslam3_float(value: Any, path: Any, key: str) -> Any:
+    """Warn when ORB-SLAM3 would misread ``key``: it takes every element with ``at<float>``.
+
+    ORB_SLAM3 ``src/Converter.cc`` ``toSophus`` reads the matrix with ``cv::Mat::at<float>``
+    whatever its type: a ``dt: d`` matrix is reinterpreted, not converted. liebridge reads the
+    numbers as written and says so once, naming the file and the key.
+    """
+    if isinstance(value, _OpenCVMatrix) and value.get("dt", "f") != "f":
+        warnings.warn(
+            f"{path}: {key} is dt: {value.get('dt')}, but ORB-SLAM3 reads it with "
+            "cv::Mat::at<float> (src/Converter.cc, toSophus) and would misread it; write it "
+            "as dt: f (read here as written)",
+            OrbSlam3PrecisionWarning,
+            stacklevel=3,
+        )
+    return value
 
 
 def read_timeshift(
