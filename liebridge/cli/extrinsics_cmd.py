@@ -9,6 +9,11 @@ object on stdout with ``system``, ``parameter``, ``T`` (4×4 rows), ``target_fra
 ``camera``, ``from_system``, ``snippet`` and, for OpenCV, ``rvec``/``tvec``; a time offset in
 FILE (Kalibr ``timeshift_cam_imu``, ``t_imu = t_cam + shift``) is carried to the target's own key
 (``timeshift_cam_imu``, ``td``, ``cam_time_offset_ns``) when it has one.
+
+``--camera cam1`` prints the second camera as the target system keeps it: VINS-Fusion
+``body_T_cam1``, ORB-SLAM3 ``Stereo.T_c1_c2`` (with ``IMU.T_b_c1`` in the snippet), the whole
+OKVIS ``cameras`` and Basalt ``T_imu_cam`` lists (cam0 is read from FILE too). A key FILE lacks
+is one line naming FILE and the key, exit status 2.
 """
 
 from __future__ import annotations
