@@ -187,6 +187,8 @@ def like(value: Any, ref: Any) -> Any:
         return np.asarray(value, dtype=np.float64)
     import array_api_compat
 
+    if isinstance(value, np.ndarray) and not value.flags.writeable:
+        value = np.array(value)  # torch refuses to wrap read-only memory (a broadcast view)
     return xp.asarray(value, dtype=ref.dtype, device=array_api_compat.device(ref))
 
 

@@ -341,14 +341,14 @@ def interpolate(T0: Any, T1: Any, tau: Any) -> FloatArray:
     ``tau`` broadcasts against the batch shape of ``T0``/``T1``; values outside [0, 1]
     extrapolate along the same screw.
     """
-    T0 = validate.pose(T0, "T0")
-    T1 = validate.pose(T1, "T1")
-    tau_ = validate.as_float_array(tau, "tau")
-    validate.check_finite(tau_, "tau", core_ndim=0)
-    validate.batch_shape(("T0", T0.shape[:-2]), ("T1", T1.shape[:-2]), ("tau", tau_.shape))
-    xi = validate.tangent(tau_[..., None] * _log(_inverse(T0) @ T1), "tau·Log(T0⁻¹T1)", 6)
-    out = np.asarray(T0 @ _exp(xi), dtype=np.float64)
-    return validate.finite_output(out, "se3.interpolate")
+    ops = (_log, _exp, _inverse)
+
+    def tangent(xi: Any, name: str) -> FloatArray:
+        return validate.tangent(xi, name, 6)
+
+    return _mg.interpolate(
+        T0, T1, tau, validate.pose, tangent, ops, ("T0", "T1"), "se3.interpolate"
+    )
 
 
 # ----------------------------------------------------------------------------- the record
