@@ -165,7 +165,7 @@ def _write_marginals(args: argparse.Namespace) -> int:
                 f"--period: {len(keys)} vertices {args.period!r} s apart end at {last!r} s, "
                 f"beyond the {ros.messages.STAMP_MAX} s a ROS time holds"
             )
-        graph, initial = g.to_gtsam()
+        graph, initial = g.to_gtsam(prior=None)  # the prior of --prior-sigma follows
         graph.add(
             gtsam.PriorFactorPose3(
                 k0, initial.atPose3(k0), gtsam.noiseModel.Isotropic.Sigma(6, args.prior_sigma)

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from .._validate import FloatArray
+from ..io.g2o import GAUGE_PRIOR_SIGMA, gauge_keys
 from ..lie import se3
 from ._common import (
     CLIError,
@@ -46,8 +47,9 @@ __all__ = [
 
 #: The file ``liebridge optimize`` reads without arguments (from the installed GTSAM's data).
 DEFAULT_DATASET = "sphere2500.txt"
-#: Gauge prior standard deviation (every direction of GTSAM's tangent).
-PRIOR_SIGMA = 1e-4
+#: Gauge prior standard deviation (every direction of GTSAM's tangent): the default of
+#: ``G2OGraph.to_gtsam(prior="gauge")``.
+PRIOR_SIGMA = GAUGE_PRIOR_SIGMA
 _PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg")
 
 
@@ -109,7 +111,7 @@ def _semantics_line(information: str) -> str:
 
 
 def _gauge_keys(g: Any) -> list[int]:
-    return list(g.fixed) if g.fixed else [int(g.vertex_ids[0])]
+    return gauge_keys(g.vertex_ids, g.fixed)
 
 
 def _check_connected(g: Any) -> None:
@@ -131,7 +133,7 @@ def _build(g: Any, conv: Any) -> Any:
     key_index = {int(k): n for n, k in enumerate(g.vertex_ids.tolist())}
     prior_cov = np.eye(6) * PRIOR_SIGMA**2
     if conv.name == "gtsam":
-        graph, values = g.to_gtsam()
+        graph, values = g.to_gtsam(prior=None)  # the gauge prior is added below, in conv
         cg = ConventionGraph(conv, graph, values)
     else:
         cg = ConventionGraph(conv, values=to_values(g.poses, g.vertex_ids.tolist()))
