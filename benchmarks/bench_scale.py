@@ -2,7 +2,7 @@
 
 Rows, each against what a user would otherwise write, in the same run:
 
-* ``bag_export_tum``: ``liebridge bag export BAG --topic /odom --to tum`` (streamed,
+* ``bag_export_tum``: ``liebridge bag export BAG --topic /odom --format tum`` (streamed,
   :func:`liebridge.ros.iter_messages`) on ROS 1 bags of ``nav_msgs/Odometry`` at two sizes,
   against ``read_messages`` (all arrays in memory) and the loop a user writes with rosbags
   (``AnyReader``: every message deserialized into a list, then written). Peak resident set
@@ -84,7 +84,7 @@ def _write_bag(path: Path, n: int) -> None:
 
 _EXPORT = """
 from liebridge.cli import main
-assert main(["bag", "export", {bag!r}, "--topic", "/odom", "--to", "tum", {out!r}]) == 0
+assert main(["bag", "export", {bag!r}, "--topic", "/odom", "--format", "tum", {out!r}]) == 0
 """
 _READ = """
 from liebridge import ros

@@ -1,8 +1,8 @@
 """``liebridge bag``: ROS 1 / ROS 2 bags without ROS (info, export, write-marginals).
 
 ``bag info BAG`` lists the topics and which ones liebridge reads; ``bag export BAG --topic T
---to tum|g2o|npz OUT`` writes one trajectory topic as a TUM file (exact stamps, ``repr`` floats),
-a g2o odometry chain (information over GTSAM's tangent, converted from the messages' ROS
+--format tum|g2o|npz OUT`` writes one trajectory topic as a TUM file (exact stamps, ``repr``
+floats), a g2o odometry chain (information over GTSAM's tangent, converted from the messages' ROS
 covariances — never copied) or an ``.npz`` of arrays with the covariance in ``--convention``;
 ``bag write-marginals IN OUT`` optimizes a pose graph (a g2o file, or a bag trajectory topic as an
 odometry chain) with GTSAM and writes the estimates with their marginal covariances, converted
@@ -20,7 +20,14 @@ import numpy as np
 
 from .._validate import SINGULAR_ATOL, SINGULAR_RTOL
 from ..frames.transform import frame_name
-from ._common import CLIError, check_connected, check_output_path, convention_arg, say
+from ._common import (
+    CLIError,
+    check_connected,
+    check_output_path,
+    convention_arg,
+    deprecated_alias,
+    say,
+)
 
 __all__ = ["add_parser"]
 
@@ -102,7 +109,7 @@ def _export(args: argparse.Namespace) -> int:
                 f"{args.topic}: the covariance of the increment from message {k} to {k + 1} is "
                 f"singular (eigenvalues {lam[k, 0]:.3g} … {lam[k, -1]:.3g}; all-zero message "
                 f"covariances?): a g2o edge needs its inverse (try --increment "
-                f"{'twist' if args.increment == 'difference' else 'difference'}, or --to tum)"
+                f"{'twist' if args.increment == 'difference' else 'difference'}, or --format tum)"
             )
         info = np.linalg.inv(cz)
         info = 0.5 * (info + np.swapaxes(info, -1, -2))
@@ -244,7 +251,10 @@ def add_parser(sub: Any) -> None:
     )
     e.add_argument("bag", metavar="BAG")
     e.add_argument("--topic", required=True)
-    e.add_argument("--to", required=True, choices=("tum", "g2o", "npz"))
+    fmt = e.add_argument(
+        "--format", dest="to", required=True, choices=("tum", "g2o", "npz"), help="what OUT is"
+    )
+    deprecated_alias(e, fmt, "--to")
     e.add_argument("out", metavar="OUT")
     e.add_argument(
         "--convention",
