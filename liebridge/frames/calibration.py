@@ -200,7 +200,7 @@ SYSTEMS: dict[str, ExtrinsicFormat] = {
 
 
 def system_names() -> tuple[str, ...]:
-    """Names accepted by :func:`export_extrinsic` and the CLI's ``--to``/``--from``."""
+    """Names accepted by :func:`export_extrinsic` and ``--to-system``/``--from-system``."""
     return tuple(SYSTEMS)
 
 
