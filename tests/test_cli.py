@@ -509,7 +509,7 @@ def _bad_cases(tmp: Path) -> dict[str, tuple[list[str], str, dict[str, str] | No
         ),
         "optimize-bad-file": (["optimize", str(bad_file)], "bad.g2o:3: not a number: 'oops'", None),
         "optimize-disconnected": (
-            ["optimize", str(disconnected), "--marginals", str(tmp / "m.npy")],
+            ["optimize", str(disconnected), "--out-cov", str(tmp / "m.npy")],
             "the graph is not connected: 2 vertices (2, 3) have no path of edges",
             None,
         ),

@@ -87,7 +87,7 @@ def test_convention_graph_marginals_of_gauge_free_graph_fail_in_one_line() -> No
 def test_to_gtsam_default_prior_is_the_cli_gauge_prior(tmp_path) -> None:
     """``to_gtsam()``'s graph, optimized, has the marginals ``liebridge optimize`` writes."""
     out = tmp_path / "m.npy"
-    assert main(["optimize", POSE3, "--marginals", str(out)]) == 0
+    assert main(["optimize", POSE3, "--out-cov", str(out)]) == 0
     cli = np.load(out)
     g = lb.io.g2o.read(POSE3)
     with pytest.warns(GaugePriorNotice):

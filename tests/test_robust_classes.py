@@ -529,7 +529,7 @@ def test_class13_g2o_convert_to_dev_null(
     assert os.path.exists(os.devnull) and not os.path.isfile(os.devnull)
 
 
-@pytest.mark.parametrize("option", ["--plot", "--marginals"])
+@pytest.mark.parametrize("option", ["--plot", "--out-cov"])
 def test_class13_unwritable_output_fails_before_optimizing(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], option: str
 ) -> None:

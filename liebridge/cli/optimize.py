@@ -30,6 +30,7 @@ from ._common import (
     check_connected,
     check_output_path,
     convention_arg,
+    deprecated_alias,
     need_matplotlib,
     option_value,
     save_figure,
@@ -223,7 +224,7 @@ def _run(args: argparse.Namespace) -> int:
         check_output_path(args.plot, "--plot", _PLOT_SUFFIXES, inputs=[args.file])
         plt = need_matplotlib()  # fail before the long part, not after
     if args.marginals is not None:
-        check_output_path(args.marginals, "--marginals", (".npy",), inputs=[args.file])
+        check_output_path(args.marginals, "--out-cov", (".npy",), inputs=[args.file])
     path = resolve_dataset(args.file)
 
     from ..io import g2o as g2o_io
@@ -295,7 +296,7 @@ def _run(args: argparse.Namespace) -> int:
             cov = cg.marginal_covariances(keys)
         except RuntimeError as exc:  # an ill-conditioned system at the optimum
             raise _gtsam_error(exc, "the marginal covariances") from None
-        save_npy(args.marginals, cov, "--marginals")
+        save_npy(args.marginals, cov, "--out-cov")
         sigma = position_sigma(cov, cg.poses(keys), conv)
         timings.append(f"marginals {time.perf_counter() - t0:.2f} s")
         print(
@@ -325,9 +326,10 @@ def add_parser(sub: Any) -> None:
         "initial and final error, the iterations and the timings. With --convention NAME the "
         "graph is built in NAME's convention (information converted from GTSAM's tangent at "
         "each measurement; native factors where exact, liebridge's custom factors otherwise) "
-        "and --marginals are written in NAME's tangent. A 2D file (VERTEX_SE2 / EDGE_SE2, TORO's "
-        "VERTEX2 / EDGE2) is detected and optimized as Pose2 factors; its --convention is an SE(2) "
-        "one (default gtsam_pose2) and its plot is planar. Progress goes to stderr.",
+        "and --out-cov marginals are written in NAME's tangent. A 2D file (VERTEX_SE2 / "
+        "EDGE_SE2, TORO's VERTEX2 / EDGE2) is detected and optimized as Pose2 factors; its "
+        "--convention is an SE(2) one (default gtsam_pose2) and its plot is planar. Progress "
+        "goes to stderr.",
     )
     p.add_argument(
         "file",
@@ -372,14 +374,16 @@ def add_parser(sub: Any) -> None:
         "--plot",
         metavar="OUT.png",
         help="write a 3D plot of the initial and optimized trajectories, axes in the file's "
-        "length unit (m); with --marginals the optimized poses are coloured by their position σ "
+        "length unit (m); with --out-cov the optimized poses are coloured by their position σ "
         '(needs matplotlib: pip install ".[plot]" from the checkout)',
     )
-    p.add_argument(
-        "--marginals",
+    cov = p.add_argument(
+        "--out-cov",
+        dest="marginals",
         metavar="OUT.npy",
         help="write the marginal covariances (N, 6, 6), in the convention's tangent, vertex order",
     )
+    deprecated_alias(p, cov, "--marginals")
     from ._common import positive_int
 
     p.add_argument(

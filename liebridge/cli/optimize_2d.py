@@ -31,7 +31,7 @@ from ._common import CLIError, check_connected, need_matplotlib, save_figure, sa
 #: σ of the gauge prior on the ``FIX`` vertices (else the first), in each of (vx, vy, ω): the
 #: default of ``G2OGraph2D.to_gtsam(prior="gauge")``.
 PRIOR_SIGMA = GAUGE_PRIOR_SIGMA
-#: Above this many poses the plot shows no ellipses unless --marginals were computed anyway.
+#: Above this many poses the plot shows no ellipses unless --out-cov marginals were computed.
 PLOT_ELLIPSES_MAX = 3000
 
 
@@ -212,7 +212,7 @@ def run(args: argparse.Namespace, path: Path, params: Any, plt: Any, t_start: fl
         cov = convert_covariance(cov_gtsam, X, "gtsam_pose2", conv)
         timings.append(f"marginals {time.perf_counter() - t0:.2f} s")
         if args.marginals is not None:
-            save_npy(args.marginals, cov, "--marginals")
+            save_npy(args.marginals, cov, "--out-cov")
             print(f"marginals: {args.marginals} (shape {cov.shape}, {conv.name}'s tangent)")
     if args.plot is not None:
         t0 = time.perf_counter()
