@@ -26,6 +26,7 @@ from ._common import (
     CLIError,
     check_output_path,
     convention_arg,
+    deprecated_alias,
     need_matplotlib,
     npy_argument,
     one_line,
@@ -247,7 +248,7 @@ def _rpe(args: argparse.Namespace) -> int:
     if args.plot:
         check_output_path(args.plot, "--plot", (".png", ".pdf", ".svg"), inputs=_inputs(args))
     if args.unit == "frames" and not float(args.delta).is_integer():
-        raise CLIError(f"--delta: expected an integer for --unit frames, got {args.delta:g}")
+        raise CLIError(f"--delta: expected an integer for --delta-unit frames, got {args.delta:g}")
     p = _prepare(args)
     try:
         err, pairs = traj.rpe(
@@ -422,12 +423,14 @@ def add_parser(sub: Any) -> None:
     _common(r)
     _relation(r)
     r.add_argument("--delta", type=float, default=1, help="pair distance (default 1)")
-    r.add_argument(
-        "--unit",
+    unit = r.add_argument(
+        "--delta-unit",
+        dest="unit",
         choices=("frames", "m"),
         default="frames",
         help="unit of --delta (frames, or metres of path on EST)",
     )
+    deprecated_alias(r, unit, "--unit")
     r.add_argument(
         "--all-pairs",
         action="store_true",
