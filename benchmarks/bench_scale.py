@@ -188,7 +188,7 @@ def bench_yaml(mb: float, tmp: Path) -> dict[str, Any]:
         calls = []
         real = C._load_text
         C._load_text = lambda text, path: calls.append(1) or real(text, path)
-        assert main(["extrinsics", "convert", {str(f)!r}, "--to", "okvis"]) == 0
+        assert main(["extrinsics", "convert", {str(f)!r}, "--to-system", "okvis"]) == 0
         out["parses"] = len(calls)
         """
     )
