@@ -371,7 +371,9 @@ def _check_keys(graph: Any, values: Any) -> list[int]:
 
 
 def _has_unary_factor(graph: Any) -> bool:
-    for k in range(graph.size()):
+    n = graph.size()
+    # priors are usually added first or last: look there before scanning the rest
+    for k in (0, n - 1, *range(1, n - 1)) if n > 1 else range(n):
         f = graph.at(k)
         if f is not None and len(f.keys()) == 1:
             return True
