@@ -550,7 +550,7 @@ class G2OGraph:
             noise = gtsam.noiseModel.Gaussian.Covariance(cov)
             for k in keys:
                 graph.add(gtsam.PriorFactorPose3(k, values.atPose3(k), noise))
-            if isinstance(prior, str):
+            if isinstance(prior, str) and keys:
                 gauge_notice("G2OGraph.to_gtsam", keys, "in each of GTSAM's (ω, v) directions")
         return graph, values
 

@@ -259,7 +259,7 @@ class G2OGraph2D:
             noise = gtsam.noiseModel.Gaussian.Covariance(cov)
             for k in keys:
                 graph.add(gtsam.PriorFactorPose2(k, values.atPose2(k), noise))
-            if isinstance(prior, str):
+            if isinstance(prior, str) and keys:
                 gauge_notice(
                     "G2OGraph2D.to_gtsam", keys, "in each of GTSAM's (vx, vy, ω) directions"
                 )
