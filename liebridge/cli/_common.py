@@ -44,10 +44,9 @@ class OneLineParser(argparse.ArgumentParser):
     """An ``ArgumentParser`` whose usage errors are one line on stderr (exit status 2).
 
     It also enforces the options made required "in either spelling" by
-    :func:`deprecated_alias` (argparse alone would demand the new spelling).
+    :func:`deprecated_alias` (argparse alone would demand the new spelling): such an option's
+    default is a :class:`_Missing` marker, and a namespace still holding one is an error.
     """
-
-    required_in_either_spelling: list[tuple[str, str, str]]
 
     def error(self, message: str) -> NoReturn:
         """Print ``PROG: error: MESSAGE (see 'PROG --help')`` and exit with status 2."""
@@ -58,14 +57,26 @@ class OneLineParser(argparse.ArgumentParser):
     ) -> tuple[argparse.Namespace, list[str]]:
         """Parse, then require each option made required in either spelling."""
         ns, rest = super().parse_known_args(args, namespace)
-        missing = [
-            new
-            for dest, new, _ in getattr(self, "required_in_either_spelling", [])
-            if getattr(ns, dest, None) is None
-        ]
+        missing = [v for v in vars(ns).values() if isinstance(v, _Missing)]
         if missing:
-            self.error(f"the following arguments are required: {', '.join(missing)}")
+            prog = missing[0].prog
+            names = ", ".join(m.option for m in missing)
+            self.exit(
+                2,
+                f"{prog}: error: the following arguments are required: {names} "
+                f"(see '{prog} --help')\n",
+            )
         return ns, rest
+
+
+class _Missing:
+    """The default of an option required in either of its spellings (see :class:`OneLineParser`)."""
+
+    def __init__(self, option: str, prog: str) -> None:
+        self.option, self.prog = option, prog
+
+    def __repr__(self) -> str:
+        return f"<{self.option} missing>"
 
 
 class _DeprecatedAlias(argparse.Action):
@@ -99,11 +110,9 @@ def deprecated_alias(parser: argparse.ArgumentParser, new: argparse.Action, old:
     when used. A required ``new`` becomes "required in either spelling".
     """
     name = new.option_strings[-1]
-    if new.required and isinstance(parser, OneLineParser):
+    if new.required:
         new.required = False
-        if not hasattr(parser, "required_in_either_spelling"):
-            parser.required_in_either_spelling = []
-        parser.required_in_either_spelling.append((new.dest, name, old))
+        new.default = _Missing(name, parser.prog)
     kw: dict[str, Any] = {"choices": new.choices, "metavar": new.metavar}
     if new.type is not None:
         kw["type"] = new.type

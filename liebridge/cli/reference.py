@@ -11,6 +11,8 @@ import argparse
 import sys
 from collections.abc import Iterator, Sequence
 
+from ._common import _Missing
+
 __all__ = ["VOCABULARY", "VOCABULARY_ROWS", "cli_reference", "deprecated_spellings", "main"]
 
 #: The naming rules every command follows: (concept, option names, where), the page's preamble.
@@ -106,6 +108,8 @@ def _default(action: argparse.Action) -> str:
     d = action.default
     if action.nargs == 0 or d is None or d is argparse.SUPPRESS or callable(d):
         return ""
+    if isinstance(d, _Missing):  # required in either spelling
+        return ""
     return f"`{d}`" if str(d) else "`''`"
 
 
@@ -160,7 +164,7 @@ def cli_reference(parser: argparse.ArgumentParser | None = None) -> str:
                 meaning = "print the version and exit"
             else:
                 meaning = a.help if a.help not in (None, argparse.SUPPRESS) else ""
-            if a.required and a.option_strings:
+            if (a.required or isinstance(a.default, _Missing)) and a.option_strings:
                 meaning = f"(required) {meaning}".strip()
             lines.append(
                 f"| {_name(a)} | {_cell(_argument(a))} | {_default(a)} | {_cell(meaning)} |"
