@@ -2,7 +2,9 @@
 
 Old path: also reachable as ``lb.g2o`` (earlier releases); new code writes ``lb.io.g2o``.
 
-Read with :func:`read`, write with :func:`write`, hand to GTSAM with :meth:`G2OGraph.to_gtsam`.
+Read with :func:`read`, write with :func:`write`, hand to GTSAM with :meth:`G2OGraph.to_gtsam`
+(with ``liebridge optimize``'s gauge prior unless ``prior=None``: a graph of relative
+measurements alone fixes no pose, and GTSAM's marginals fail on it).
 Inside, every information matrix is over **GTSAM's tangent** of the edge error,
 ``ξ = (ω, v) = Log(Z⁻¹·Ti⁻¹·Tj)`` (rotation first; what ``gtsam.BetweenFactorPose3`` whitens),
 whatever the file held. Supported lines::
