@@ -2,7 +2,7 @@
 
 Rows, each against what a user would otherwise write, in the same run:
 
-* ``bag_export_tum``: ``liebridge bag export BAG --topic /odom --to tum`` (streamed,
+* ``bag_export_tum``: ``liebridge bag export BAG --topic /odom --format tum`` (streamed,
   :func:`liebridge.ros.iter_messages`) on ROS 1 bags of ``nav_msgs/Odometry`` at two sizes,
   against ``read_messages`` (all arrays in memory) and the loop a user writes with rosbags
   (``AnyReader``: every message deserialized into a list, then written). Peak resident set
@@ -88,7 +88,7 @@ def _write_bag(path: Path, n: int) -> None:
 
 _EXPORT = """
 from liebridge.cli import main
-assert main(["bag", "export", {bag!r}, "--topic", "/odom", "--to", "tum", {out!r}]) == 0
+assert main(["bag", "export", {bag!r}, "--topic", "/odom", "--format", "tum", {out!r}]) == 0
 """
 _READ = """
 from liebridge import ros
@@ -237,7 +237,7 @@ def bench_yaml(mb: float, tmp: Path) -> dict[str, Any]:
         calls = []
         real = C._load_text
         C._load_text = lambda text, path: calls.append(1) or real(text, path)
-        assert main(["extrinsics", "convert", {str(f)!r}, "--to", "okvis"]) == 0
+        assert main(["extrinsics", "convert", {str(f)!r}, "--to-system", "okvis"]) == 0
         out["parses"] = len(calls)
         """
     )

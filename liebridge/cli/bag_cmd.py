@@ -1,8 +1,8 @@
 """``liebridge bag``: ROS 1 / ROS 2 bags without ROS (info, export, write-marginals).
 
 ``bag info BAG`` lists the topics and which ones liebridge reads; ``bag export BAG --topic T
---to tum|g2o|npz OUT`` writes one trajectory topic as a TUM file (exact stamps, ``repr`` floats),
-a g2o odometry chain (information over GTSAM's tangent, converted from the messages' ROS
+--format tum|g2o|npz OUT`` writes one trajectory topic as a TUM file (exact stamps, ``repr``
+floats), a g2o odometry chain (information over GTSAM's tangent, converted from the messages' ROS
 covariances — never copied) or an ``.npz`` of arrays with the covariance in ``--convention``;
 ``bag write-marginals IN OUT`` optimizes a pose graph (a g2o file, or a bag trajectory topic as an
 odometry chain) with GTSAM and writes the estimates with their marginal covariances, converted
@@ -25,6 +25,7 @@ from ._common import (
     check_connected,
     check_output_path,
     convention_arg,
+    deprecated_alias,
     one_line,
     say,
 )
@@ -107,7 +108,7 @@ def _export_g2o(ros: Any, args: argparse.Namespace, m: Any, out: Path) -> None:
     if m.cov is None and args.increment != "twist":
         raise CLIError(
             f"--topic {args.topic}: {m.msgtype} carries no covariance, and a g2o edge needs "
-            "one (topics of PoseWithCovarianceStamped or Odometry; or export with --to tum)"
+            "one (topics of PoseWithCovarianceStamped or Odometry; or export with --format tum)"
         )
     increment = args.increment or _default_increment(m.msgtype)
     try:
@@ -226,7 +227,7 @@ def _write_marginals(args: argparse.Namespace) -> int:
                 f"--period: {len(keys)} vertices {args.period!r} s apart end at {last!r} s, "
                 f"beyond the {ros.messages.STAMP_MAX} s a ROS time holds"
             )
-        graph, initial = g.to_gtsam()
+        graph, initial = g.to_gtsam(prior=None)  # the prior of --prior-sigma follows
         graph.add(
             gtsam.PriorFactorPose3(
                 k0, initial.atPose3(k0), gtsam.noiseModel.Isotropic.Sigma(6, args.prior_sigma)
@@ -252,7 +253,7 @@ def _write_marginals(args: argparse.Namespace) -> int:
                     f"--topic {args.topic}: the covariance of the increment from message {k} to "
                     f"{k + 1} has rank {int(rank[k])} of 6 ({int((rank < 6).sum())} of "
                     f"{len(rank)} increments; zero or planar message covariances): GTSAM's "
-                    "marginals need every edge of full rank; 'bag export --to g2o' writes it "
+                    "marginals need every edge of full rank; 'bag export --format g2o' writes it "
                     "with its rank-deficient information"
                 )
             factors = ros.odometry_factors(m, increment=args.increment)
@@ -333,7 +334,10 @@ def add_parser(sub: Any) -> None:
     )
     e.add_argument("bag", metavar="BAG")
     e.add_argument("--topic", required=True)
-    e.add_argument("--to", required=True, choices=("tum", "g2o", "npz"))
+    fmt = e.add_argument(
+        "--format", dest="to", required=True, choices=("tum", "g2o", "npz"), help="what OUT is"
+    )
+    deprecated_alias(e, fmt, "--to")
     e.add_argument("out", metavar="OUT")
     e.add_argument(
         "--convention",

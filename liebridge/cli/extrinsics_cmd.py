@@ -1,10 +1,10 @@
 """``liebridge extrinsics convert``: a camera–IMU extrinsic in another system's convention.
 
 Reads FILE (a Kalibr camchain-imucam.yaml by default; any system of
-:func:`liebridge.frames.system_names`, detected from its keys or given with ``--from``) and
-prints the extrinsic as ``--to SYSTEM`` stores it: the matrix, its direction in words, the frame
-names and the parameter in the system's own syntax. ``--format json`` prints exactly one JSON
-object on stdout with ``system``, ``parameter``, ``T`` (4×4 rows), ``target_frame``,
+:func:`liebridge.frames.system_names`, detected from its keys or given with ``--from-system``)
+and prints the extrinsic as ``--to-system SYSTEM`` stores it: the matrix, its direction in words,
+the frame names and the parameter in the system's own syntax. ``--format json`` prints exactly
+one JSON object on stdout with ``system``, ``parameter``, ``T`` (4×4 rows), ``target_frame``,
 ``source_frame`` (``T`` maps ``source_frame`` coordinates to ``target_frame``), ``direction``,
 ``camera``, ``from_system``, ``snippet`` and, for OpenCV, ``rvec``/``tvec``; a time offset in
 FILE (Kalibr ``timeshift_cam_imu``, ``t_imu = t_cam + shift``) is carried to the target's own key
@@ -24,7 +24,7 @@ import warnings
 from pathlib import Path
 from typing import Any
 
-from ._common import CLIError, format_matrix, one_line, say
+from ._common import CLIError, deprecated_alias, format_matrix, one_line, say
 
 __all__ = ["add_parser"]
 
@@ -33,8 +33,8 @@ def _convert(args: argparse.Namespace) -> int:
     from ..frames import calibration as C
 
     try:
-        to = C.system_format(args.to, "--to")
-        src = None if args.source is None else C.system_format(args.source, "--from").system
+        to = C.system_format(args.to, "--to-system")
+        src = None if args.source is None else C.system_format(args.source, "--from-system").system
     except ValueError as exc:
         raise CLIError(str(exc)) from None
     path = Path(args.file)
@@ -140,19 +140,23 @@ def add_parser(sub: Any) -> None:
     c = esub.add_parser(
         "convert",
         help="print a file's camera-IMU extrinsic as another system stores it",
-        description="Read the camera-IMU extrinsic of FILE and print it as --to SYSTEM stores it "
-        "(name, direction, frames, and a snippet in the system's syntax). "
+        description="Read the camera-IMU extrinsic of FILE and print it as --to-system SYSTEM "
+        "stores it (name, direction, frames, and a snippet in the system's syntax). "
         f"Systems: {systems}.",
     )
     c.add_argument("file", metavar="FILE", help="calibration file (Kalibr camchain-imucam.yaml...)")
-    c.add_argument("--to", required=True, metavar="SYSTEM", help=f"one of: {systems}")
-    c.add_argument(
-        "--from",
+    to = c.add_argument(
+        "--to-system", dest="to", required=True, metavar="SYSTEM", help=f"one of: {systems}"
+    )
+    deprecated_alias(c, to, "--to")
+    src = c.add_argument(
+        "--from-system",
         dest="source",
         metavar="SYSTEM",
         default=None,
         help="FILE's system (default: detected from its keys)",
     )
+    deprecated_alias(c, src, "--from")
     c.add_argument("--camera", default="cam0", help="which camera (cam0, cam1, ...; default cam0)")
     c.add_argument("--imu-frame", default="imu0", help="name of the IMU frame (default imu0)")
     c.add_argument("--format", choices=("text", "json"), default="text")

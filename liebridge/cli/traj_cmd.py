@@ -5,7 +5,7 @@ The pipeline is evo's: read both files (TUM, KITTI or EuRoC, detected), associat
 ``none`` by default as evo, ``se3``, ``sim3``, ``4dof``), then compute the metric. ``nees``
 also moves the estimate's covariances (``--cov`` ``(N, 6, 6)`` ``.npy``, one per pose of EST, in
 ``--convention``; without ``--cov``, those EST carries: a bag topic's ``PoseWithCovarianceStamped``
-/ ``Odometry`` covariances, or the ``.npz`` of ``bag export --to npz``) under the alignment, as
+/ ``Odometry`` covariances, or the ``.npz`` of ``bag export --format npz``) under the alignment, as
 that convention requires. A ``nav_msgs/Path`` topic is one message (``--path-message``, default
 the last). ``--format json`` prints
 one JSON object on stdout (``rmse mean median std min max`` and more; ``anees`` for ``nees``);
@@ -29,6 +29,7 @@ from ._common import (
     CLIError,
     check_output_path,
     convention_arg,
+    deprecated_alias,
     need_matplotlib,
     npy_argument,
     one_line,
@@ -102,19 +103,19 @@ def _read_topic(
     return np.concatenate(stamps), np.concatenate(poses), cov, msgtype
 
 
-#: Arrays of the ``.npz`` that ``liebridge bag export --to npz`` writes, read back here.
+#: Arrays of the ``.npz`` that ``liebridge bag export --format npz`` writes, read back here.
 _NPZ_NEEDS = ("stamps", "T")
 
 
 def _read_npz(path: str, what: str) -> tuple[FloatArray, FloatArray, FloatArray | None, str]:
-    """Stamps, poses, covariances and their convention from ``bag export --to npz``'s file."""
+    """Stamps, poses, covariances and their convention from ``bag export --format npz``'s file."""
     try:
         with np.load(path, allow_pickle=False) as d:
             missing = [k for k in _NPZ_NEEDS if k not in d.files]
             if missing:
                 raise CLIError(
                     f"{what}: {path} has no {', '.join(missing)} array (an .npz as "
-                    "'liebridge bag export --to npz' writes: stamps, T, cov, convention)"
+                    "'liebridge bag export --format npz' writes: stamps, T, cov, convention)"
                 )
             t = np.asarray(d["stamps"])
             T = np.asarray(d["T"])
@@ -155,7 +156,7 @@ def _read(
 
     if topic is not None:
         return _read_topic(path, topic, what, path_message)[:2]
-    if path.lower().endswith(".npz"):  # what 'bag export --to npz' writes
+    if path.lower().endswith(".npz"):  # what 'bag export --format npz' writes
         return _read_npz(path, what)[:2]
 
     try:
@@ -322,7 +323,7 @@ def _rpe(args: argparse.Namespace) -> int:
     if args.plot:
         check_output_path(args.plot, "--plot", (".png", ".pdf", ".svg"), inputs=_inputs(args))
     if args.unit == "frames" and not float(args.delta).is_integer():
-        raise CLIError(f"--delta: expected an integer for --unit frames, got {args.delta:g}")
+        raise CLIError(f"--delta: expected an integer for --delta-unit frames, got {args.delta:g}")
     p = _prepare(args)
     try:
         err, pairs = traj.rpe(
@@ -378,7 +379,7 @@ def _nees_inputs(
 
     ``--cov FILE.npy`` (with ``--convention``) wins; else the covariances EST carries: a bag
     topic of ``PoseWithCovarianceStamped`` / ``Odometry`` (``--est-topic``; ROS's convention,
-    converted to ``--convention`` when given) or the ``.npz`` of ``bag export --to npz`` (its
+    converted to ``--convention`` when given) or the ``.npz`` of ``bag export --format npz`` (its
     ``convention``, converted likewise).
     """
     if args.cov is not None:
@@ -418,7 +419,7 @@ def _nees_inputs(
     raise CLIError(
         "--cov: required: EST is a trajectory file without covariances; give --cov FILE.npy "
         "with --convention, or EST as a bag topic with covariances (--est-topic), or the .npz "
-        "of 'liebridge bag export --to npz'"
+        "of 'liebridge bag export --format npz'"
     )
 
 
@@ -555,12 +556,14 @@ def add_parser(sub: Any) -> None:
     _common(r)
     _relation(r)
     r.add_argument("--delta", type=float, default=1, help="pair distance (default 1)")
-    r.add_argument(
-        "--unit",
+    unit = r.add_argument(
+        "--delta-unit",
+        dest="unit",
         choices=("frames", "m"),
         default="frames",
         help="unit of --delta (frames, or metres of path on EST)",
     )
+    deprecated_alias(r, unit, "--unit")
     r.add_argument(
         "--all-pairs",
         action="store_true",

@@ -227,7 +227,7 @@ ORBSLAM3_STEREO = ExtrinsicFormat(
 
 
 def system_names() -> tuple[str, ...]:
-    """Names accepted by :func:`export_extrinsic` and the CLI's ``--to``/``--from``."""
+    """Names accepted by :func:`export_extrinsic` and ``--to-system``/``--from-system``."""
     return tuple(SYSTEMS)
 
 
