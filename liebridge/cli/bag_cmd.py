@@ -124,7 +124,7 @@ def _export_g2o(ros: Any, args: argparse.Namespace, m: Any, out: Path) -> None:
             f"--topic {args.topic}: the covariance of the increment from message {k} to {k + 1} "
             f"is all zero, singular ({int((rank == 0).sum())} of {len(rank)} increments; the "
             f"messages' {which} covariances are zero, ROS's 'unknown'): no information to write "
-            f"as a g2o edge (try {'--increment twist' if odom else '--to tum'})"
+            f"as a g2o edge (try {'--increment twist' if odom else '--format tum'})"
         )
     n = len(m)
     g = g2o_io.G2OGraph.from_matrices(
