@@ -1,13 +1,16 @@
 """``liebridge traj ape|rpe|nees REF EST``: evo's APE/RPE, and NEES with covariances.
 
-The pipeline is evo's: read both files (TUM, KITTI or EuRoC, detected), associate by timestamp
-(``--max-diff`` 0.01 s, ``--offset`` 0 s), align the estimate to the reference (``--align``:
-``none`` by default as evo, ``se3``, ``sim3``, ``4dof``), then compute the metric. ``nees``
-also moves the estimate's covariances (``--cov`` ``(N, 6, 6)`` ``.npy``, one per pose of EST, in
-``--convention``) under the alignment, as that convention requires. ``--format json`` prints
-one JSON object on stdout (``rmse mean median std min max`` and more; ``anees`` for ``nees``);
-``--plot`` writes the trajectories, the errors over time and, for ``nees``, the NEES against
-its χ² bounds. Every input error is one line on stderr.
+The pipeline is evo's: read both files (TUM, KITTI or EuRoC, detected; the quaternion order per
+file with ``--ref-quat-order``/``--est-quat-order``, of both with ``--quat-order``, a header that
+names the order winning over a flag that contradicts it with an error; imperfect real files by
+one policy, ``--duplicates`` for repeated stamps and ``--quat-tolerance`` for quaternions off
+unit), associate by timestamp (``--max-diff`` 0.01 s, ``--offset`` 0 s), align the estimate to
+the reference (``--align``: ``none`` by default as evo, ``se3``, ``sim3``, ``4dof``), then compute
+the metric. ``nees`` also moves the estimate's covariances (``--cov`` ``(N, 6, 6)`` ``.npy``, one
+per pose of EST, in ``--convention``) under the alignment, as that convention requires.
+``--format json`` prints one JSON object on stdout (``rmse mean median std min max`` and more;
+``anees`` for ``nees``); ``--plot`` writes the trajectories, the errors over time and, for
+``nees``, the NEES against its χ² bounds. Every input error is one line on stderr.
 """
 
 from __future__ import annotations
@@ -55,7 +58,9 @@ class _Prepared:
     resampled: str | None
 
 
-def _read_topic(path: str, topic: str, what: str) -> tuple[FloatArray, FloatArray]:
+def _read_topic(
+    path: str, topic: str, what: str, duplicates: str = "first"
+) -> tuple[FloatArray, FloatArray]:
     """Stamps and poses of a bag topic (PoseWithCovarianceStamped, Odometry, TF...)."""
     try:
         from ..ros import iter_messages
@@ -77,22 +82,79 @@ def _read_topic(path: str, topic: str, what: str) -> tuple[FloatArray, FloatArra
             poses.append(np.asarray(msgs.T, dtype=np.float64))
     except (ValueError, OSError, ImportError) as exc:
         raise CLIError(f"{what}: {one_line(str(exc))}") from None
-    return np.concatenate(stamps), np.concatenate(poses)
+    t, T = np.concatenate(stamps), np.concatenate(poses)
+    return _one_per_stamp(t, T, f"{path}:{topic}", what, duplicates)
 
 
-def _read(
-    path: str, fmt: str, quat_order: str | None, what: str, topic: str | None = None
+def _one_per_stamp(
+    t: FloatArray, T: FloatArray, source: str, what: str, duplicates: str
 ) -> tuple[FloatArray, FloatArray]:
-    from ..io import trajfile
-    from ..io.sanity import QuaternionOrderWarning
-
-    if topic is not None:
-        return _read_topic(path, topic, what)
+    """Apply the file readers' repeated-stamp policy to a bag topic."""
+    from ..io import sanity
 
     try:
         with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", QuaternionOrderWarning)
-            out = trajfile.read_trajectory(path, fmt, quat_order=quat_order)
+            warnings.simplefilter("always", sanity.ImperfectFileWarning)
+            keep = sanity.repeated_stamps(t, duplicates, source=source)
+    except sanity.RepeatedStampError as exc:
+        raise CLIError(
+            f"{what}: {exc.detail}; --duplicates first or last keeps one of each"
+        ) from None
+    for w in caught:
+        say(f"liebridge traj: warning: {what}: {one_line(str(w.message))}")
+    return (t, T) if keep.size == t.size else (t[keep], T[keep])
+
+
+def _read(
+    path: str,
+    fmt: str,
+    quat_order: str | None,
+    what: str,
+    topic: str | None = None,
+    *,
+    order_flag: str = "--quat-order",
+    duplicates: str = "first",
+    quat_tolerance: float = 1e-3,
+) -> tuple[FloatArray, FloatArray]:
+    from ..io import sanity, trajfile
+
+    if topic is not None:
+        if quat_order is not None and order_flag != "--quat-order":
+            raise CLIError(
+                f"{order_flag}: {what} is a bag topic; its messages name their quaternion fields"
+            )
+        return _read_topic(path, topic, what, duplicates)
+    if quat_order is not None and order_flag != "--quat-order":
+        try:
+            kind = trajfile.detect_format(path) if fmt == "auto" else fmt
+        except (ValueError, OSError):
+            kind = fmt  # the reader below names the fault
+        if kind == "kitti":
+            raise CLIError(
+                f"{order_flag}: {what} is a KITTI file (rotation matrices, no quaternions)"
+            )
+    hint = {
+        sanity.QuaternionOrderConflictError: f"the header wins: drop {order_flag}",
+        sanity.RepeatedStampError: "--duplicates first or last keeps one of each",
+        sanity.QuaternionNormError: "--quat-tolerance accepts and normalises more",
+    }
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", sanity.QuaternionOrderWarning)
+            warnings.simplefilter("always", sanity.ImperfectFileWarning)
+            out = trajfile.read_trajectory(
+                path,
+                fmt,
+                quat_order=quat_order,
+                duplicates=duplicates,
+                quat_tolerance=quat_tolerance,
+            )
+    except (
+        sanity.QuaternionOrderConflictError,
+        sanity.RepeatedStampError,
+        sanity.QuaternionNormError,
+    ) as exc:
+        raise CLIError(f"{what}: {exc.detail}; {hint[type(exc)]}") from None
     except (ValueError, OSError) as exc:
         raise CLIError(f"{what}: {exc}") from None
     for w in caught:  # one line each on stderr, never Python's two-line warning format
@@ -105,8 +167,28 @@ def _prepare(
 ) -> _Prepared:
     from .. import traj
 
-    t_ref, T_ref = _read(args.ref, args.ref_format, args.quat_order, "REF", args.ref_topic)
-    t_est, T_est = _read(args.est, args.est_format, args.quat_order, "EST", args.est_topic)
+    tol = args.quat_tolerance
+    if not (np.isfinite(tol) and tol >= 0):
+        raise CLIError(f"--quat-tolerance: expected a finite number ≥ 0, got {tol:g}")
+    files = []
+    for what, path, fmt, topic, own, flag in (
+        ("REF", args.ref, args.ref_format, args.ref_topic, args.ref_quat_order, "--ref-quat-order"),
+        ("EST", args.est, args.est_format, args.est_topic, args.est_quat_order, "--est-quat-order"),
+    ):
+        order, used = (own, flag) if own is not None else (args.quat_order, "--quat-order")
+        files.append(
+            _read(
+                path,
+                fmt,
+                order,
+                what,
+                topic,
+                order_flag=used,
+                duplicates=args.duplicates,
+                quat_tolerance=tol,
+            )
+        )
+    (t_ref, T_ref), (t_est, T_est) = files
     if cov is not None and cov.shape[0] != len(t_est):
         raise CLIError(
             f"--cov: {cov.shape[0]} covariances for {len(t_est)} poses of EST "
@@ -376,7 +458,36 @@ def _common(q: argparse.ArgumentParser) -> None:
         "--quat-order",
         choices=("xyzw", "wxyz"),
         default=None,
-        help="quaternion order of TUM files (default: from the header, else xyzw)",
+        help="quaternion order of BOTH files (TUM; default: from the header, else xyzw); a "
+        "header naming the other order is an error (the header wins)",
+    )
+    q.add_argument(
+        "--ref-quat-order",
+        choices=("xyzw", "wxyz"),
+        default=None,
+        help="quaternion order of REF only (overrides --quat-order for REF)",
+    )
+    q.add_argument(
+        "--est-quat-order",
+        choices=("xyzw", "wxyz"),
+        default=None,
+        help="quaternion order of EST only (overrides --quat-order for EST)",
+    )
+    q.add_argument(
+        "--duplicates",
+        choices=("first", "last", "error"),
+        default="first",
+        help="repeated timestamps in a file or topic: keep the first of each (default, with a "
+        "warning giving the count), the last, or stop with an error",
+    )
+    q.add_argument(
+        "--quat-tolerance",
+        type=float,
+        default=1e-3,
+        metavar="TOL",
+        help="quaternions off unit by at most TOL are normalised (warning with the worst "
+        "deviation when the printed precision does not explain it); beyond it an error naming "
+        "file and line (default 1e-3)",
     )
 
 

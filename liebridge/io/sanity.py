@@ -558,12 +558,21 @@ def check_quaternions(
             f"{flips.size} sign flips between consecutive samples (first between "
             f"{int(flips[0])} and {int(flips[0]) + 1}), where slot {slot} is nearest 0"
         )
-        if slot != s and near0[slot] < 0.5 * near0[s]:
+        # only one slot near 0 there (planar motion keeps two vector slots at 0 throughout)
+        if slot != s and near0[slot] < 0.5 * np.sort(near0)[1]:
             suggested = _ORDER_WITH_SCALAR_AT.get(slot)
     neg = (u < 0).any(axis=0)
-    if n >= 10 and neg[s] and not neg.all():
+    # only where the file shows sign flips, i.e. a w ≥ 0 writer, not a hemisphere-continuous one
+    # (whose scalar takes both signs over a turn beyond 180°, liebridge's writers included)
+    if n >= 10 and flips.size and neg[s] and not neg.all():
         never = [k for k in range(4) if not neg[k] and k != s]
-        if len(never) == 1 and never[0] in _ORDER_WITH_SCALAR_AT:
+        # a w ≥ 0 writer's scalar is the large one; a component that merely stays on one side
+        # (a small fixed tilt during a turn, written with hemisphere continuity) is not it
+        if (
+            len(never) == 1
+            and never[0] in _ORDER_WITH_SCALAR_AT
+            and np.abs(u[:, never[0]]).mean() > np.abs(u[:, s]).mean()
+        ):
             suggested = _ORDER_WITH_SCALAR_AT[never[0]]
     evidence = None
     if positions is not None:
