@@ -134,7 +134,12 @@ def _read(
                 f"{order_flag}: {what} is a KITTI file (rotation matrices, no quaternions)"
             )
     hint = {
-        sanity.QuaternionOrderConflictError: f"the header wins: drop {order_flag}",
+        sanity.QuaternionOrderConflictError: (
+            "the header wins: drop --quat-order (it sets both files) and give the other file's "
+            "order alone with --ref-quat-order or --est-quat-order"
+            if order_flag == "--quat-order"
+            else f"the header wins: drop {order_flag}"
+        ),
         sanity.RepeatedStampError: "--duplicates first or last keeps one of each",
         sanity.QuaternionNormError: "--quat-tolerance accepts and normalises more",
     }
@@ -162,6 +167,37 @@ def _read(
     return out.stamps, out.T
 
 
+def _order_read(path: str, fmt: str, order: str | None) -> str | None:
+    """Return the quaternion order a file was read in (None: KITTI, no quaternions)."""
+    from ..io import trajectory, trajfile
+
+    kind = trajfile.detect_format(path) if fmt == "auto" else fmt
+    if kind == "kitti":
+        return None
+    if kind == "euroc":
+        return "wxyz"
+    return order or trajectory.tum_header_order(path) or "xyzw"
+
+
+def _check_pair_order(T_ref: FloatArray, T_est: FloatArray, est_order: str) -> None:
+    """Warn when EST's rotations match REF's only in the other quaternion order."""
+    from ..io import sanity
+
+    with np.errstate(all="ignore"):
+        try:
+            ev = sanity.relative_order_evidence(T_ref[:, :3, :3], T_est[:, :3, :3], est_order)
+        except ValueError:
+            return
+    if ev.likely_order is None or ev.likely_order == est_order:
+        return
+    say(
+        f"liebridge traj: warning: REF and EST disagree on the quaternion order: EST read as "
+        f"{est_order} matches REF's rotations only when read as {ev.likely_order} "
+        f"({ev.confidence} evidence: {ev.reason}); if EST is {ev.likely_order}, pass "
+        f"--est-quat-order {ev.likely_order} (if REF is the one misread, --ref-quat-order)"
+    )
+
+
 def _prepare(
     args: argparse.Namespace, cov: FloatArray | None = None, conv: Any = None
 ) -> _Prepared:
@@ -171,6 +207,7 @@ def _prepare(
     if not (np.isfinite(tol) and tol >= 0):
         raise CLIError(f"--quat-tolerance: expected a finite number ≥ 0, got {tol:g}")
     files = []
+    read_as: list[str | None] = []
     for what, path, fmt, topic, own, flag in (
         ("REF", args.ref, args.ref_format, args.ref_topic, args.ref_quat_order, "--ref-quat-order"),
         ("EST", args.est, args.est_format, args.est_topic, args.est_quat_order, "--est-quat-order"),
@@ -188,6 +225,7 @@ def _prepare(
                 quat_tolerance=tol,
             )
         )
+        read_as.append(None if topic is not None else _order_read(path, fmt, order))
     (t_ref, T_ref), (t_est, T_est) = files
     if cov is not None and cov.shape[0] != len(t_est):
         raise CLIError(
@@ -210,6 +248,8 @@ def _prepare(
         )
     except ValueError as exc:
         raise CLIError(str(exc)) from None
+    if read_as[0] is not None and read_as[1] is not None:
+        _check_pair_order(s.T_ref, s.T_est, read_as[1])
     try:
         A = traj.align(s.T_ref, s.T_est, args.align)
     except ValueError as exc:

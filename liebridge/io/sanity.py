@@ -23,8 +23,9 @@ is where the true ``w`` crosses 0 — but liebridge's own writers keep hemispher
 * order: the translation evidence first (:func:`quaternion_order_evidence`, when positions are
   given): a warning only when the other reading keeps the direction of travel steadier in the
   body frame by a clear factor, saying how sure (``"strong"``, ``"moderate"``); when the
-  translation cannot tell, the sign pattern (the assumed scalar slot takes both signs while
-  another slot never goes negative) as ``"weak"`` evidence;
+  translation cannot be measured (no positions, too little translation or rotation), the sign
+  pattern of a ``w ≥ 0`` writer (sign flips where one slot is near 0; the assumed scalar slot
+  takes both signs while a larger slot never goes negative) as ``"weak"`` evidence;
 * implied angular rate ``2·acos(min(1, |q_i·q_{i+1}|))/(t_{i+1} − t_i)`` above ``max_rate``
   (default 30 rad/s ≈ 1700 °/s; with no timestamps, a step above 90°) in more than 1 % of the
   steps (a noisy estimate at a high rate has isolated fast steps; garbled columns or stamps in
@@ -74,7 +75,9 @@ __all__ = [
     "RepeatedStampError",
     "check_quaternions",
     "hemisphere_continuous",
+    "other_reading",
     "quaternion_order_evidence",
+    "relative_order_evidence",
     "repeated_stamps",
     "unit_quaternions",
 ]
@@ -178,7 +181,7 @@ def repeated_stamps(
     line_of = _line_numbers(lines)
     where = f"line {line_of(int(rows[0]))}" if line_of is not None else f"row {int(rows[0])}"
     what = (
-        f"{source}: {same.size} repeated timestamp(s) (first at {where}: {t[rows[0]]!r} "
+        f"{source}: {same.size} repeated timestamp(s) (first at {where}: {t[rows[0]].item()!r} "
         f"repeats the stamp before it)"
     )
     if duplicates == "error":
@@ -482,6 +485,104 @@ def quaternion_order_evidence(q: Any, order: str, positions: Any) -> OrderEviden
     return OrderEvidence(order, likely, conf, float(ratio), d_read, d_other, segs, reason)
 
 
+def other_reading(R: Any, order: str) -> FloatArray:
+    """Read the same stored numbers in the other storage order: the rotations they give.
+
+    Parameters
+    ----------
+    R : array_like, shape (N, 3, 3)
+        Rotations as read in ``order`` (the sign of the stored quaternion does not matter).
+    order : {"xyzw", "wxyz"}
+        The order they were read in.
+
+    Returns
+    -------
+    ndarray, shape (N, 3, 3)
+        The stored four numbers (recovered up to sign) read in the other order.
+    """
+    if order not in _SCALAR_SLOT:
+        raise ValueError(f"order: expected 'xyzw' or 'wxyz', got {order!r}")
+    from ..lie import quaternion as quat
+
+    q = quat.from_matrix(validate.as_float_array(R, "R"), order="xyzw")  # as read: x y z w
+    stored = q if order == "xyzw" else q[..., [3, 0, 1, 2]]
+    return _matrices(np.asarray(stored).reshape(-1, 4), "wxyz" if order == "xyzw" else "xyzw")
+
+
+def _wahba_residual(a: FloatArray, b: FloatArray) -> float:
+    """``min_B Σ|b − B a|² / Σ(|a|² + |b|²)`` over rotations ``B`` (a, b: (K, 3))."""
+    H = b.T @ a
+    U, _, Vt = np.linalg.svd(H)
+    D = np.diag([1.0, 1.0, float(np.sign(np.linalg.det(U @ Vt)) or 1.0)])
+    B = U @ D @ Vt
+    r = b - a @ B.T
+    return float(np.sum(r * r) / max(float(np.sum(a * a) + np.sum(b * b)), 1e-300))
+
+
+def relative_order_evidence(R_ref: Any, R_est: Any, order_est: str) -> OrderEvidence:
+    """Weigh EST's storage order against the other by REF's rotations (associated pairs).
+
+    Whatever the world and body frames of two trajectories of one motion, their **body**
+    increments ``R_iᵀ R_j`` are conjugate by one fixed rotation (the body-frame offset), and
+    drift does not change that. EST misread is the same motion with world and body swapped
+    (:mod:`liebridge.io.sanity`): its body increments are REF's *world* increments, conjugate to
+    REF's body increments only when the motion turns about one fixed axis (planar motion, where
+    the translation must decide: :func:`quaternion_order_evidence`). The rotation vectors of the
+    body increments over pairs ``(i, i + k)`` (``k`` about ``N/100``; pairs turning less than 2°
+    left out) are fitted by one rotation (Wahba) for EST read in ``order_est`` and in the other
+    order; the normalised residuals are compared as in :func:`quaternion_order_evidence`
+    (``dispersion_*`` hold the residuals; ``"none"`` when neither reaches 0.05).
+
+    Parameters
+    ----------
+    R_ref, R_est : array_like, shape (N, 3, 3)
+        Rotations of associated poses (row ``i`` of each at the same time).
+    order_est : {"xyzw", "wxyz"}
+        The order EST's quaternions were read in.
+    """
+    if order_est not in _SCALAR_SLOT:
+        raise ValueError(f"order_est: expected 'xyzw' or 'wxyz', got {order_est!r}")
+    from ..lie import so3
+
+    other = "wxyz" if order_est == "xyzw" else "xyzw"
+    A = validate.as_float_array(R_ref, "R_ref")
+    E = validate.as_float_array(R_est, "R_est")
+    if A.ndim != 3 or A.shape[1:] != (3, 3) or E.shape != A.shape:
+        raise ValueError(f"R_est: expected shape {A.shape} to match R_ref, got {E.shape}")
+    nan = float("nan")
+    n = A.shape[0]
+    k = max(1, n // 100)
+    if n - k < 8:
+        return OrderEvidence(order_est, None, "none", nan, nan, nan, 0, "too few pairs")
+
+    def increments(R: FloatArray) -> FloatArray:
+        return np.asarray(so3.log(np.einsum("nji,njk->nik", R[:-k], R[k:])))
+
+    a = increments(A)
+    keep = np.linalg.norm(a, axis=-1) > math.radians(2.0)
+    if np.count_nonzero(keep) < 8:
+        return OrderEvidence(
+            order_est, None, "none", nan, nan, nan, 0, "REF turns too little to judge by"
+        )
+    a = a[keep]
+    r_read = _wahba_residual(a, increments(E)[keep])
+    r_other = _wahba_residual(a, increments(other_reading(E, order_est))[keep])
+    pairs = int(a.shape[0])
+    reason = (
+        f"REF's body-frame rotation increments fit EST's with residual {r_read:.3f} read as "
+        f"{order_est} and {r_other:.3f} as {other} ({pairs} pairs)"
+    )
+    if max(r_read, r_other) < 0.05:
+        return OrderEvidence(order_est, None, "none", nan, r_read, r_other, pairs, reason)
+    ratio = (r_other + 0.01) / (r_read + 0.01)
+    if ratio >= 3.0 or ratio <= 1.0 / 3.0:
+        likely = order_est if ratio > 1 else other
+        conf = "strong" if max(ratio, 1.0 / ratio) >= 10.0 else "moderate"
+    else:
+        likely, conf = None, "none"
+    return OrderEvidence(order_est, likely, conf, float(ratio), r_read, r_other, pairs, reason)
+
+
 def hemisphere_continuous(q: Any) -> FloatArray:
     """Flip signs so consecutive quaternions have ``q_i·q_{i−1} ≥ 0`` (same rotations).
 
@@ -587,7 +688,14 @@ def check_quaternions(
                 f"the order is likely {suggested!r}, not {order!r} ({confidence} evidence: "
                 f"{evidence.reason})"
             )
-    elif suggested is not None and suggested != order:
+    elif (
+        suggested is not None
+        and suggested != order
+        and (evidence is None or not math.isfinite(evidence.ratio))
+    ):
+        # the sign pattern only where the translation could not be measured: where it was and
+        # left the question open, the sign pattern of real writers (Eigen's from-matrix branch
+        # choice, as ORB-SLAM's output shows) is no better than a guess
         confidence = "weak"
         if flips.size:
             msgs.append(flip_msg)

@@ -77,6 +77,7 @@ __all__ = [
     "read_kitti",
     "read_tum",
     "stamp_text",
+    "tum_header_order",
     "write_kitti",
     "write_tum",
     "write_tum_text",
@@ -283,6 +284,36 @@ def _header_order(fields: Sequence[str]) -> str | None:
     return "wxyz" if iw < ix else "xyzw"
 
 
+def tum_header_order(path: PathLike) -> str | None:
+    """Return the quaternion order a TUM file's header names (``"xyzw"``/``"wxyz"``), else None.
+
+    The header is any line of column names before the first data line (``#`` comment lines, as
+    the TUM RGB-D ground truths start ``# ground truth trajectory``, ``# file: ...``,
+    ``# timestamp tx ty tz qx qy qz qw``; or a first line of names without ``#``) that names
+    the quaternion columns; ``qw`` before ``qx`` is ``wxyz``. :func:`read_tum` reads in this
+    order unless told another (then it raises), else ``"xyzw"``.
+    """
+    with open(path, "rb") as fh:
+        head = fh.read(1 << 16)
+    if head.startswith(b"\xef\xbb\xbf"):
+        head = head[3:]
+    for line in head.replace(b"\r\n", b"\n").replace(b"\r", b"\n").split(b"\n")[:-1]:
+        s = line.strip()
+        if not s:
+            continue
+        try:
+            fields = _fields(s.lstrip(b"#"))
+        except UnicodeDecodeError:
+            return None
+        names = _is_names(fields)
+        order = _header_order(fields) if names else None
+        if order is not None:
+            return order
+        if not s.startswith(b"#") and not names:
+            return None  # the first data line: no header above it names the order
+    return None
+
+
 def read_text_bytes(path: PathLike | int) -> bytes:
     r"""Read a UTF-8 text file as bytes with ``\n`` line ends (``\r\n`` and ``\r`` converted).
 
@@ -397,6 +428,8 @@ def read_tum(
         if data is None:
             _tum_locate(path, raw)
     assert data is not None
+    if header_order is None and not isinstance(path, int) and len(data):
+        header_order = tum_header_order(path)  # a names line below other comment lines
     if quat_order is not None and header_order is not None and quat_order != header_order:
         names = "qw qx qy qz" if header_order == "wxyz" else "qx qy qz qw"
         raise QuaternionOrderConflictError(
