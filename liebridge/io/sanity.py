@@ -254,8 +254,8 @@ def unit_quaternions(
             f"line(s) in all)",
             "quat_tolerance= accepts and normalises more",
         )
-    if a.shape[0] and warn:
-        r = int(np.argmax(err))
+    r = int(np.argmax(err)) if a.shape[0] else 0
+    if a.shape[0] and warn and err[r] > validate.QUATERNION_TOL:  # else nothing to explain
         limit = float(explained(r)) if explained is not None else validate.QUATERNION_TOL
         if err[r] > limit:
             many = int(np.count_nonzero(err > validate.QUATERNION_TOL))
