@@ -427,14 +427,19 @@ def quaternion_order_evidence(q: Any, order: str, positions: Any) -> OrderEviden
             f"positions: expected shape ({a.shape[0] if a.ndim == 2 else 'N'}, 3) to match q, "
             f"got {p.shape}"
         )
+    if a.shape[0] > _EVIDENCE_SAMPLES:
+        pick = np.linspace(0, a.shape[0] - 1, _EVIDENCE_SAMPLES).astype(np.intp)
+        a, p = a[pick], p[pick]
+    with np.errstate(all="ignore"):  # 1e300 positions: "cannot tell", never a numpy warning
+        return _order_evidence(a, p, order, other)
+
+
+def _order_evidence(a: FloatArray, p: FloatArray, order: str, other: str) -> OrderEvidence:
     nan = float("nan")
 
     def none(reason: str, segs: int = 0, d1: float = nan, d2: float = nan) -> OrderEvidence:
         return OrderEvidence(order, None, "none", nan, d1, d2, segs, reason)
 
-    if a.shape[0] > _EVIDENCE_SAMPLES:
-        pick = np.linspace(0, a.shape[0] - 1, _EVIDENCE_SAMPLES).astype(np.intp)
-        a, p = a[pick], p[pick]
     n = a.shape[0]
     if n < 3 or not (np.isfinite(a).all() and np.isfinite(p).all()):
         return none("too few poses to judge by the direction of travel")
@@ -550,6 +555,9 @@ def relative_order_evidence(R_ref: Any, R_est: Any, order_est: str) -> OrderEvid
     if A.ndim != 3 or A.shape[1:] != (3, 3) or E.shape != A.shape:
         raise ValueError(f"R_est: expected shape {A.shape} to match R_ref, got {E.shape}")
     nan = float("nan")
+    if A.shape[0] > _EVIDENCE_SAMPLES:  # evenly strided: bounds the cost on 10⁶ poses
+        pick = np.linspace(0, A.shape[0] - 1, _EVIDENCE_SAMPLES).astype(np.intp)
+        A, E = A[pick], E[pick]
     n = A.shape[0]
     k = max(1, n // 100)
     if n - k < 8:
