@@ -509,3 +509,26 @@ def test_real_files_match_evo_on_euroc_ground_truth_and_estimate(tmp_path, capsy
     assert ours["n"] == n
     for k in ("rmse", "mean", "median", "std", "min", "max"):
         assert ours[k] == pytest.approx(float(theirs[k]), rel=1e-9, abs=1e-12), k
+
+
+def test_real_files_repeated_stamps_in_a_bag_topic_same_policy(tmp_path, capsys):
+    pytest.importorskip("rosbags")
+    from liebridge.ros import from_poses, write_messages
+
+    p, q = motion("car_circle_ccw", n=80)
+    T = poses(p, q)
+    stamps = 1.7e9 + 0.1 * np.arange(80)
+    trajfile.write_trajectory(tmp_path / "ref.txt", stamps, T)
+    bag_stamps = stamps.copy()
+    bag_stamps[[30, 31]] = bag_stamps[29]  # a driver that stamped three messages alike
+    msgs = from_poses(T, np.tile(np.eye(6) * 1e-4, (80, 1, 1)), stamps=bag_stamps, frame_id="map")
+    bag = write_messages(tmp_path / "est.mcap", "/pose", msgs)
+    args = ["traj", "ape", str(tmp_path / "ref.txt"), str(bag), "--est-topic", "/pose"]
+    assert main([*args, "--format", "json"]) == 0
+    captured = capsys.readouterr()
+    res = json.loads(captured.out)
+    assert res["n_est"] == 78 and res["rmse"] == pytest.approx(0.0, abs=1e-9)  # first kept
+    assert "2 repeated timestamp(s)" in captured.err
+    assert main([*args, "--duplicates", "error"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--duplicates first or last" in err[0]
