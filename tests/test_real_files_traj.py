@@ -532,3 +532,23 @@ def test_real_files_repeated_stamps_in_a_bag_topic_same_policy(tmp_path, capsys)
     assert main([*args, "--duplicates", "error"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--duplicates first or last" in err[0]
+
+
+def test_misread_rotations_are_the_motion_with_world_and_body_swapped():
+    """The fact the order check is built on: ``R'_i = A·R_iᵀ·B`` for fixed rotations A, B."""
+    R = Rotation.random(200, random_state=4).as_matrix()
+    for order in ("xyzw", "wxyz"):
+        M = sanity.other_reading(R, order)
+        C = sanity.other_reading(np.eye(3)[None], order)[0]  # = A·B
+        # M_i Cᵀ = A R_iᵀ Aᵀ: its rotation vector is A times R_iᵀ's, one A for every i
+        a = Rotation.from_matrix(np.swapaxes(R, 1, 2)).as_rotvec()
+        b = Rotation.from_matrix(M @ C.T).as_rotvec()
+        A, rssd = Rotation.align_vectors(b, a)
+        assert rssd < 1e-5  # rotation vectors near π carry ~1e-8 of rounding
+        np.testing.assert_allclose(
+            M, A.as_matrix() @ np.swapaxes(R, 1, 2) @ A.as_matrix().T @ C, atol=1e-12
+        )
+        # and it is not the same motion: R'_i ≠ A' R_i B' for any fixed A', B'
+        b2 = Rotation.from_matrix(M @ C.T).as_rotvec()
+        _, rssd_same = Rotation.align_vectors(b2, Rotation.from_matrix(R).as_rotvec())
+        assert rssd_same > 1.0

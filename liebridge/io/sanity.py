@@ -7,14 +7,17 @@ components. Nor can any check of the rotations alone: a cyclic shift of the four
 an improper orthogonal map of ℝ⁴, ``q ↦ a·q̄·b`` for fixed unit quaternions ``a, b``, so the
 misread rotations are ``R'_i = A·R_iᵀ·B``: the same trajectory with world and body swapped (its
 body angular velocity is the true world angular velocity turned by a fixed rotation, and vice
-versa), every bit as smooth. Only the **translation** can tell the two readings apart: a vehicle,
-a robot, a drone or a camera carried through a scene travels in a direction that is steady in its
-own frame, and the misread rotations scatter that direction. :func:`quaternion_order_evidence`
-measures it (:class:`OrderEvidence`); without enough translation and rotation it says it cannot
-tell. The weaker, writer-dependent evidence is the **hemisphere**: writers commonly store
-``w ≥ 0`` (GTSAM's ``Rot3::toQuaternion``, the TUM tools), and a sample pair whose sign flips
-is where the true ``w`` crosses 0 — but liebridge's own writers keep hemisphere continuity, so
-``w`` of a 360° turn takes both signs; it is used only when the translation cannot decide. So:
+versa), every bit as smooth. Within one file only the **translation** can tell the two readings
+apart: a vehicle, a robot, a drone or a camera carried through a scene travels in a direction
+that is steady in its own frame, and the misread rotations scatter that direction.
+:func:`quaternion_order_evidence` measures it (:class:`OrderEvidence`); without enough
+translation and rotation it says it cannot tell. Across two files of one motion, the body-frame
+rotation increments decide (:func:`relative_order_evidence`): the misread file's are the other's
+world-frame increments. The weaker, writer-dependent evidence is the **hemisphere**: writers
+commonly store ``w ≥ 0`` (GTSAM's ``Rot3::toQuaternion``, the TUM tools), and a sample pair whose
+sign flips is where the true ``w`` crosses 0 — but liebridge's own writers keep hemisphere
+continuity, so ``w`` of a 360° turn takes both signs; it is used only when the translation cannot
+be measured. So:
 
 * norms: ``|‖q‖ − 1| > norm_tol`` (count, first index, worst);
 * sign flips: ``q_i·q_{i+1} < 0`` (count, first index; reported, and part of the warning only
