@@ -29,7 +29,7 @@ import contextlib
 import weakref
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import gtsam
 import numpy as np
@@ -60,7 +60,7 @@ def _mat3(xp: Any, rows: list[list[Any]]) -> Any:
 
 
 def _so3_parts(xp: Any, w: Any) -> tuple[Any, Any, Any, Any, Any]:
-    """``(I, W, A, B, C)`` with ``W = w^``, ``A = sinθ/θ``, ``B = (1−cosθ)/θ²``, ``C = (θ−sinθ)/θ³``."""
+    """``(I, W, A, B, C)``: ``W = w^``, ``A = sinθ/θ``, ``B = (1−cosθ)/θ²``, ``C = (θ−sinθ)/θ³``."""
     t2 = (w * w).sum(-1)
     small = t2 < _SMALL
     safe = xp.where(small, xp.ones_like(t2), t2)
@@ -72,7 +72,9 @@ def _so3_parts(xp: Any, w: Any) -> tuple[Any, Any, Any, Any, Any]:
     z = xp.zeros_like(t2)
     one = z + 1.0
     eye = _mat3(xp, [[one, z, z], [z, one, z], [z, z, one]])
-    W = _mat3(xp, [[z, -w[..., 2], w[..., 1]], [w[..., 2], z, -w[..., 0]], [-w[..., 1], w[..., 0], z]])
+    W = _mat3(
+        xp, [[z, -w[..., 2], w[..., 1]], [w[..., 2], z, -w[..., 0]], [-w[..., 1], w[..., 0], z]]
+    )
     return eye, W, A[..., None, None], B[..., None, None], C[..., None, None]
 
 
@@ -112,9 +114,11 @@ def _retract(xp: Any, conv: Convention, X: Any, d: Any) -> Any:
 def _x64() -> Iterator[None]:
     import jax
 
-    ctx = getattr(jax, "enable_x64", None)
-    if ctx is None:  # older JAX
-        from jax.experimental import enable_x64 as ctx
+    ctx: Any = getattr(jax, "enable_x64", None)
+    if ctx is None:  # older JAX: the same context manager under jax.experimental
+        import jax.experimental
+
+        ctx = getattr(jax.experimental, "enable_x64")  # noqa: B009
     with ctx(True):
         yield
 
@@ -149,14 +153,16 @@ class _Kernel:
 
     def _build(self) -> None:
         residual, conv, k, dim = self.residual, self.conv, self.k, self.dim
+        xp: Any
         if self.backend == "jax":
             import jax
             import jax.numpy as xp
 
-            vmap, jacfwd = jax.vmap, jax.jacfwd
+            funcs: Any = jax
         else:
             import torch as xp
-            from torch.func import jacfwd, vmap
+            import torch.func as funcs
+        vmap, jacfwd = funcs.vmap, funcs.jacfwd
 
         def value(X: Any, *data: Any) -> Any:
             return residual(*[X[a] for a in range(k)], *data)
@@ -435,7 +441,9 @@ class AutodiffBatch:
             at = np.array(
                 [[offset[int(k)] + i for k in s.keys for i in d] for s in members], dtype=np.int64
             )
-            data = tuple(np.stack([s.data[n] for s in members]) for n in range(len(members[0].data)))
+            data = tuple(
+                np.stack([s.data[n] for s in members]) for n in range(len(members[0].data))
+            )
             R = np.stack([s.sqrt_info for s in members])
             self.groups.append(_Group(kern, keys, rows, data, R, at))
 
@@ -489,17 +497,22 @@ class AutodiffBatch:
             A = g.R @ J
             b = -np.einsum("kij,kj->ki", g.R, r)
             unit = gtsam.noiseModel.Unit.Create(b.shape[-1])
-            add = linear.add
+            add, factor = linear.add, cast(Any, gtsam.JacobianFactor)
             for n in range(K):
                 blocks: list[Any] = []
                 for a in range(k):
-                    blocks += [int(g.keys[n, a]), np.ascontiguousarray(A[n, :, a * dim : (a + 1) * dim])]
-                add(gtsam.JacobianFactor(*blocks, b[n], unit))
+                    blocks += [
+                        int(g.keys[n, a]),
+                        np.ascontiguousarray(A[n, :, a * dim : (a + 1) * dim]),
+                    ]
+                add(factor(*blocks, b[n], unit))
             system.append((A, b, g.at))
         return system
 
     @staticmethod
-    def linear_error(system: list[tuple[FloatArray, FloatArray, np.ndarray]], delta: FloatArray) -> float:
+    def linear_error(
+        system: list[tuple[FloatArray, FloatArray, np.ndarray]], delta: FloatArray
+    ) -> float:
         """``½ Σ ‖A δ − b‖²`` of :meth:`linearize`'s factors at the solution vector ``delta``."""
         err = 0.0
         for A, b, at in system:
