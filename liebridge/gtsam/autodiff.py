@@ -191,8 +191,11 @@ class _Kernel:
                 return fn(jnp.asarray(X), *[jnp.asarray(a) for a in data])
         import torch
 
+        def tensor(a: FloatArray) -> Any:  # shares writable memory; copies a read-only view
+            return torch.from_numpy(a if a.flags.writeable else a.copy())
+
         with torch.no_grad():
-            return fn(torch.from_numpy(X), *[torch.from_numpy(a) for a in data])
+            return fn(tensor(X), *[tensor(a) for a in data])
 
     def value(self, X: FloatArray, data: Sequence[FloatArray]) -> FloatArray:
         r = self._call(lambda *a: self._value(*a), X, data)
