@@ -47,68 +47,6 @@ BACKENDS = ("jax", "torch")
 MAX_BATCHED_KEYS = 3
 
 
-# ------------------------------------------------------------------------------ the retraction
-# The one place the convention's retraction is applied to backend arrays. Written with the
-# operations JAX and torch share (``xp`` is ``jax.numpy`` or ``torch``); differentiable at d = 0:
-# the small-angle branch is a polynomial and the other branch sees a safe angle ("double where"),
-# so no sqrt or division at θ = 0 enters the derivative.
-_SMALL = 1e-4  # θ² below this: Taylor terms up to θ⁴ (next term < 3e-16)
-
-
-def _mat3(xp: Any, rows: list[list[Any]]) -> Any:
-    return xp.stack([xp.stack(r, -1) for r in rows], -2)
-
-
-def _so3_parts(xp: Any, w: Any) -> tuple[Any, Any, Any, Any, Any]:
-    """``(I, W, A, B, C)``: ``W = w^``, ``A = sinθ/θ``, ``B = (1−cosθ)/θ²``, ``C = (θ−sinθ)/θ³``."""
-    t2 = (w * w).sum(-1)
-    small = t2 < _SMALL
-    safe = xp.where(small, xp.ones_like(t2), t2)
-    th = xp.sqrt(safe)
-    s, c = xp.sin(th), xp.cos(th)
-    A = xp.where(small, 1.0 - t2 / 6.0 + t2 * t2 / 120.0, s / th)
-    B = xp.where(small, 0.5 - t2 / 24.0 + t2 * t2 / 720.0, (1.0 - c) / safe)
-    C = xp.where(small, 1.0 / 6.0 - t2 / 120.0 + t2 * t2 / 5040.0, (th - s) / (safe * th))
-    z = xp.zeros_like(t2)
-    one = z + 1.0
-    eye = _mat3(xp, [[one, z, z], [z, one, z], [z, z, one]])
-    W = _mat3(
-        xp, [[z, -w[..., 2], w[..., 1]], [w[..., 2], z, -w[..., 0]], [-w[..., 1], w[..., 0], z]]
-    )
-    return eye, W, A[..., None, None], B[..., None, None], C[..., None, None]
-
-
-def _pose(xp: Any, R: Any, t: Any, X: Any) -> Any:
-    """``[R t; 0 1]`` with ``X``'s last row."""
-    return xp.concatenate([xp.concatenate([R, t[..., None]], -1), X[..., 3:4, :]], -2)
-
-
-def _supported(conv: Convention) -> str | None:
-    """Why the retraction below cannot take ``conv`` (None: it can)."""
-    if conv.group != "se3":
-        return f"a convention of {conv.group} (autodiff factors take SE(3) conventions)"
-    if conv.rotation != "exp" or conv.embed is not None:
-        return f"rotation coordinates {conv.rotation!r} (autodiff factors take 'exp')"
-    return None
-
-
-def _retract(xp: Any, conv: Convention, X: Any, d: Any) -> Any:
-    """``conv.retract(X, d)`` on backend arrays: ``X (4, 4)``, ``d (6,)`` in ``conv``'s order."""
-    r, u = (d[..., 3:], d[..., :3]) if conv.order == "trans_first" else (d[..., :3], d[..., 3:])
-    right = conv.side == "right"
-    eye, W, A, B, C = _so3_parts(xp, r)
-    W2 = W @ W
-    dR = eye + A * W + B * W2
-    if conv.chart == "se3":  # X·Exp(ξ) or Exp(ξ)·X, ξ = (r, u)
-        t = ((eye + B * W + C * W2) @ u[..., None])[..., 0]
-        E = _pose(xp, dR, t, X)
-        return X @ E if right else E @ X
-    R, t = X[..., :3, :3], X[..., :3, 3]
-    R2 = R @ dR if right else dR @ R
-    du = (R @ u[..., None])[..., 0] if conv.chart == "so3xr3_body" else u
-    return _pose(xp, R2, t + du, X)
-
-
 # ------------------------------------------------------------------------------ the kernels
 @contextlib.contextmanager
 def _x64() -> Iterator[None]:
@@ -150,6 +88,7 @@ class _Kernel:
         self.name = getattr(residual, "__name__", type(residual).__name__)
         self._value: Any = None
         self._lin: Any = None
+        self._checked = False
 
     def _build(self) -> None:
         residual, conv, k, dim = self.residual, self.conv, self.k, self.dim
@@ -168,7 +107,8 @@ class _Kernel:
             return residual(*[X[a] for a in range(k)], *data)
 
         def perturbed(d: Any, X: Any, *data: Any) -> tuple[Any, Any]:
-            r = residual(*[_retract(xp, conv, X[a], d[a]) for a in range(k)], *data)
+            # the convention's own retraction, on the backend's arrays (liebridge.arrays)
+            r = residual(*[conv.retract(X[a], d[a]) for a in range(k)], *data)
             return r, r
 
         def lin(X: Any, *data: Any) -> tuple[Any, Any]:
@@ -182,8 +122,6 @@ class _Kernel:
             self._value, self._lin = vmap(value), vmap(lin)
 
     def _call(self, fn: Any, X: FloatArray, data: Sequence[FloatArray]) -> Any:
-        if self._value is None:
-            self._build()
         if self.backend == "jax":
             import jax.numpy as jnp
 
@@ -197,11 +135,30 @@ class _Kernel:
         with torch.no_grad():
             return fn(tensor(X), *[tensor(a) for a in data])
 
+    def check_retraction(self) -> None:
+        """Retract the identity by zero on the backend's arrays: ``ValueError`` if it cannot."""
+        if self._checked:
+            return
+        n = self.conv.record.matrix
+        try:
+            self._call(lambda X, d: self.conv.retract(X, d), np.eye(n), [np.zeros(self.dim)])
+        except Exception as exc:
+            raise ValueError(
+                f"convention: {self.conv.name!r} ({self.conv.group}, rotation "
+                f"{self.conv.rotation!r}): its retraction does not run on {self.backend} arrays "
+                f"({type(exc).__name__}: {exc})"
+            ) from None
+        self._checked = True
+
     def value(self, X: FloatArray, data: Sequence[FloatArray]) -> FloatArray:
+        if self._value is None:
+            self._build()
         r = self._call(lambda *a: self._value(*a), X, data)
         return _numpy(r)
 
     def linearize(self, X: FloatArray, data: Sequence[FloatArray]) -> tuple[FloatArray, FloatArray]:
+        if self._lin is None:
+            self._build()
         r, J = self._call(lambda *a: self._lin(*a), X, data)
         return _numpy(r), _numpy(J)
 
@@ -359,9 +316,13 @@ def autodiff_factor(
     if backend not in BACKENDS:
         raise ValueError(f"backend: expected one of {BACKENDS}, got {backend!r}")
     conv = single_group(get(convention))
-    why = _supported(conv)
-    if why is not None:
-        raise ValueError(f"convention: {conv.name!r} is {why}")
+    if conv.embed is not None or conv.group not in GTSAM_GROUPS:
+        raise ValueError(
+            f"convention: {conv.name!r} is a convention of {conv.group}"
+            f"{' stored inside a longer vector' if conv.embed is not None else ''}; autodiff "
+            f"factors take a convention of a group GTSAM holds ({', '.join(GTSAM_GROUPS)}), "
+            "its tangent its own"
+        )
     rec = GTSAM_GROUPS[conv.group]
     if isinstance(keys, (int, np.integer)) or not isinstance(keys, Sequence):
         raise TypeError(f"keys: expected a sequence of integer keys, got {type(keys).__name__}")
@@ -373,6 +334,7 @@ def autodiff_factor(
     m = int(model.dim())
     arrays = _data(data)
     kernel = _kernel(residual, conv, backend, len(keys))
+    kernel.check_retraction()
     _probe(kernel, rec, arrays, m)
     dim = kernel.dim
 
