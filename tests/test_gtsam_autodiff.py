@@ -370,3 +370,16 @@ def test_example_runs_and_matches_gtsam() -> None:
     assert len(errors) == 2 and float(errors[0][0]) == pytest.approx(float(errors[1][0]), 1e-9)
     assert float(errors[0][0]) > 0  # a graph with loops: a nonzero optimum to agree on
     assert dT < 1e-6
+
+
+def test_docs_section_runs() -> None:
+    pytest.importorskip("torch")
+    text = (Path(__file__).resolve().parents[1] / "docs" / "tensors.md").read_text("utf-8")
+    start = text.index("## Autodiff factors for GTSAM")
+    end = text.find("\n## ", start + 1)
+    section = text[start : None if end < 0 else end]
+    blocks = re.findall(r"^```python\n(.*?)^```", section, re.M | re.S)
+    assert blocks
+    namespace: dict[str, Any] = {"__name__": "docs_tensors_autodiff"}
+    for n, code in enumerate(blocks):
+        exec(compile(code, f"tensors.md[autodiff block {n}]", "exec"), namespace)
