@@ -383,3 +383,23 @@ def test_docs_section_runs() -> None:
     namespace: dict[str, Any] = {"__name__": "docs_tensors_autodiff"}
     for n, code in enumerate(blocks):
         exec(compile(code, f"tensors.md[autodiff block {n}]", "exec"), namespace)
+
+
+def test_bench_autodiff_quick_runs(tmp_path: Path) -> None:
+    pytest.importorskip("jax")
+    import json
+
+    root = Path(__file__).resolve().parents[1]
+    out = tmp_path / "autodiff.json"
+    script = str(root / "benchmarks" / "bench_autodiff.py")
+    subprocess.run(
+        [sys.executable, script, "--quick", "--backends", "jax", "--out", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=True,
+    )
+    (row,) = json.loads(out.read_text())["rows"]
+    assert row["backend"] == "jax" and row["factors"] > row["poses"]  # loops: a real optimum
+    assert row["final_error"][0] == pytest.approx(row["final_error"][1], rel=1e-9)
+    assert row["speedup_batched_vs_callbacks"] > 0 and row["ratio_batched_vs_native"] > 0
