@@ -283,6 +283,40 @@ def test_four_keys_are_evaluated_by_gtsam_through_the_callback() -> None:
     np.testing.assert_allclose(A, _central_differences(factor, poses), atol=1e-7)
 
 
+def test_residuals_are_not_kept_alive_by_the_kernel_cache() -> None:
+    import gc
+    import weakref
+
+    torch = _torch()
+    from liebridge.gtsam import autodiff
+
+    class Offset:
+        def __init__(self, c: float) -> None:
+            self.c = c
+
+        def residual(self, X: Any) -> Any:
+            return X[:3, 3] - self.c
+
+    def make(c: float) -> Any:
+        def residual(X: Any) -> Any:
+            return X[:3, 3] - c * torch.ones(3, dtype=X.dtype)
+
+        return residual
+
+    values = _values({0: np.eye(4)})
+    for build in (lambda: make(1.0), lambda: Offset(1.0).residual):
+        fn = build()  # not from a list: the list would hold it
+        f = lb.gtsam.autodiff_factor(fn, [0], np.eye(3), "gtsam", "torch")
+        np.testing.assert_allclose(f.unwhitenedError(values), -np.ones(3))
+        A, _ = _linear(f, values)
+        np.testing.assert_allclose(A[:, 3:], np.eye(3), atol=1e-12)  # ∂t/∂v = R = I
+        probe = weakref.ref(getattr(fn, "__self__", fn))
+        n = len(autodiff._KERNELS)
+        del f, fn
+        gc.collect()
+        assert probe() is None and len(autodiff._KERNELS) < n
+
+
 def test_jax_global_precision_is_left_as_it_was() -> None:
     jax = pytest.importorskip("jax")
     before = bool(jax.config.jax_enable_x64)

@@ -8,7 +8,9 @@ The user writes ``residual(*poses, *data) -> (m,)`` of their variables given as 
 ``J_a = ∂/∂d residual(…, conv.retract(X_a, d), …) |_{d=0} · conv.from_canonical(X_a)``,
 
 the first factor taken by forward-mode automatic differentiation (``jax.jacfwd``,
-``torch.func.jacfwd``) through the **named convention's retraction**, the second the
+``torch.func.jacfwd``) through the **named convention's retraction** — liebridge's own
+:meth:`Convention.retract <liebridge.conventions.Convention.retract>` running on the backend's
+arrays (:mod:`liebridge.arrays`; one formula source with the numpy path) — the second the
 convention's first-order map from GTSAM's tangent (``ξ``, right perturbation ``X·Exp(ξ)``,
 ``Pose3``: (ω, v)) to its own (``d = M ξ``): the columns are GTSAM's, whatever the convention
 (GTSAM retracts its variables its own way). False, and tempting: using the convention's
@@ -21,11 +23,14 @@ factor; GTSAM's own optimizers, :class:`~liebridge.gtsam.ISAM2` and ``optimize(b
 call each factor's callback (the same kernel on a batch of one).
 
 Computations are float64 (JAX: inside ``jax.enable_x64``, without changing the global setting).
+The conventions are those whose retraction runs on torch/JAX arrays (SE(3)/SO(3) with rotation
+coordinates ``exp``/``half_exp`` today); any other is refused by name when the factor is built.
 """
 
 from __future__ import annotations
 
 import contextlib
+import inspect
 import weakref
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
@@ -83,7 +88,17 @@ class _Kernel:
     """
 
     def __init__(self, residual: Callable[..., Any], conv: Convention, backend: str, k: int):
-        self.residual, self.conv, self.backend, self.k = residual, conv, backend, k
+        # held weakly where it can be: the kernel cache is keyed by the residual, and a strong
+        # reference from its value would keep every residual alive for ever (the factors hold it)
+        try:  # a bound method: alive as long as its object (the method object itself is transient)
+            self._residual: Callable[[], Any] = (
+                weakref.WeakMethod(residual)
+                if inspect.ismethod(residual)
+                else weakref.ref(residual)
+            )
+        except TypeError:
+            self._residual = lambda: residual
+        self.conv, self.backend, self.k = conv, backend, k
         self.dim = conv.record.dim
         self.name = getattr(residual, "__name__", type(residual).__name__)
         self._value: Any = None
@@ -91,7 +106,7 @@ class _Kernel:
         self._checked = False
 
     def _build(self) -> None:
-        residual, conv, k, dim = self.residual, self.conv, self.k, self.dim
+        ref, conv, k, dim = self._residual, self.conv, self.k, self.dim
         xp: Any
         if self.backend == "jax":
             import jax
@@ -104,11 +119,11 @@ class _Kernel:
         vmap, jacfwd = funcs.vmap, funcs.jacfwd
 
         def value(X: Any, *data: Any) -> Any:
-            return residual(*[X[a] for a in range(k)], *data)
+            return ref()(*[X[a] for a in range(k)], *data)
 
         def perturbed(d: Any, X: Any, *data: Any) -> tuple[Any, Any]:
             # the convention's own retraction, on the backend's arrays (liebridge.arrays)
-            r = residual(*[conv.retract(X[a], d[a]) for a in range(k)], *data)
+            r = ref()(*[conv.retract(X[a], d[a]) for a in range(k)], *data)
             return r, r
 
         def lin(X: Any, *data: Any) -> tuple[Any, Any]:
@@ -338,7 +353,9 @@ def autodiff_factor(
     _probe(kernel, rec, arrays, m)
     dim = kernel.dim
 
-    def evaluate(values: Any, want: bool) -> tuple[FloatArray, list[FloatArray] | None]:
+    def evaluate(
+        values: Any, want: bool, _keep: Any = residual
+    ) -> tuple[FloatArray, list[FloatArray] | None]:  # _keep: the factor holds its residual
         X = np.stack([rec.element_at(values, k) for k in keys])[None]
         batch = [a[None] for a in arrays]
         if not want:
