@@ -234,6 +234,19 @@ def test_pose_graph_with_autodiff_factors_reaches_the_native_optimum(backend: st
     assert _max_pose_difference(r_native.values, r_gtsam) < 1e-6
 
 
+def test_isam2_with_autodiff_factors_tracks_the_native_one() -> None:
+    _framework("torch")
+    noise = gtsam.noiseModel.Isotropic.Sigma(6, 0.05)
+    native, auto, init = _graphs("torch", "sophus", noise)
+    estimates = []
+    for graph in (native, auto):
+        isam = lb.gtsam.ISAM2()
+        isam.update(graph, init)
+        isam.update()
+        estimates.append(isam.calculate_estimate())
+    assert _max_pose_difference(*estimates) < 1e-8
+
+
 def test_batched_pass_calls_the_residual_once_per_evaluation_not_per_factor() -> None:
     pytest.importorskip("torch")
     calls = []

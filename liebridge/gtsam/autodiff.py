@@ -165,6 +165,18 @@ class _Kernel:
             ) from None
         self._checked = True
 
+    def value_shape(self, X: FloatArray, data: Sequence[FloatArray]) -> tuple[int, ...]:
+        """Shape of :meth:`value`'s result (JAX: traced abstractly, nothing compiled)."""
+        if self._value is None:
+            self._build()
+        if self.backend == "jax":
+            import jax
+
+            out = self._call(lambda *a: jax.eval_shape(self._value, *a), X, data)
+        else:
+            out = self._call(lambda *a: self._value(*a), X, data)
+        return tuple(int(n) for n in out.shape)
+
     def value(self, X: FloatArray, data: Sequence[FloatArray]) -> FloatArray:
         if self._value is None:
             self._build()
@@ -246,16 +258,16 @@ def _probe(kernel: _Kernel, rec: GtsamGroup, data: tuple[FloatArray, ...], m: in
     n = rec.group.matrix
     X = np.broadcast_to(np.eye(n), (1, kernel.k, n, n)).copy()
     try:
-        r = kernel.value(X, [a[None] for a in data])
+        shape = kernel.value_shape(X, [a[None] for a in data])
     except Exception as exc:
         raise TypeError(
             f"residual: {kernel.name}(*poses, *data) with {kernel.k} poses ({n}, {n}) and "
             f"{len(data)} data arrays could not be evaluated ({kernel.backend}, vectorised with "
             f"vmap): {type(exc).__name__}: {exc}"
         ) from exc
-    if r.shape != (1, m):
+    if shape != (1, m):
         raise ValueError(
-            f"residual: {kernel.name} returned shape {r.shape[1:]}; expected ({m},), the noise "
+            f"residual: {kernel.name} returned shape {shape[1:]}; expected ({m},), the noise "
             "model's dimension"
         )
 
