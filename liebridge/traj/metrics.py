@@ -400,10 +400,11 @@ def kitti_segment_errors(
             f"no KITTI segment fits: the reference path is {dist[-1]:.6g} m long, the shortest "
             f"segment length is {Ls.min():g} m"
         )
-    dQ = lu.se3_inverse(Q[f]) @ Q[last]
-    dP = lu.se3_inverse(P[f]) @ P[last]
-    E = lu.se3_inverse(dP) @ dQ
-    t_err = np.linalg.norm(E[:, :3, 3], axis=-1) / L
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported by name
+        dQ = lu.se3_inverse(Q[f]) @ Q[last]
+        dP = lu.se3_inverse(P[f]) @ P[last]
+        E = lu.se3_inverse(dP) @ dQ
+        t_err = _finite_errors(_norm(E[:, :3, 3]) / L, "kitti_segment_errors")
     cos = np.clip(0.5 * (np.trace(E[:, :3, :3], axis1=-2, axis2=-1) - 1.0), -1.0, 1.0)
     r_err = np.arccos(cos) / L
     used = np.unique(L)
