@@ -17,6 +17,7 @@
 from __future__ import annotations
 
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -380,3 +381,35 @@ def test_no_numpy_warning_leaks_from_sim3_exp_of_an_overflowing_scale():
         warnings.simplefilter("error")
         with pytest.raises(ValueError, match="overflow"):
             sim3.exp(np.array([0, 0, 0, 1, 1, 1, 710.0]))
+
+
+# ----------------------------------------------------------------------------- CI coverage
+
+_ROOT = Path(__file__).resolve().parents[1]
+#: Libraries whose tests cannot run in the README's test environment, and the marker (``-k``)
+#: CI selects their tests by: sophuspy needs numpy < 2 (its own virtual environment),
+#: projectaria_tools comes with the ``libs`` extra.
+_OWN_ENV_LIBS = {"sophuspy": "sophuspy", "projectaria_tools": "projectaria"}
+
+
+def _ci_pytest_steps() -> list[str]:
+    """The pytest command lines of ``.ci/run``, continuation lines joined."""
+    text = (_ROOT / ".ci" / "run").read_text().replace("\\\n", " ")
+    return [ln for ln in text.splitlines() if "-m pytest" in ln and not ln.lstrip().startswith("#")]
+
+
+@pytest.mark.parametrize("lib", list(_OWN_ENV_LIBS))
+def test_ci_runs_the_sophus_object_tests_in_their_own_environment(lib):
+    """Every test file that uses ``lib``'s objects is named in a CI step that selects them."""
+    users = sorted(
+        p.name
+        for p in (_ROOT / "tests").glob("test_*.py")
+        if f'importorskip("{lib}' in p.read_text(encoding="utf-8")
+    )
+    assert users, f"no test file imports {lib}"
+    steps = [s for s in _ci_pytest_steps() if f"-k {_OWN_ENV_LIBS[lib]}" in s]
+    assert steps, f".ci/run has no pytest step selecting -k {_OWN_ENV_LIBS[lib]}"
+    missing = [f for f in users if not any(f"tests/{f}" in s for s in steps)]
+    assert not missing, f"{lib}: {missing} never run in CI (steps: {steps})"
+    if lib == "sophuspy":  # numpy < 2: the step must run in the numpy-1 environment
+        assert all(".ci-venv-np1/bin/python" in s for s in steps)
