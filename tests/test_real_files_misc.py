@@ -319,6 +319,9 @@ LEAKS = {
     "alignment_apply_overflow": lambda: traj.Alignment("sim3", np.eye(3), np.zeros(3), 1e200).apply(
         _circle(unit=1e200)
     ),
+    "alignment_transform_covariance_overflow": lambda: traj.Alignment(
+        "se3", so3.exp([0.0, 0.0, 1.0]), np.zeros(3)
+    ).transform_covariance(_circle(unit=1e200), np.tile(np.eye(6), (30, 1, 1)), "barfoot"),
     "statistics_sse_overflow": lambda: traj.statistics(np.array([1e300, -1e300, 1e300])),
     "nees_overflow": lambda: traj.nees(
         _circle(), _circle(unit=1e300), np.tile(1e-4 * np.eye(6), (30, 1, 1)), "gtsam"

@@ -84,6 +84,12 @@ class Alignment:
         Parameters
         ----------
         T_est : array_like, shape (..., 4, 4)
+
+        Raises
+        ------
+        ValueError
+            An aligned position float64 cannot hold (``scale`` times a huge position), naming the
+            first batch index and the count.
         """
         T = validate.pose(T_est, "T_est")
         out = np.array(T, dtype=np.float64, copy=True)
@@ -109,8 +115,9 @@ class Alignment:
         pose_convention(conv, "convention", np.eye(4))
         T = validate.pose(T_est, "T_est")
         D = np.diag([1.0, 1.0, 1.0, self.scale, self.scale, self.scale])
-        J = cu.from_canonical(conv, self.apply(T)) @ D @ cu.to_canonical(conv, T)
-        return np.asarray(J, dtype=np.float64)
+        with np.errstate(over="ignore", invalid="ignore"):  # reported by finite_output
+            J = cu.from_canonical(conv, self.apply(T)) @ D @ cu.to_canonical(conv, T)
+        return validate.finite_output(np.asarray(J, dtype=np.float64), "covariance_map")
 
     def transform_covariance(
         self, T_est: Any, cov_est: Any, convention: ConventionLike
@@ -130,12 +137,20 @@ class Alignment:
         -------
         ndarray, shape (..., 6, 6)
             In ``convention``'s tangent at ``apply(T_est)``.
+
+        Raises
+        ------
+        ValueError
+            A covariance float64 cannot hold (a left convention at translations beyond ≈ 1e150
+            scales entries by their square), naming the first batch index.
         """
         cov = validate.covariance(cov_est, "cov_est", 6)
         J = self.covariance_map(T_est, convention)
         validate.batch_shape(("T_est", J.shape[:-2]), ("cov_est", cov.shape[:-2]))
-        out = J @ cov @ np.swapaxes(J, -1, -2)
-        return np.asarray(0.5 * (out + np.swapaxes(out, -1, -2)), dtype=np.float64)
+        with np.errstate(over="ignore", invalid="ignore"):  # reported by finite_output
+            out = J @ cov @ np.swapaxes(J, -1, -2)
+            out = 0.5 * (out + np.swapaxes(out, -1, -2))
+        return validate.finite_output(np.asarray(out, dtype=np.float64), "transform_covariance")
 
 
 def _positions(x: Any, name: str) -> FloatArray:
