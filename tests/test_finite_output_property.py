@@ -280,3 +280,44 @@ def test_every_traj_function_is_finite_or_says_why(unit_ref, unit_est, sigma, se
             "Alignment.transform_covariance",
             lambda: A.transform_covariance(T_est, cov, "barfoot"),
         )
+
+
+#: Presets of the other groups (SO(2), SE(2), Sim(3), SE₂(3)) and the whole-state charts, by group.
+OTHER_PRESETS: dict[str, list[Any]] = {}
+for _c in C.GROUP_PRESETS:
+    OTHER_PRESETS.setdefault(_c.group, []).append(_c)
+OTHER_PRESETS["se23"].append(C.get("mola"))
+
+
+@pytest.mark.parametrize("group", sorted(OTHER_PRESETS))
+@SETTINGS
+@given(data=st.data())
+def test_every_convention_function_of_other_groups_is_finite_or_says_why(group, data):
+    g = GROUPS[group]
+    a = data.draw(st.sampled_from(OTHER_PRESETS[group]), "src")
+    b = data.draw(st.sampled_from(OTHER_PRESETS[group]), "dst")
+    X = _finite_or_value_error(f"{group}.exp", lambda: g.exp(data.draw(tangents(group), "xi")))
+    if X is None:
+        return
+    n = a.dim(X)
+    sigma = data.draw(TINY_OR_HUGE, "sigma")
+    cov = sigma * np.diag(np.arange(1.0, n + 1))
+    d = np.array([data.draw(SCALARS) for _ in range(n)])
+    calls: dict[str, Callable[[], Any]] = {
+        "tangent_map": lambda: lb.tangent_map(X, a, b),
+        "convert_covariance": lambda: lb.convert_covariance(cov, X, a, b),
+        "convert_covariance unscented": lambda: lb.convert_covariance(
+            cov, X, a, b, method="unscented"
+        ),
+        "convert_information": lambda: lb.convert_information(cov, X, a, b),
+        "convert_tangent": lambda: lb.convert_tangent(d, X, a, b),
+        "Chart.retract": lambda: a.retract(X, d),
+        "Chart.to_canonical": lambda: a.to_canonical(X),
+        "Chart.from_canonical": lambda: a.from_canonical(X),
+    }
+    Y = _finite_or_value_error("retract", lambda: a.retract(X, 1e-3 * np.tanh(d)))
+    if Y is not None:
+        calls["Chart.local"] = lambda: a.local(X, Y)
+        calls["Chart.local_jacobian"] = lambda: a.local_jacobian(X, Y)
+    for name, f in calls.items():
+        _finite_or_value_error(f"{name} ({a.name} → {b.name})", f)
