@@ -122,7 +122,7 @@ def tangents(draw: st.DrawFn, group: str) -> np.ndarray:
         xi[g.rot] = draw(rotvecs()) if n == 3 else [draw(st.floats(-PI, PI))]
     if g.scale is not None:  # a log-scale whose exponential float64 holds most of the time
         xi[g.scale] = draw(
-            st.one_of(st.sampled_from([0.0, 1e-300, -700.0, 700.0]), st.floats(-750, 750))
+            st.one_of(st.sampled_from([0.0, 1e-300, -700.0, 700.0, -800.0]), st.floats(-750, 750))
         )
     return xi
 
@@ -139,7 +139,19 @@ def poses(draw: st.DrawFn) -> np.ndarray:
 # ----------------------------------------------------------------------------- liebridge.lie
 
 
-@pytest.mark.parametrize("group", list(GROUPS))
+_SIM3_EXP_SCALE_ZERO = pytest.mark.xfail(
+    strict=True,
+    reason="liebridge/lie/record.py (Group.exp) validates only the rotation part of the tangent: "
+    "GROUPS['sim3'].exp (the path of every chart and conversion) returns a matrix with scale "
+    "e^λ = 0 for λ < −708.4 (det 0, not a Sim(3) element) where liebridge.lie.sim3.exp raises; "
+    "the log-scale bound belongs in the record's tangent check.",
+)
+GROUP_PARAMS = [
+    pytest.param(name, marks=_SIM3_EXP_SCALE_ZERO) if name == "sim3" else name for name in GROUPS
+]
+
+
+@pytest.mark.parametrize("group", GROUP_PARAMS)
 @SETTINGS
 @given(data=st.data())
 def test_every_group_function_is_finite_or_says_why(group, data):
@@ -150,6 +162,7 @@ def test_every_group_function_is_finite_or_says_why(group, data):
     X = _finite_or_value_error(f"{group}.exp", lambda: g.exp(xi))
     if X is None:
         return
+    g.element(X, "exp(xi)")  # an element of the group, not only finite numbers
     Y = _finite_or_value_error(f"{group}.exp", lambda: g.exp(data.draw(tangents(group), "xi2")))
     n = g.matrix - len(g.cols)
     p = np.array([data.draw(SCALARS) for _ in range(n)])
@@ -321,3 +334,14 @@ def test_every_convention_function_of_other_groups_is_finite_or_says_why(group, 
         calls["Chart.local_jacobian"] = lambda: a.local_jacobian(X, Y)
     for name, f in calls.items():
         _finite_or_value_error(f"{name} ({a.name} → {b.name})", f)
+
+
+@_SIM3_EXP_SCALE_ZERO
+@pytest.mark.parametrize("lam", [-800.0, -1e200])
+def test_sim3_record_exp_refuses_a_scale_that_underflows(lam):
+    """The record's exp and the module's agree: a log-scale below −708.4 is a ValueError."""
+    xi = np.array([0.1, 0.2, 0.3, 1.0, 2.0, 3.0, lam])
+    with pytest.raises(ValueError, match="log-scale"):
+        lb.lie.sim3.exp(xi)
+    with pytest.raises(ValueError):
+        GROUPS["sim3"].exp(xi)

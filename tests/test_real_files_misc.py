@@ -416,3 +416,20 @@ def test_ci_runs_the_sophus_object_tests_in_their_own_environment(lib):
     assert not missing, f"{lib}: {missing} never run in CI (steps: {steps})"
     if lib == "sophuspy":  # numpy < 2: the step must run in the numpy-1 environment
         assert all(".ci-venv-np1/bin/python" in s for s in steps)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="liebridge/lie/se3.py (the Jacobian kernels, line ~182) add terms of a rotation vector "
+    "of norm 1e8 times a translation of 1e300 without checking first: numpy warns 'overflow "
+    "encountered in add' before finite_output's ValueError (the same through se23).",
+)
+@pytest.mark.parametrize("name", ["jr", "jl", "jr_inv", "jl_inv"])
+def test_no_numpy_warning_leaks_from_se3_jacobians_of_a_huge_twist(name):
+    from liebridge.lie import se3
+
+    xi = np.array([1e8, -1e-12, 30.0, -1e300, -1e-300, 1e-300])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(ValueError, match="overflow"):
+            getattr(se3, name)(xi)
