@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
 import liebridge as lb
@@ -152,7 +152,8 @@ GROUP_PARAMS = [
 
 
 @pytest.mark.parametrize("group", GROUP_PARAMS)
-@SETTINGS
+# no shrinking: the known Sim(3) failure (xfail) would spend half a minute minimising its example
+@settings(SETTINGS, phases=[Phase.explicit, Phase.reuse, Phase.generate])
 @given(data=st.data())
 def test_every_group_function_is_finite_or_says_why(group, data):
     g = GROUPS[group]
