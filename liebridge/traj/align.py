@@ -234,7 +234,7 @@ def umeyama(p_ref: Any, p_est: Any, kind: AlignmentKind | str = "se3") -> Alignm
     R = u @ S @ vt
     scale = 1.0
     if _with_scale(kind):
-        unit = float(np.trace(np.diag(d) @ S) / sigma_x)  # the scale between x/cx and y/cy
+        unit = float(np.trace(np.diag(d) @ S) / sigma_x)  # the scale between x/2^ex and y/2^ey
         try:
             scale = math.ldexp(unit, ey - ex)  # 0.0 on underflow, OverflowError on overflow
         except OverflowError:
@@ -245,7 +245,7 @@ def umeyama(p_ref: Any, p_est: Any, kind: AlignmentKind | str = "se3") -> Alignm
                 f"in float64 (their spreads differ by a factor of about {unit:.3g}·2^{ey - ex}, "
                 "beyond what float64 spans)"
             )
-        # t = my − s R mx = cy·(my' − unit·R mx'), mx' and my' the scaled means
+        # t = my − s R mx = 2^ey·(my' − unit·R mx'), mx' and my' the scaled means
         return Alignment(kind, R, _translation(my - unit * (R @ mx), ey), scale)
     return Alignment(kind, R, _offset(my, ey, R @ mx, ex), scale)
 
