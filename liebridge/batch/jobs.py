@@ -287,8 +287,10 @@ def _evaluate_into(row: dict[str, Any], names: tuple[str, ...], o: dict[str, Any
 def _stats(row: dict[str, Any], metric: str, errors: Any) -> None:
     from ..traj import statistics
 
-    for k, v in statistics(errors).as_dict().items():
-        row[f"{metric}_{k}"] = v
+    st = statistics(errors)  # the fields read directly: dataclasses.asdict deep-copies
+    for k in STAT_KEYS:
+        v = getattr(st, k)
+        row[f"{metric}_{k}"] = int(v) if k == "n" else float(v)
 
 
 def output_name(src: str, topic: str | None = None) -> str:

@@ -11,7 +11,6 @@ from __future__ import annotations
 import os
 import warnings
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -54,13 +53,20 @@ def split_topic(spec: PathLike) -> tuple[str, str | None]:
     A spec that names an existing file or directory is a path, whatever it contains; otherwise
     the text after the last ``":/"`` is a topic when the text before it exists.
     """
-    text = os.fspath(spec)
-    if Path(text).exists() or ":/" not in text:
-        return text, None
+    path, topic, _ = _split(os.fspath(spec))
+    return path, topic
+
+
+def _split(text: str) -> tuple[str, str | None, bool]:
+    """:func:`split_topic` and whether the path exists (one ``stat`` for a plain file)."""
+    if ":/" not in text:
+        return text, None, os.path.exists(text)
+    if os.path.exists(text):
+        return text, None, True
     path, topic = text.rsplit(":/", 1)
-    if path and Path(path).exists():
-        return path, "/" + topic
-    return text, None
+    if path and os.path.exists(path):
+        return path, "/" + topic, True
+    return text, None, False
 
 
 def read_log(
@@ -97,9 +103,9 @@ def read_log(
         Naming the file (and topic): no such file, unreadable contents, covariances of the
         wrong shape or count.
     """
-    path, spec_topic = split_topic(spec)
+    path, spec_topic, exists = _split(os.fspath(spec))
     topic = topic or spec_topic
-    if not Path(path).exists():
+    if not exists:
         raise ValueError(f"{path}: no such file")
     notes: list[str] = []
     C: FloatArray | None = None

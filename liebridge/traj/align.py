@@ -84,11 +84,26 @@ class Alignment:
         Parameters
         ----------
         T_est : array_like, shape (..., 4, 4)
+
+        Raises
+        ------
+        ValueError
+            An aligned position float64 cannot hold (``scale`` times a huge position), naming the
+            first batch index and the count.
         """
         T = validate.pose(T_est, "T_est")
         out = np.array(T, dtype=np.float64, copy=True)
         out[..., :3, :3] = self.R_ref_est @ T[..., :3, :3]
-        out[..., :3, 3] = (self.scale * T[..., :3, 3]) @ self.R_ref_est.T + self.t_ref_est
+        with np.errstate(over="ignore", invalid="ignore"):  # reported below, by index
+            out[..., :3, 3] = (self.scale * T[..., :3, 3]) @ self.R_ref_est.T + self.t_ref_est
+        bad = ~np.isfinite(out[..., :3, 3]).all(axis=-1)
+        if bad.any():
+            i = tuple(int(k) for k in np.argwhere(bad)[0])
+            raise ValueError(
+                f"T_est: the aligned position at batch index {i} overflows float64 (scale "
+                f"{self.scale:.3g} times a position of {float(np.abs(T[i][:3, 3]).max()):.3g} m, "
+                f"{int(bad.sum())} pose(s) in all)"
+            )
         return out
 
     def covariance_map(self, T_est: Any, convention: ConventionLike) -> FloatArray:
@@ -100,8 +115,9 @@ class Alignment:
         pose_convention(conv, "convention", np.eye(4))
         T = validate.pose(T_est, "T_est")
         D = np.diag([1.0, 1.0, 1.0, self.scale, self.scale, self.scale])
-        J = cu.from_canonical(conv, self.apply(T)) @ D @ cu.to_canonical(conv, T)
-        return np.asarray(J, dtype=np.float64)
+        with np.errstate(over="ignore", invalid="ignore"):  # reported by finite_output
+            J = cu.from_canonical(conv, self.apply(T)) @ D @ cu.to_canonical(conv, T)
+        return validate.finite_output(np.asarray(J, dtype=np.float64), "covariance_map")
 
     def transform_covariance(
         self, T_est: Any, cov_est: Any, convention: ConventionLike
@@ -121,12 +137,20 @@ class Alignment:
         -------
         ndarray, shape (..., 6, 6)
             In ``convention``'s tangent at ``apply(T_est)``.
+
+        Raises
+        ------
+        ValueError
+            A covariance float64 cannot hold (a left convention at translations beyond ≈ 1e150
+            scales entries by their square), naming the first batch index.
         """
         cov = validate.covariance(cov_est, "cov_est", 6)
         J = self.covariance_map(T_est, convention)
         validate.batch_shape(("T_est", J.shape[:-2]), ("cov_est", cov.shape[:-2]))
-        out = J @ cov @ np.swapaxes(J, -1, -2)
-        return np.asarray(0.5 * (out + np.swapaxes(out, -1, -2)), dtype=np.float64)
+        with np.errstate(over="ignore", invalid="ignore"):  # reported by finite_output
+            out = J @ cov @ np.swapaxes(J, -1, -2)
+            out = 0.5 * (out + np.swapaxes(out, -1, -2))
+        return validate.finite_output(np.asarray(out, dtype=np.float64), "transform_covariance")
 
 
 def _positions(x: Any, name: str) -> FloatArray:
@@ -166,56 +190,87 @@ def umeyama(p_ref: Any, p_est: Any, kind: AlignmentKind | str = "se3") -> Alignm
         raise ValueError(
             f"alignment {kind!r} needs at least {_MIN_POSES} associated poses, got {len(x)}"
         )
-    # the alignment is equivariant under a common scaling c (R, s the same, t·c): positions
-    # beyond 1e100 are divided by a power of two first, so that no square or product overflows
-    big = max(float(np.abs(x).max()), float(np.abs(y).max()))
-    c = math.ldexp(1.0, math.frexp(big)[1]) if big > 1e100 else 1.0
-    if c != 1.0:
-        x, y = x / c, y / c
+    # R does not change when x and y are each scaled by a positive factor, s scales by their
+    # ratio and t follows: both are divided by an exact power of two near their largest
+    # magnitude first, so that no square, product or sum overflows or underflows (positions of
+    # 1e-300 m or 1e300 m, spreads 1e200 apart, are aligned as at unit scale)
+    x, ex = _unit_scaled(x)
+    y, ey = _unit_scaled(y)
     n = len(x)
     mx, my = x.mean(axis=0), y.mean(axis=0)
     xc, yc = x - mx, y - my
+    eps = float(np.finfo(np.float64).eps)
     if kind == "4dof":
         a_c = float(np.sum(xc[:, 0] * yc[:, 0] + xc[:, 1] * yc[:, 1]))
         a_s = float(np.sum(xc[:, 0] * yc[:, 1] - xc[:, 1] * yc[:, 0]))
-        if np.hypot(a_c, a_s) <= np.finfo(float).eps * max(1.0, float(np.abs(xc).sum())):
+        # scale-free tests (the positions are at unit scale here): a horizontal spread above
+        # the rounding of the centring, and |(a_c, a_s)| above the rounding of its own bound
+        # ‖xc_xy‖·‖yc_xy‖ (Cauchy-Schwarz)
+        sx, sy = float(np.linalg.norm(xc[:, :2])), float(np.linalg.norm(yc[:, :2]))
+        floor = 64 * eps * math.sqrt(n)
+        if not (sx > floor and sy > floor and np.hypot(a_c, a_s) > 8 * eps * sx * sy):
             raise ValueError(
                 "alignment '4dof': the horizontal positions do not move; the yaw is undetermined"
             )
         th = np.arctan2(a_s, a_c)
-        scale_back = c
         c, s = np.cos(th), np.sin(th)
         R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-        return Alignment("4dof", R, _translation(my - R @ mx, scale_back), 1.0)
+        return Alignment("4dof", R, _offset(my, ey, R @ mx, ex), 1.0)
     sigma_x = float(np.linalg.norm(xc) ** 2) / n
     cov_xy = (yc.T @ xc) / n
     u, d, vt = np.linalg.svd(cov_xy)
     # relative to the largest: the positions may have been rescaled above (or be in km)
-    if not d[0] > 0.0 or np.count_nonzero(d > np.finfo(d.dtype).eps * d[0]) < 2:
+    if not d[0] > 0.0 or np.count_nonzero(d > eps * d[0]) < 2:
         raise ValueError(
             f"alignment {kind!r}: the positions are degenerate (singular values of their "
             f"cross-covariance {d.tolist()}); all on one line or all equal"
         )
+    # det(U)·det(V) < 0, not det(Σ) < 0 (Umeyama's rule for a full-rank Σ): on a planar
+    # trajectory Σ has rank 2, its determinant is rounding noise, and the tempting rule returns
+    # the reflection that fits the plane as well as the rotation does
     S = np.eye(3)
     if np.linalg.det(u) * np.linalg.det(vt) < 0.0:
         S[2, 2] = -1.0
     R = u @ S @ vt
     scale = 1.0
     if _with_scale(kind):
-        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
-            scale = float(np.trace(np.diag(d) @ S) / sigma_x)
+        unit = float(np.trace(np.diag(d) @ S) / sigma_x)  # the scale between x/2^ex and y/2^ey
+        try:
+            scale = math.ldexp(unit, ey - ex)  # 0.0 on underflow, OverflowError on overflow
+        except OverflowError:
+            scale = math.inf
         if not (math.isfinite(scale) and scale > 0.0):
             raise ValueError(
                 f"alignment 'sim3': the scale from the estimate to the reference is {scale!r} "
-                "in float64 (their spreads differ by more than float64 spans)"
+                f"in float64 (their spreads differ by a factor of about {unit:.3g}·2^{ey - ex}, "
+                "beyond what float64 spans)"
             )
-    return Alignment(kind, R, _translation(my - scale * (R @ mx), c), scale)
+        # t = my − s R mx = 2^ey·(my' − unit·R mx'), mx' and my' the scaled means
+        return Alignment(kind, R, _translation(my - unit * (R @ mx), ey), scale)
+    return Alignment(kind, R, _offset(my, ey, R @ mx, ex), scale)
 
 
-def _translation(t: FloatArray, c: float) -> FloatArray:
-    """``c·t`` (undoing the common scaling), or a ``ValueError`` if it overflows float64."""
+def _unit_scaled(p: FloatArray) -> tuple[FloatArray, int]:
+    """``(p / 2^e, e)`` with ``2^e`` the power of two just above ``max |p|`` (e = 0 for zeros)."""
+    big = float(np.abs(p).max())
+    if big == 0.0:
+        return p, 0
+    e = math.frexp(big)[1]
+    return np.ldexp(p, -e), e  # exact (2^e itself overflows for |p| near 1e308)
+
+
+def _offset(my: FloatArray, ey: int, Rmx: FloatArray, ex: int) -> FloatArray:
+    """``2^ey·my − 2^ex·R mx`` (a translation in the original units), no overflow on the way."""
+    e = max(ex, ey)
+    with np.errstate(under="ignore"):  # a term 2^-1074 below the other is exactly negligible
+        t = np.ldexp(my, ey - e) - np.ldexp(Rmx, ex - e)
+    return _translation(t, e)
+
+
+def _translation(t: FloatArray, e: int) -> FloatArray:
+    """``2^e·t`` (undoing the scaling), or a ``ValueError`` if it overflows float64."""
     with np.errstate(over="ignore"):
-        out = np.asarray(t * c, dtype=np.float64)
+        out = np.asarray(np.ldexp(t, e), dtype=np.float64)
     if not np.isfinite(out).all():
         raise ValueError(
             "alignment: its translation overflows float64 (the positions and their offset are "

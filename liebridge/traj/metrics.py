@@ -151,6 +151,21 @@ def _norm(x: FloatArray, axis: int | tuple[int, int] = -1) -> FloatArray:
     return out
 
 
+def _path_length(T: FloatArray, name: str) -> tuple[FloatArray, FloatArray]:
+    """Return the steps (N − 1,) and the path length (N,); a ValueError if it overflows."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        steps = _norm(np.diff(T[:, :3, 3], axis=0))
+        dist = np.concatenate([[0.0], np.cumsum(steps)])
+    if not np.isfinite(dist).all():
+        i = int(np.argmax(~np.isfinite(dist)))
+        raise ValueError(
+            f"{name}: the path length up to pose {i} overflows float64 (steps of up to "
+            f"{float(np.max(np.abs(T[:, :3, 3]))):.3g} m); express the positions in a larger "
+            "unit"
+        )
+    return np.asarray(steps, dtype=np.float64), np.asarray(dist, dtype=np.float64)
+
+
 def _finite_errors(err: FloatArray, what: str) -> FloatArray:
     """``err`` if finite; else a ValueError naming the first pose (or pair) and why."""
     if np.isfinite(err).all():
@@ -234,8 +249,7 @@ def rpe_pairs(
     elif unit == "m":
         if not (np.isfinite(delta) and delta > 0):
             raise ValueError(f"delta: expected a length > 0 in metres, got {delta!r}")
-        steps = np.linalg.norm(np.diff(Tp[:, :3, 3], axis=0), axis=-1)
-        dist = np.concatenate([[0.0], np.cumsum(steps)])
+        steps, dist = _path_length(Tp, "T")
         if all_pairs:
             pairs = _path_all_pairs(dist, float(delta), float(delta) * rel_tol)
         else:
@@ -374,8 +388,7 @@ def kitti_segment_errors(
         raise ValueError(f"lengths: expected positive segment lengths, got {Ls.tolist()}")
     if isinstance(step, bool) or not isinstance(step, int | np.integer) or step < 1:
         raise ValueError(f"step: expected an integer ≥ 1, got {step!r}")
-    steps = np.linalg.norm(np.diff(Q[:, :3, 3], axis=0), axis=-1)
-    dist = np.concatenate([[0.0], np.cumsum(steps)])
+    _, dist = _path_length(Q, "T_ref")
     first = np.arange(0, Q.shape[0], step)
     f = np.repeat(first, Ls.size)
     L = np.tile(Ls, first.size)
@@ -387,10 +400,11 @@ def kitti_segment_errors(
             f"no KITTI segment fits: the reference path is {dist[-1]:.6g} m long, the shortest "
             f"segment length is {Ls.min():g} m"
         )
-    dQ = lu.se3_inverse(Q[f]) @ Q[last]
-    dP = lu.se3_inverse(P[f]) @ P[last]
-    E = lu.se3_inverse(dP) @ dQ
-    t_err = np.linalg.norm(E[:, :3, 3], axis=-1) / L
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported by name
+        dQ = lu.se3_inverse(Q[f]) @ Q[last]
+        dP = lu.se3_inverse(P[f]) @ P[last]
+        E = lu.se3_inverse(dP) @ dQ
+        t_err = _finite_errors(_norm(E[:, :3, 3]) / L, "kitti_segment_errors")
     cos = np.clip(0.5 * (np.trace(E[:, :3, :3], axis1=-2, axis2=-1) - 1.0), -1.0, 1.0)
     r_err = np.arccos(cos) / L
     used = np.unique(L)
