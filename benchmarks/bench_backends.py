@@ -48,7 +48,7 @@ OPS = ("se3.exp", "se3.log", "tangent_map", "convert_covariance", "grad")
 
 # ----------------------------------------------------------------------------- hand-written
 def hand(xp: Any, eye3: Any) -> dict[str, Callable[..., Any]]:
-    """The maps as a user writes them in the framework ``xp`` (torch or jax.numpy)."""
+    """Return the maps as a user writes them in the framework ``xp`` (torch or jax.numpy)."""
 
     def hat(w: Any) -> Any:
         z = w[..., 0] * 0.0
@@ -101,9 +101,7 @@ def hand(xp: Any, eye3: Any) -> dict[str, Callable[..., Any]]:
     def tmap(T: Any) -> Any:  # barfoot (v, ω) left = P · Ad_T (ω, v)
         R, t = T[..., :3, :3], T[..., :3, 3]
         Z = R * 0.0
-        return xp.concatenate(
-            [xp.concatenate([hat(t) @ R, R], -1), xp.concatenate([R, Z], -1)], -2
-        )
+        return xp.concatenate([xp.concatenate([hat(t) @ R, R], -1), xp.concatenate([R, Z], -1)], -2)
 
     def cov(C: Any, T: Any) -> Any:
         M = tmap(T)
@@ -123,6 +121,8 @@ def ours() -> dict[str, Callable[..., Any]]:
 
 # ----------------------------------------------------------------------------- backends
 class Torch:
+    """torch, eager, on one device."""
+
     name = "torch"
 
     def __init__(self, device: str) -> None:
@@ -132,19 +132,22 @@ class Torch:
         self.eye3 = torch.eye(3, dtype=torch.float64, device=device)
 
     def put(self, a: np.ndarray) -> Any:
+        """Move a numpy array to the device."""
         return self.torch.tensor(a, dtype=self.torch.float64, device=self.device)
 
     def sync(self, out: Any) -> Any:
+        """Wait for the device; return ``out``."""
         if self.device != "cpu":
             self.torch.cuda.synchronize()
         return out
 
     def back(self, a: Any) -> np.ndarray:
+        """Return a host numpy copy."""
         return a.detach().cpu().numpy()
 
     def fns(self) -> tuple[dict[str, Callable[..., Any]], dict[str, Callable[..., Any]]]:
+        """Return (hand-written, liebridge) functions by op."""
         h, o = hand(self.torch, self.eye3), ours()
-        h = {k: (lambda f: lambda *a: f(*a))(f) for k, f in h.items()}
         torch = self.torch
 
         def grad_of(exp: Callable[..., Any], cov: Callable[..., Any]) -> Callable[..., Any]:
@@ -161,6 +164,8 @@ class Torch:
 
 
 class Jax:
+    """JAX under ``jax.jit``, float64, on one device."""
+
     name = "jax"
 
     def __init__(self, device: str) -> None:
@@ -172,15 +177,19 @@ class Jax:
         self.eye3 = jax.device_put(self.jnp.eye(3), self.dev)
 
     def put(self, a: np.ndarray) -> Any:
+        """Move a numpy array to the device."""
         return self.jax.device_put(self.jnp.asarray(a), self.dev)
 
     def sync(self, out: Any) -> Any:
+        """Wait for the device; return ``out``."""
         return self.jax.block_until_ready(out)
 
     def back(self, a: Any) -> np.ndarray:
+        """Return a host numpy copy."""
         return np.asarray(a)
 
     def fns(self) -> tuple[dict[str, Callable[..., Any]], dict[str, Callable[..., Any]]]:
+        """Return (hand-written, liebridge) functions by op."""
         jax = self.jax
         h, o = hand(self.jnp, self.eye3), ours()
 
@@ -252,9 +261,10 @@ def run(sizes: list[int], repeat: int, quick: bool) -> dict[str, Any]:
                 diff = float(np.abs(a - b).max()) / scale
                 assert diff <= 1e-9, (be.name, op, n, diff)
                 t_o, t_h = [], []
+                f_o, f_h, sync = of[op], hf[op], be.sync
                 for _ in range(repeat):
-                    t_o.append(_time(lambda: be.sync(of[op](*args))))
-                    t_h.append(_time(lambda: be.sync(hf[op](*args))))
+                    t_o.append(_time(lambda f=f_o, a=args, s=sync: s(f(*a))))
+                    t_h.append(_time(lambda f=f_h, a=args, s=sync: s(f(*a))))
                 mo, mh = statistics.median(t_o), statistics.median(t_h)
                 row = {
                     "backend": be.name,

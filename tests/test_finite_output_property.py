@@ -139,20 +139,11 @@ def poses(draw: st.DrawFn) -> np.ndarray:
 # ----------------------------------------------------------------------------- liebridge.lie
 
 
-_SIM3_EXP_SCALE_ZERO = pytest.mark.xfail(
-    strict=True,
-    reason="liebridge/lie/record.py (Group.exp) validates only the rotation part of the tangent: "
-    "GROUPS['sim3'].exp (the path of every chart and conversion) returns a matrix with scale "
-    "e^λ = 0 for λ < −708.4 (det 0, not a Sim(3) element) where liebridge.lie.sim3.exp raises; "
-    "the log-scale bound belongs in the record's tangent check.",
-)
-GROUP_PARAMS = [
-    pytest.param(name, marks=_SIM3_EXP_SCALE_ZERO) if name == "sim3" else name for name in GROUPS
-]
+GROUP_PARAMS = list(GROUPS)
 
 
 @pytest.mark.parametrize("group", GROUP_PARAMS)
-# no shrinking: the known Sim(3) failure (xfail) would spend half a minute minimising its example
+# no shrinking: a failure would spend half a minute minimising its example
 @settings(SETTINGS, phases=[Phase.explicit, Phase.reuse, Phase.generate])
 @given(data=st.data())
 def test_every_group_function_is_finite_or_says_why(group, data):
@@ -337,7 +328,6 @@ def test_every_convention_function_of_other_groups_is_finite_or_says_why(group, 
         _finite_or_value_error(f"{name} ({a.name} → {b.name})", f)
 
 
-@_SIM3_EXP_SCALE_ZERO
 @pytest.mark.parametrize("lam", [-800.0, -1e200])
 def test_sim3_record_exp_refuses_a_scale_that_underflows(lam):
     """The record's exp and the module's agree: a log-scale below −708.4 is a ValueError."""

@@ -70,8 +70,12 @@ class Engine:
         """
         g = group_record(conv.group)
         arr = validate.vector(d, name, conv.dim())
-        if g.rot is not None:
-            validate.tangent(G.to_internal(conv, arr), name, g.dim, g.rot)
+        if g.rot is not None or g.tangent_check is not None:
+            xi = G.to_internal(conv, arr)
+            if g.rot is not None:
+                validate.tangent(xi, name, g.dim, g.rot)
+            if g.tangent_check is not None:
+                g.tangent_check(xi, name)
         return arr
 
     def retract(self, conv: Convention, X: FloatArray, d: FloatArray) -> FloatArray:

@@ -133,6 +133,9 @@ class Group:
         One line for tables (``"extended pose / navigation state"``).
     chart_aliases : dict
         Other spellings of chart names (SE(3)'s ``split_body`` is ``so3xr3_body``).
+    tangent_check : callable ``(xi, name) -> None``, optional
+        A group's own bound on a canonical tangent, run after the shape, finiteness and rotation
+        checks (Sim(3): the log-scale keeps ``e^λ`` a normal float64), raising ``ValueError``.
     array_api : bool
         Whether the kernels are written against the array API (:mod:`liebridge.arrays`), so that
         they, and the conventions of the group, run on torch and JAX arrays. ``False``: torch/JAX
@@ -155,6 +158,7 @@ class Group:
     tangent_doc: str = ""
     note: str = ""
     chart_aliases: dict[str, str] = field(default_factory=dict)
+    tangent_check: Callable[[FloatArray, str], None] | None = None
     array_api: bool = False
 
     def __post_init__(self) -> None:
@@ -242,8 +246,12 @@ class Group:
     def tangent(self, xi: Any, name: str = "xi") -> FloatArray:
         """Validate tangents ``(..., dim)`` (rotation part bounded, see ``_validate.tangent``)."""
         if self.rot is None:
-            return validate.vector(xi, name, self.dim)
-        return validate.tangent(xi, name, self.dim, self.rot)
+            x = validate.vector(xi, name, self.dim)
+        else:
+            x = validate.tangent(xi, name, self.dim, self.rot)
+        if self.tangent_check is not None:
+            self.tangent_check(x, name)
+        return x
 
     def _out(self, out: FloatArray, op: str) -> FloatArray:
         out = out if arrays.is_foreign(out) else np.asarray(out, dtype=np.float64)

@@ -317,22 +317,34 @@ def ad(xi: Any) -> FloatArray:
 
 def jr(xi: Any) -> FloatArray:
     """Right Jacobian ``Exp(ξ + δ) ≈ Exp(ξ)·Exp(jr(ξ) δ)``, ``(..., 6, 6)``; ``jr(ξ) = jl(−ξ)``."""
-    return validate.finite_output(_jl(-validate.tangent(xi, "xi", 6)), "se3.jr")
+    x = validate.tangent(xi, "xi", 6)
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
+        out = _jl(-x)
+    return validate.finite_output(out, "se3.jr")
 
 
 def jl(xi: Any) -> FloatArray:
     """Left Jacobian ``Exp(ξ + δ) ≈ Exp(jl(ξ) δ)·Exp(ξ)``, ``(..., 6, 6)``, Barfoot's Q-form."""
-    return validate.finite_output(_jl(validate.tangent(xi, "xi", 6)), "se3.jl")
+    x = validate.tangent(xi, "xi", 6)
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
+        out = _jl(x)
+    return validate.finite_output(out, "se3.jl")
 
 
 def jr_inv(xi: Any) -> FloatArray:
     """Inverse right Jacobian (closed-form block inverse); GTSAM ``Pose3.LogmapDerivative``."""
-    return validate.finite_output(_jl_inv(-validate.tangent(xi, "xi", 6)), "se3.jr_inv")
+    x = validate.tangent(xi, "xi", 6)
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
+        out = _jl_inv(-x)
+    return validate.finite_output(out, "se3.jr_inv")
 
 
 def jl_inv(xi: Any) -> FloatArray:
     """Inverse left Jacobian (closed-form block inverse), ``(..., 6, 6)``."""
-    return validate.finite_output(_jl_inv(validate.tangent(xi, "xi", 6)), "se3.jl_inv")
+    x = validate.tangent(xi, "xi", 6)
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
+        out = _jl_inv(x)
+    return validate.finite_output(out, "se3.jl_inv")
 
 
 def interpolate(T0: Any, T1: Any, tau: Any) -> FloatArray:

@@ -99,8 +99,8 @@ def _log(X: FloatArray) -> FloatArray:
 
 
 def _inverse(X: FloatArray) -> FloatArray:
-    s = _scale(X)
-    Ai = np.swapaxes(X[..., :3, :3], -1, -2) / (s * s)[..., None, None]  # (sR)⁻¹ = Rᵀ/s
+    s = _scale(X)[..., None, None]
+    Ai = np.swapaxes(X[..., :3, :3] / s, -1, -2) / s  # (sR)⁻¹ = Rᵀ/s (never s², which overflows)
     return _assemble(Ai, -_mv(Ai, X[..., :3, 3]))
 
 
@@ -156,8 +156,30 @@ def _jr_inv(xi: FloatArray) -> FloatArray:
     return np.asarray(np.linalg.inv(_jr(xi)), dtype=np.float64)
 
 
+#: The log-scale range whose scale ``e^λ`` is a normal float64: below, it rounds to a subnormal or
+#: to 0 (no similarity has scale 0); above, to Inf.
+LOG_SCALE_MIN, LOG_SCALE_MAX = -708.3964185322641, 709.782712893384
+
+
+def _log_scale_bound(x: FloatArray, name: str) -> None:
+    """Raise unless every log-scale ``λ = x[..., 6]`` keeps ``e^λ`` a normal float64."""
+    lam = x[..., 6]
+    bad = ~((lam >= LOG_SCALE_MIN) & (lam <= LOG_SCALE_MAX))
+    if bad.any():
+        i = validate.batch_index(np.asarray(bad))
+        v = float(lam[i])
+        what = "underflows" if v < LOG_SCALE_MIN else "overflows"
+        raise ValueError(
+            f"{name}: log-scale λ = {v:.6g} at batch index {i} is outside "
+            f"[{LOG_SCALE_MIN:.6g}, {LOG_SCALE_MAX:.6g}]: the scale e^λ {what} float64"
+            + (" (no similarity has scale 0)" if v < LOG_SCALE_MIN else "")
+        )
+
+
 def _tangent(xi: Any, name: str = "xi") -> FloatArray:
-    return validate.tangent(xi, name, 7, slice(0, 3))
+    x = validate.tangent(xi, name, 7, slice(0, 3))
+    _log_scale_bound(x, name)
+    return x
 
 
 @arrays.numpy_only
@@ -186,14 +208,6 @@ def exp(xi: Any) -> FloatArray:
     round to a subnormal or to 0, a matrix that is no similarity), naming the batch index.
     """
     x = _tangent(xi)
-    lam_min = -708.3964185322641  # log of float64's smallest normal number: e^λ stays normal
-    tiny = x[..., 6] < lam_min
-    if tiny.any():
-        i = validate.batch_index(np.asarray(tiny))
-        raise ValueError(
-            f"xi: log-scale λ = {float(x[..., 6][i]):.6g} at batch index {i} is below "
-            f"{lam_min:.6g}: the scale e^λ underflows float64 (no similarity has scale 0)"
-        )
     return validate.finite_output(_exp(x), "sim3.exp")
 
 
@@ -270,6 +284,6 @@ GROUP = register_shipped(
             jl_inv=_jl_inv, jr=_jr, jl=_jl, scale=_scale,
         ),
         probe=_exp(np.array([0.4, -0.7, 0.5, 1.5, -2.0, 0.8, 0.3])), label="Sim(3)",
-        tangent_doc="(ω, u, λ)",
+        tangent_doc="(ω, u, λ)", tangent_check=_log_scale_bound,
     )
 )  # fmt: skip
