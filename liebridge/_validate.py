@@ -581,6 +581,8 @@ def _check_bottom(arr: FloatArray, name: str, rows: FloatArray, group: str, hint
 
 def rotation2(x: Any, name: str, tol: float = ROTATION_TOL) -> FloatArray:
     """Validate a batch of 2-D rotation matrices, shape ``(..., 2, 2)``."""
+    if arrays.is_foreign(x):
+        return _foreign_group(x, name, tol, 2, 2, rotation2)
     arr = square(x, name, 2)
     _check_orthonormal(arr, name, tol, "the 2×2 matrix")
     return arr
@@ -594,6 +596,8 @@ def pose2(x: Any, name: str, tol: float = ROTATION_TOL) -> FloatArray:
 
     An SO(3) rotation (also 3×3) fails on its last row, and the message says so.
     """
+    if arrays.is_foreign(x):
+        return _foreign_group(x, name, tol, 3, 2, pose2)
     arr = square(x, name, 3)
     _check_bottom(
         arr,
@@ -648,6 +652,8 @@ _SE23_BOTTOM = np.array([[0.0, 0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 0.0, 1.0]])
 
 def extended_pose(x: Any, name: str, tol: float = ROTATION_TOL) -> FloatArray:
     """Validate a batch of SE₂(3) matrices ``[R p v; 0 1 0; 0 0 1]``, shape ``(..., 5, 5)``."""
+    if arrays.is_foreign(x):
+        return _foreign_group(x, name, tol, 5, 3, extended_pose)
     arr = square(x, name, 5)
     _check_bottom(arr, name, _SE23_BOTTOM, "SE₂(3)", " (GTSAM NavState.matrix() layout)")
     check_rotation(arr[..., :3, :3], name, tol)
@@ -816,4 +822,29 @@ def _foreign_covariance(x: Any, name: str, dim: int, tol: float) -> Any:
         ok = arrays.all_true(lam >= -tol * scale)
     if ok is False:
         covariance(arrays.to_numpy(arr).astype(np.float64), name, dim, tol)
+    return arr
+
+
+def _foreign_group(x: Any, name: str, tol: float, m: int, k: int, exact: Any) -> Any:
+    """Validate a matrix group element ``[[R, V], [0, I]]`` (``R`` a ``k × k`` rotation) on torch/JAX.
+
+    Certified on the device (``RᵀR ≈ I``, ``det R > 0``, the bottom rows exact); where the
+    certificate fails, ``exact`` on a host copy words the error.
+    """
+    arr = _foreign_square(x, name, m)
+    xp = arrays.namespace(arr)
+    tol = _tol(arr, tol)
+    R = arr[..., :k, :k]
+    if k == 3:
+        ok = _foreign_rotation_ok(R, tol)
+    else:
+        err = xp.max(xp.abs(arrays.mT(R) @ R - arrays.eye(k, R)), axis=(-1, -2))
+        det = R[..., 0, 0] * R[..., 1, 1] - R[..., 0, 1] * R[..., 1, 0]
+        ok = arrays.all_true((err <= tol) & (det > 0.0))
+    if m > k:
+        bottom = arrays.like(np.eye(m)[k:], arr)
+        ok_b = arrays.all_true(xp.all(arr[..., k:, :] == bottom, axis=(-1, -2)))
+        ok = False if ok_b is False else ok
+    if ok is False:
+        exact(arrays.to_numpy(arr).astype(np.float64), name, tol)
     return arr

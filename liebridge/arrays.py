@@ -235,6 +235,11 @@ def matrix(entries: Sequence[Any], rows: int, cols: int) -> Any:
     return xp.reshape(xp.stack(full, axis=-1), (*shape, rows, cols))
 
 
+def vector(entries: Sequence[Any]) -> Any:
+    """Return the ``(..., n)`` vector of ``entries`` (batch arrays), like :func:`matrix`."""
+    return matrix(entries, 1, len(entries))[..., 0, :]
+
+
 def blocks(grid: Sequence[Sequence[Any]]) -> Any:
     """Return the block matrix of a grid of ``(..., r_i, c_j)`` arrays (batch shapes broadcast)."""
     flat = [b for row in grid for b in row]

@@ -55,94 +55,77 @@ _ROT = slice(2, 3)
 
 
 def _rot(th: FloatArray) -> FloatArray:
-    c, s = np.cos(th), np.sin(th)
-    out = np.empty((*np.shape(th), 2, 2))
-    out[..., 0, 0], out[..., 0, 1] = c, -s
-    out[..., 1, 0], out[..., 1, 1] = s, c
-    return out
+    xp = arrays.namespace(th)
+    c, s = xp.cos(th), xp.sin(th)
+    return arrays.matrix([c, -s, s, c], 2, 2)
 
 
 def _ab(th: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Return ``A = sin θ/θ`` and ``b = (1 − cos θ)/θ`` (series-safe)."""
-    at = np.abs(th)  # the series branch is selected by θ < threshold: even functions of |θ|
-    return sinc(at), th * one_minus_cos_over_t2(at)
+    at = arrays.namespace(th).abs(th)  # the series branch: even functions of |θ|, in θ² = θ·θ
+    t2 = th * th
+    return sinc(at, t2), th * one_minus_cos_over_t2(at, t2)
 
 
 def _exp(xi: FloatArray) -> FloatArray:
+    xp = arrays.namespace(xi)
     th = xi[..., 2]
     A, b = _ab(th)
     vx, vy = xi[..., 0], xi[..., 1]
-    T = np.zeros((*xi.shape[:-1], 3, 3))
-    T[..., :2, :2] = _rot(th)
-    T[..., 0, 2] = A * vx - b * vy
-    T[..., 1, 2] = b * vx + A * vy
-    T[..., 2, 2] = 1.0
-    return T
+    c, s = xp.cos(th), xp.sin(th)
+    return arrays.matrix([c, -s, A * vx - b * vy, s, c, b * vx + A * vy, 0.0, 0.0, 1.0], 3, 3)
 
 
 def _vinv(th: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Coefficients ``(p, q)`` of ``V(θ)⁻¹ = p I − q J``."""
     A, b = _ab(th)
-    d = sinc(0.5 * np.abs(th)) ** 2  # A² + b²
+    h = 0.5 * arrays.namespace(th).abs(th)
+    d = sinc(h, 0.25 * th * th) ** 2  # A² + b²
     return A / d, b / d
 
 
 def _log(T: FloatArray) -> FloatArray:
-    th = np.arctan2(T[..., 1, 0], T[..., 0, 0])
+    th = arrays.namespace(T).atan2(T[..., 1, 0], T[..., 0, 0])
     p, q = _vinv(th)
     tx, ty = T[..., 0, 2], T[..., 1, 2]
-    out = np.empty((*T.shape[:-2], 3))
-    out[..., 0] = p * tx + q * ty
-    out[..., 1] = -q * tx + p * ty
-    out[..., 2] = th
-    return out
+    return arrays.vector([p * tx + q * ty, -q * tx + p * ty, th])
 
 
 def _inverse(T: FloatArray) -> FloatArray:
-    Rt = np.swapaxes(T[..., :2, :2], -1, -2)
-    out = np.zeros(T.shape)
-    out[..., :2, :2] = Rt
-    out[..., :2, 2] = -np.einsum("...ij,...j->...i", Rt, T[..., :2, 2])
-    out[..., 2, 2] = 1.0
-    return out
+    c, s, tx, ty = T[..., 0, 0], T[..., 1, 0], T[..., 0, 2], T[..., 1, 2]
+    # [[Rᵀ, −Rᵀt], [0, 1]] with R = [[c, −s], [s, c]] (the stored entries, not re-derived)
+    r00, r01, r10, r11 = T[..., 0, 0], T[..., 1, 0], T[..., 0, 1], T[..., 1, 1]
+    del c, s
+    return arrays.matrix(
+        [r00, r01, -(r00 * tx + r01 * ty), r10, r11, -(r10 * tx + r11 * ty), 0.0, 0.0, 1.0], 3, 3
+    )
 
 
 def _adjoint(T: FloatArray) -> FloatArray:
-    out = np.zeros((*T.shape[:-2], 3, 3))
-    out[..., :2, :2] = T[..., :2, :2]
-    out[..., 0, 2] = T[..., 1, 2]
-    out[..., 1, 2] = -T[..., 0, 2]
-    out[..., 2, 2] = 1.0
-    return out
+    return arrays.matrix(
+        [T[..., 0, 0], T[..., 0, 1], T[..., 1, 2], T[..., 1, 0], T[..., 1, 1], -T[..., 0, 2],
+         0.0, 0.0, 1.0], 3, 3,
+    )  # fmt: skip
 
 
 def _jl(xi: FloatArray) -> FloatArray:
     th = xi[..., 2]
-    at = np.abs(th)
+    at = arrays.namespace(xi).abs(th)
+    t2 = th * th
     A, b = _ab(th)
-    B = one_minus_cos_over_t2(at)
-    tC = th * t_minus_sin_over_t3(at)
+    B = one_minus_cos_over_t2(at, t2)
+    tC = th * t_minus_sin_over_t3(at, t2)
     r1, r2 = xi[..., 0], xi[..., 1]
-    J = np.zeros((*xi.shape[:-1], 3, 3))
-    J[..., 0, 0], J[..., 0, 1] = A, -b
-    J[..., 1, 0], J[..., 1, 1] = b, A
-    J[..., 0, 2] = r1 * tC + r2 * B
-    J[..., 1, 2] = -r1 * B + r2 * tC
-    J[..., 2, 2] = 1.0
-    return J
+    return arrays.matrix([A, -b, r1 * tC + r2 * B, b, A, -r1 * B + r2 * tC, 0.0, 0.0, 1.0], 3, 3)
 
 
 def _jl_inv(xi: FloatArray) -> FloatArray:
     J = _jl(xi)
     p, q = _vinv(xi[..., 2])
     c0, c1 = J[..., 0, 2], J[..., 1, 2]
-    out = np.zeros(J.shape)
-    out[..., 0, 0], out[..., 0, 1] = p, q
-    out[..., 1, 0], out[..., 1, 1] = -q, p
-    out[..., 0, 2] = -(p * c0 + q * c1)
-    out[..., 1, 2] = -(-q * c0 + p * c1)
-    out[..., 2, 2] = 1.0
-    return out
+    return arrays.matrix(
+        [p, q, -(p * c0 + q * c1), -q, p, -(-q * c0 + p * c1), 0.0, 0.0, 1.0], 3, 3
+    )
 
 
 def _jr(xi: FloatArray) -> FloatArray:
@@ -174,67 +157,56 @@ def vee(X: Any) -> FloatArray:
     return np.stack([X[..., 0, 2], X[..., 1, 2], 0.5 * (X[..., 1, 0] - X[..., 0, 1])], axis=-1)
 
 
-@arrays.numpy_only
 def exp(xi: Any) -> FloatArray:
     """SE(2) exponential of ``(vx, vy, ω)`` → ``(..., 3, 3)``. GTSAM ``Pose2.Expmap``."""
     return validate.finite_output(_exp(_tangent(xi)), "se2.exp")
 
 
-@arrays.numpy_only
 def log(T: Any) -> FloatArray:
     """SE(2) logarithm → ``(vx, vy, ω)``, ``ω ∈ (−π, π]``. GTSAM ``Pose2.Logmap``."""
     return validate.finite_output(_log(validate.pose2(T, "T")), "se2.log")
 
 
-@arrays.numpy_only
 def jr(xi: Any) -> FloatArray:
     """Right Jacobian ``Exp(ξ + δ) ≈ Exp(ξ)·Exp(jr δ)``, ``(..., 3, 3)``."""
     return validate.finite_output(_jr(_tangent(xi)), "se2.jr")
 
 
-@arrays.numpy_only
 def jl(xi: Any) -> FloatArray:
     """Left Jacobian ``Exp(ξ + δ) ≈ Exp(jl δ)·Exp(ξ)``, ``(..., 3, 3)``."""
     return validate.finite_output(_jl(_tangent(xi)), "se2.jl")
 
 
-@arrays.numpy_only
 def jr_inv(xi: Any) -> FloatArray:
     """Inverse right Jacobian (closed-form block inverse); GTSAM ``Pose2.LogmapDerivative``."""
     return validate.finite_output(_jr_inv(_tangent(xi)), "se2.jr_inv")
 
 
-@arrays.numpy_only
 def jl_inv(xi: Any) -> FloatArray:
     """Inverse left Jacobian (closed-form block inverse), ``(..., 3, 3)``."""
     return validate.finite_output(_jl_inv(_tangent(xi)), "se2.jl_inv")
 
 
-@arrays.numpy_only
 def adjoint(T: Any) -> FloatArray:
     """``Ad_T = [[R, (t_y, −t_x)ᵀ], [0, 1]]`` in ``(vx, vy, ω)``: ``T·Exp(ξ)·T⁻¹ = Exp(Ad_T ξ)``."""
     return _adjoint(validate.pose2(T, "T"))
 
 
-@arrays.numpy_only
 def inverse(T: Any) -> FloatArray:
     """``[[Rᵀ, −Rᵀt], [0, 1]]``: ``inverse(T_world_body) = T_body_world``."""
     return _inverse(validate.pose2(T, "T"))
 
 
-@arrays.numpy_only
 def compose(T1: Any, T2: Any) -> FloatArray:
     """``T1·T2`` (broadcast): ``compose(T_a_b, T_b_c) = T_a_c``."""
     return _mg.compose(T1, T2, validate.pose2, ("T1", "T2"), "se2.compose")
 
 
-@arrays.numpy_only
 def act(T: Any, p: Any) -> FloatArray:
     """``R p + t`` for 2-D points ``(..., 2)``: ``act(T_world_body, p_body) = p_world``."""
     return _mg.act(T, p, validate.pose2, 2, ("T", "p"), "se2.act")
 
 
-@arrays.numpy_only
 def interpolate(T0: Any, T1: Any, tau: Any) -> FloatArray:
     """Geodesic ``T0·Exp(τ·Log(T0⁻¹T1))``; ``τ`` broadcasts against the batch."""
     ops = (_log, _exp, _inverse)
@@ -253,5 +225,6 @@ GROUP = register_shipped(
             jl_inv=_jl_inv, jr=_jr, jl=_jl,
         ),
         probe=_exp(np.array([1.5, -2.0, 0.8])), label="SE(2)", tangent_doc="(vx, vy, ω)",
+        array_api=True,
     )
 )  # fmt: skip

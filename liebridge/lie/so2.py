@@ -17,6 +17,7 @@ import numpy as np
 from .. import _validate as validate
 from .. import arrays
 from .._validate import FloatArray
+from . import _matrix_group as _mg
 from .record import Group, Kernels, register_shipped
 
 __all__ = [
@@ -40,27 +41,31 @@ DIM, MATRIX = 1, 2
 
 
 def _exp(w: FloatArray) -> FloatArray:
+    xp = arrays.namespace(w)
     th = w[..., 0]
-    c, s = np.cos(th), np.sin(th)
-    out = np.empty((*w.shape[:-1], 2, 2))
-    out[..., 0, 0], out[..., 0, 1] = c, -s
-    out[..., 1, 0], out[..., 1, 1] = s, c
-    return out
+    c, s = xp.cos(th), xp.sin(th)
+    return arrays.matrix([c, -s, s, c], 2, 2)
 
 
 def _log(R: FloatArray) -> FloatArray:
-    return np.arctan2(R[..., 1, 0], R[..., 0, 0])[..., None]
+    return arrays.namespace(R).atan2(R[..., 1, 0], R[..., 0, 0])[..., None]
 
 
 def _inverse(R: FloatArray) -> FloatArray:
+    if arrays.is_foreign(R):
+        return arrays.mT(R)
     return np.array(np.swapaxes(R, -1, -2), dtype=np.float64)
 
 
 def _ones(w: FloatArray) -> FloatArray:
+    if arrays.is_foreign(w):
+        return w[..., None] * 0.0 + 1.0
     return np.ones((*w.shape[:-1], 1, 1))
 
 
 def _adjoint(R: FloatArray) -> FloatArray:
+    if arrays.is_foreign(R):
+        return R[..., :1, :1] * 0.0 + 1.0
     return np.ones((*R.shape[:-2], 1, 1))
 
 
@@ -84,80 +89,69 @@ def vee(W: Any) -> FloatArray:
     return np.asarray(0.5 * (W[..., 1, 0] - W[..., 0, 1]))[..., None]
 
 
-@arrays.numpy_only
 def exp(w: Any) -> FloatArray:
     """``Exp(θ)``, ``(..., 1)`` → ``(..., 2, 2)``. GTSAM ``Rot2.Expmap``."""
     return validate.finite_output(_exp(_tangent(w)), "so2.exp")
 
 
-@arrays.numpy_only
 def log(R: Any) -> FloatArray:
     """``Log(R) = atan2(R₁₀, R₀₀) ∈ (−π, π]``, ``(..., 1)``. GTSAM ``Rot2.Logmap``."""
     return _log(validate.rotation2(R, "R"))
 
 
-@arrays.numpy_only
 def jr(w: Any) -> FloatArray:
     """Right Jacobian, ``[[1]]`` (commutative group), ``(..., 1, 1)``."""
     return _ones(_tangent(w))
 
 
-@arrays.numpy_only
 def jl(w: Any) -> FloatArray:
     """Left Jacobian, ``[[1]]``, ``(..., 1, 1)``."""
     return _ones(_tangent(w))
 
 
-@arrays.numpy_only
 def jr_inv(w: Any) -> FloatArray:
     """Inverse right Jacobian, ``[[1]]``."""
     return _ones(_tangent(w))
 
 
-@arrays.numpy_only
 def jl_inv(w: Any) -> FloatArray:
     """Inverse left Jacobian, ``[[1]]``."""
     return _ones(_tangent(w))
 
 
-@arrays.numpy_only
 def adjoint(R: Any) -> FloatArray:
     """``Ad_R = [[1]]``: ``R·Exp(θ)·R⁻¹ = Exp(θ)``, ``(..., 1, 1)``."""
     return _adjoint(validate.rotation2(R, "R"))
 
 
-@arrays.numpy_only
 def inverse(R: Any) -> FloatArray:
     """``R⁻¹ = Rᵀ``."""
     return _inverse(validate.rotation2(R, "R"))
 
 
-@arrays.numpy_only
 def compose(R1: Any, R2: Any) -> FloatArray:
     """``R1·R2`` (broadcast)."""
     A, B = validate.rotation2(R1, "R1"), validate.rotation2(R2, "R2")
-    validate.batch_shape(("R1", A.shape[:-2]), ("R2", B.shape[:-2]))
-    return np.asarray(A @ B, dtype=np.float64)
+    validate.batch_shape(("R1", tuple(A.shape[:-2])), ("R2", tuple(B.shape[:-2])))
+    out = A @ B
+    return out if arrays.is_foreign(out) else np.asarray(out, dtype=np.float64)
 
 
-@arrays.numpy_only
 def act(R: Any, p: Any) -> FloatArray:
     """``R p`` for 2-D points ``(..., 2)``."""
     R = validate.rotation2(R, "R")
     p = validate.vector(p, "p", 2)
-    validate.batch_shape(("R", R.shape[:-2]), ("p", p.shape[:-1]))
-    return validate.finite_output(np.einsum("...ij,...j->...i", R, p), "so2.act")
+    validate.batch_shape(("R", tuple(R.shape[:-2])), ("p", tuple(p.shape[:-1])))
+    return validate.finite_output(arrays.matvec(R, p), "so2.act")
 
 
-@arrays.numpy_only
 def interpolate(R0: Any, R1: Any, tau: Any) -> FloatArray:
     """``R0·Exp(τ·Log(R0⁻¹R1))`` (the shorter arc; τ broadcasts)."""
-    R0, R1 = validate.rotation2(R0, "R0"), validate.rotation2(R1, "R1")
-    tau_ = validate.as_float_array(tau, "tau")
-    validate.check_finite(tau_, "tau", core_ndim=0)
-    validate.batch_shape(("R0", R0.shape[:-2]), ("R1", R1.shape[:-2]), ("tau", tau_.shape))
-    w = tau_[..., None] * _log(_inverse(R0) @ R1)
-    return validate.finite_output(np.asarray(R0 @ _exp(w), dtype=np.float64), "so2.interpolate")
+    ops = (_log, _exp, _inverse)
+    return _mg.interpolate(
+        R0, R1, tau, validate.rotation2, lambda w, name: validate.tangent(w, name, 1, slice(0, 1)),
+        ops, ("R0", "R1"), "so2.interpolate",
+    )  # fmt: skip
 
 
 # ----------------------------------------------------------------------------- the record
@@ -169,6 +163,6 @@ GROUP = register_shipped(
             exp=_exp, log=_log, inverse=_inverse, adjoint=_adjoint, jr_inv=_ones, jl_inv=_ones,
             jr=_ones, jl=_ones,
         ),
-        probe=_exp(np.array([0.9])), label="SO(2)", tangent_doc="(θ,)",
+        probe=_exp(np.array([0.9])), label="SO(2)", tangent_doc="(θ,)", array_api=True,
     )
 )  # fmt: skip
