@@ -826,7 +826,7 @@ def _foreign_covariance(x: Any, name: str, dim: int, tol: float) -> Any:
 
 
 def _foreign_group(x: Any, name: str, tol: float, m: int, k: int, exact: Any) -> Any:
-    """Validate a matrix group element ``[[R, V], [0, I]]`` (``R`` a ``k × k`` rotation) on torch/JAX.
+    """Validate matrix group elements ``[[R, V], [0, I]]`` (``R``: ``k × k``) on torch/JAX.
 
     Certified on the device (``RᵀR ≈ I``, ``det R > 0``, the bottom rows exact); where the
     certificate fails, ``exact`` on a host copy words the error.
