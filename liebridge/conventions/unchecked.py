@@ -56,6 +56,7 @@ def tangent_map(X: FloatArray, src: Chart, dst: Chart) -> FloatArray:
         isinstance(src, Convention)
         and isinstance(dst, Convention)
         and src._engine.rotations_3d
+        and dst._engine.rotations_3d
         and not (src.is_euler or dst.is_euler)
     ):
         return pair_tangent_map(src, dst, X.shape[-1] == 3)(X)
