@@ -129,9 +129,20 @@ class InverseEngine(Engine):
         )
 
 
+_INVERSE: dict[int, InverseEngine] = {}
+
+
 def engine_storing(base: Engine, stores: str) -> Engine:
-    """Return the engine of a convention that stores ``stores`` (``base`` itself for a pose)."""
-    return base if stores == "pose" else InverseEngine(base)
+    """Return the engine of a convention that stores ``stores`` (``base`` itself for a pose).
+
+    One :class:`InverseEngine` per base engine (so an unpickled convention has the same engine).
+    """
+    if stores == "pose":
+        return base
+    eng = _INVERSE.get(id(base))
+    if eng is None or eng.base is not base:
+        eng = _INVERSE[id(base)] = InverseEngine(base)
+    return eng
 
 
 __all__ = ["STORES", "InverseEngine", "engine_storing"]
