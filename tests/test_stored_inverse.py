@@ -23,7 +23,8 @@ RNG_SEED = 20261127
 
 def _canonical(group: str) -> Convention:
     g = GROUPS[group]
-    return Convention("canonical", "right", g.canonical_order, g.coupled_chart, "exp", "wxyz", group=group)
+    order, chart = g.canonical_order, g.coupled_chart
+    return Convention("canonical", "right", order, chart, "exp", "wxyz", group=group)
 
 
 def _cases() -> list[tuple[str, str, str]]:
@@ -31,7 +32,8 @@ def _cases() -> list[tuple[str, str, str]]:
     for name, g in GROUPS.items():
         if name not in ("so2", "se2", "so3", "se3", "sim3", "se23"):
             continue
-        orders = ("rot_first",) if (not g.vecs and g.scale is None) else ("rot_first", "trans_first")
+        rotation_group = not g.vecs and g.scale is None
+        orders = ("rot_first",) if rotation_group else ("rot_first", "trans_first")
         for side in ("right", "left"):
             for order in orders:
                 out.append((name, side, order))
@@ -41,8 +43,14 @@ def _cases() -> list[tuple[str, str, str]]:
 def _conv(group: str, side: str, order: str, stores: str = "inverse") -> Convention:
     g = GROUPS[group]
     return Convention(
-        f"inv_{group}_{side}_{order}", side, order, g.coupled_chart, "exp", "wxyz",  # type: ignore[arg-type]
-        group=group, stores=stores,  # type: ignore[arg-type]
+        f"inv_{group}_{side}_{order}",
+        side,
+        order,
+        g.coupled_chart,
+        "exp",
+        "wxyz",  # type: ignore[arg-type]
+        group=group,
+        stores=stores,  # type: ignore[arg-type]
     )
 
 
@@ -65,7 +73,9 @@ def _fd(f, n: int, eps: float = 1e-6) -> np.ndarray:  # type: ignore[no-untyped-
 
 
 @pytest.mark.parametrize(("group", "side", "order"), _cases())
-def test_retract_is_the_stored_update_conjugated_by_inversion(group: str, side: str, order: str) -> None:
+def test_retract_is_the_stored_update_conjugated_by_inversion(
+    group: str, side: str, order: str
+) -> None:
     rng = np.random.default_rng(RNG_SEED)
     conv, plain = _conv(group, side, order), _conv(group, side, order, "pose")
     X = _element(group, rng)
@@ -101,16 +111,16 @@ def test_first_order_maps_equal_central_differences_through_the_retraction(
 
 @pytest.mark.parametrize("group", ["so2", "se2", "so3", "se3", "sim3", "se23"])
 def test_tangent_maps_to_every_coupled_convention_equal_differences(group: str) -> None:
-    """``tangent_map`` in both directions (the numpy path: the compiled grids are for stored poses)."""
+    """``tangent_map`` both ways (the numpy path: the compiled grids are for stored poses)."""
     rng = np.random.default_rng(RNG_SEED + 2)
     X = _element(group, rng)
     for side, order in [(s, o) for (gname, s, o) in _cases() if gname == group]:
         src = _conv(group, side, order)
         for dst in (_canonical(group), _conv(group, "left", order, "pose"), src):
             n = src.dim()
-            M_fd = _fd(lambda d: dst.local(X, src.retract(X, d)), n)
+            M_fd = _fd(lambda d, a=src, b=dst: b.local(X, a.retract(X, d)), n)
             assert np.abs(tangent_map(X, src, dst) - M_fd).max() < 1e-8
-            M_back = _fd(lambda d: src.local(X, dst.retract(X, d)), n)
+            M_back = _fd(lambda d, a=src, b=dst: a.local(X, b.retract(X, d)), n)
             assert np.abs(tangent_map(X, dst, src) - M_back).max() < 1e-8
 
 
@@ -126,7 +136,8 @@ def test_dpvo_on_t_world_cam_is_a_right_update_with_the_sign_flipped() -> None:
     assert np.abs(dpvo.retract(T, a) - T @ se3.exp(-P @ a)).max() < 1e-12
     # lietorch's own update Exp(a)·T_cam_world on the stored inverse
     T_cam_world = np.linalg.inv(T)
-    assert np.abs(np.linalg.inv(dpvo.retract(T, a)) - get("lietorch").retract(T_cam_world, a)).max() < 1e-12
+    lietorch_update = get("lietorch").retract(T_cam_world, a)
+    assert np.abs(np.linalg.inv(dpvo.retract(T, a)) - lietorch_update).max() < 1e-12
     assert np.abs(tangent_map(T, "dpvo", "gtsam") + P).max() < 1e-12  # −P at every pose
 
 

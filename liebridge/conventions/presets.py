@@ -373,7 +373,8 @@ DPVO = Convention(
     quat_order="xyzw",
     stores="inverse",
     source="S lietorch on the stored inverse T_cam_world: princeton-vl/DPVO dpvo/dpvo.py "
-    "(terminate: poses.inv(), 'internal representation is world-to-camera'), dpvo/ba.py (poses updated with lietorch retr); princeton-vl/"
+    "(terminate: poses.inv(), 'internal representation is world-to-camera'), dpvo/ba.py "
+    "(poses updated with lietorch retr); princeton-vl/"
     "DROID-SLAM droid_slam/droid.py (terminate returns camera_trajectory.inv()); DPVO#27, "
     "DROID-SLAM#77; lietorch as the 'lietorch' preset. N not run: lietorch needs CUDA; the "
     "same update is run with PyPose's identical convention on the stored inverse",

@@ -44,7 +44,7 @@ STORES = ("pose", "inverse")
 
 
 def _parts(conv: Convention, X: FloatArray) -> tuple[Group, bool]:
-    """The record of ``X``'s group and whether ``X`` is a bare rotation of an SE(3) convention."""
+    """Return ``X``'s group record and whether ``X`` is a bare rotation of an SE(3) convention."""
     g = group_record(conv.group)
     return g, X.shape[-1] != g.matrix
 
@@ -80,7 +80,7 @@ class InverseEngine(Engine):
         self.euler = base.euler  # refused by check() anyway: Euler coordinates are split charts
 
     def check(self, conv: Convention, g: Group) -> None:
-        """The base engine's rules, and the coupled chart only."""
+        """Apply the base engine's rules, and accept the coupled chart only."""
         self.base.check(conv, g)
         if conv.chart != g.coupled_chart:
             raise ValueError(
@@ -89,7 +89,7 @@ class InverseEngine(Engine):
             )
 
     def dim(self, conv: Convention, X: Any = None) -> int:
-        """The base engine's tangent length."""
+        """Return the base engine's tangent length."""
         return self.base.dim(conv, X)
 
     def element(self, conv: Convention, X: Any, name: str) -> FloatArray:
@@ -101,7 +101,7 @@ class InverseEngine(Engine):
         return self.base.pair(conv, X, Y)
 
     def increment(self, conv: Convention, d: Any, so3: bool, name: str) -> FloatArray:
-        """An increment of the stored element's tangent, as the base engine validates it."""
+        """Validate an increment of the stored element's tangent as the base engine does."""
         return self.base.increment(conv, d, so3, name)
 
     def retract(self, conv: Convention, X: FloatArray, d: FloatArray) -> FloatArray:
@@ -113,7 +113,7 @@ class InverseEngine(Engine):
         return self.base.local(conv, _inverse(conv, X), _inverse(conv, Y))
 
     def local_jacobian(self, conv: Convention, X: FloatArray, Y: FloatArray) -> FloatArray:
-        """The stored elements' ``∂ local(X⁻¹, retract(Y⁻¹, δ)) / ∂δ`` (the same function of δ)."""
+        """Return ``∂ local(X⁻¹, retract(Y⁻¹, δ)) / ∂δ`` of the stored elements (the same map)."""
         return self.base.local_jacobian(conv, _inverse(conv, X), _inverse(conv, Y))
 
     def to_canonical(self, conv: Convention, X: FloatArray) -> FloatArray:

@@ -552,7 +552,7 @@ def _pypose(kind: str) -> Callable[[Any], Ops]:
 
 
 def _inverted(ops: Ops) -> Ops:
-    """A library's ops applied to the stored inverse ``X⁻¹`` (world→camera poses, DPVO)."""
+    """Apply a library's ops to the stored inverse ``X⁻¹`` (world→camera poses, DPVO)."""
     inv = np.linalg.inv
 
     def retract(X: FloatArray, d: FloatArray) -> FloatArray:
