@@ -39,6 +39,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from . import arrays
+
 FloatArray = npt.NDArray[np.float64]
 
 #: Tolerance on ``‖RᵀR − I‖_max`` accepted for a rotation matrix.
@@ -170,6 +172,8 @@ def as_float_array(x: Any, name: str) -> FloatArray:
     A pose or rotation object of a known library (:data:`LIBRARY_OBJECTS`), or a list of them,
     becomes its homogeneous matrix (a batch for a list or a vectorized object).
     """
+    if arrays.is_foreign(x):
+        return _foreign_to_numpy(x, name)
     if type(x) is np.ndarray and x.dtype is _F64:
         return x
     if x is None:  # numpy would make it NaN
@@ -221,6 +225,8 @@ def check_finite(arr: FloatArray, name: str, core_ndim: int | None = None) -> No
     With ``core_ndim`` (the number of trailing non-batch axes: 1 for vectors, 2 for matrices) the
     message splits the index into the batch index and the entry inside the element.
     """
+    if arrays.is_foreign(arr):
+        return _foreign_check_finite(arr, name, core_ndim)
     if not np.isfinite(arr).all():
         idx = batch_index(~np.isfinite(arr))
         if core_ndim is None:
@@ -233,6 +239,8 @@ def check_finite(arr: FloatArray, name: str, core_ndim: int | None = None) -> No
 
 def vector(x: Any, name: str, dim: int) -> FloatArray:
     """Validate a batch of ``dim``-vectors, shape ``(..., dim)``."""
+    if arrays.is_foreign(x):
+        return _foreign_vector(x, name, dim)
     arr = as_float_array(x, name)
     if arr.ndim < 1 or arr.shape[-1] != dim:
         raise ValueError(f"{name}: expected shape (..., {dim}), got {arr.shape}")
@@ -247,6 +255,8 @@ def tangent(x: Any, name: str, dim: int, rot: slice = slice(0, 3)) -> FloatArray
     float64 cannot place the angle — its spacing there is 1e-4 rad — and the series and closed
     forms of the kernel would overflow).
     """
+    if arrays.is_foreign(x):
+        return _foreign_tangent(x, name, dim, rot)
     arr = vector(x, name, dim)
     r = arr if dim == 3 else arr[..., rot]
     if not (np.abs(r) <= _MAX_COMPONENT).all():
@@ -269,6 +279,8 @@ def _check_square_shape(arr: FloatArray, name: str, dim: int) -> None:
 
 def square(x: Any, name: str, dim: int) -> FloatArray:
     """Validate a batch of ``dim × dim`` matrices, shape ``(..., dim, dim)``."""
+    if arrays.is_foreign(x):
+        return _foreign_square(x, name, dim)
     arr = as_float_array(x, name)
     _check_square_shape(arr, name, dim)
     check_finite(arr, name, core_ndim=2)
@@ -295,6 +307,8 @@ def finite_output(out: FloatArray, name: str) -> FloatArray:
     instead of being returned. A small result is summed in Python floats (a non-finite sum means
     a non-finite entry or a sum beyond float64; numpy's sum would warn about the latter).
     """
+    if arrays.is_foreign(out):
+        return _foreign_finite_output(out, name)
     if out.size <= 64 and math.isfinite(sum(out.ravel().tolist())):
         return out
     if np.isfinite(out).all():
@@ -385,6 +399,8 @@ def check_rotation(R: FloatArray, name: str, tol: float = ROTATION_TOL) -> None:
 
 def checked_rotation(arr: FloatArray, name: str, tol: float = ROTATION_TOL) -> FloatArray:
     """Validate a float64 array as rotations ``(..., 3, 3)``; return it (see :func:`rotation`)."""
+    if arrays.is_foreign(arr):
+        return _foreign_rotation(arr, name, tol)
     if (
         arr.size == 9
         and arr.shape[-2:] == (3, 3)
@@ -399,6 +415,8 @@ def checked_rotation(arr: FloatArray, name: str, tol: float = ROTATION_TOL) -> F
 
 def rotation(x: Any, name: str, tol: float = ROTATION_TOL) -> FloatArray:
     """Validate a batch of rotation matrices, shape ``(..., 3, 3)``."""
+    if arrays.is_foreign(x):
+        return _foreign_rotation(x, name, tol)
     return checked_rotation(as_float_array(x, name), name, tol)
 
 
@@ -412,6 +430,8 @@ def _pose_certified(a: list[float], tol: float) -> bool:
 
 def checked_pose(arr: FloatArray, name: str, tol: float = ROTATION_TOL) -> FloatArray:
     """Validate a float64 array as poses ``(..., 4, 4)`` and return it (see :func:`pose`)."""
+    if arrays.is_foreign(arr):
+        return _foreign_pose(arr, name, tol)
     if arr.size == 16 and arr.shape[-2:] == (4, 4) and _pose_certified(arr.ravel().tolist(), tol):
         return arr
     _check_square_shape(arr, name, 4)
@@ -427,6 +447,8 @@ def checked_pose(arr: FloatArray, name: str, tol: float = ROTATION_TOL) -> Float
 
 def pose(x: Any, name: str, tol: float = ROTATION_TOL) -> FloatArray:
     """Validate a batch of homogeneous SE(3) matrices, shape ``(..., 4, 4)``."""
+    if arrays.is_foreign(x):
+        return _foreign_pose(x, name, tol)
     return checked_pose(as_float_array(x, name), name, tol)
 
 
@@ -474,6 +496,8 @@ def _psd_certified(arr: FloatArray) -> bool:
 
 def covariance(x: Any, name: str, dim: int, tol: float = COVARIANCE_TOL) -> FloatArray:
     """Validate a batch of symmetric positive semi-definite matrices, shape ``(..., dim, dim)``."""
+    if arrays.is_foreign(x):
+        return _foreign_covariance(x, name, dim, tol)
     arr = as_float_array(x, name)
     _check_square_shape(arr, name, dim)
     if arr.size and _psd_certified(arr):
@@ -665,3 +689,122 @@ def key(x: Any, name: str) -> int:
     if not 0 <= k <= MAX_KEY:
         raise ValueError(f"{name}: key {k} is outside [0, 2**64 - 2] (GTSAM keys are uint64)")
     return k
+
+
+# ----------------------------------------------------------------------------- torch and JAX arrays
+# The same contract on the array-generic path (:mod:`liebridge.arrays`): a cheap check runs in the
+# array's own namespace and device; only when it fails is a host copy made, and the numpy check
+# above words the error (the same message, argument, batch index and size). Under tracing
+# (``jax.jit``, ``torch.compile``, ``torch.func``) values are unknown: shapes are checked, values
+# are not (docs/tensors.md says so).
+
+
+def _foreign_float(x: Any, name: str) -> Any:
+    """``x`` as a float32/float64 array of its own library (integers and booleans → float64)."""
+    xp = arrays.namespace(x)
+    dt = x.dtype
+    if dt in (xp.float32, xp.float64):
+        return x
+    if xp.isdtype(dt, "complex floating"):
+        raise TypeError(f"{name}: expected a real numeric array, got complex values")
+    if xp.isdtype(dt, "real floating"):
+        raise TypeError(
+            f"{name}: dtype {dt} is not supported (float32 and float64 are): convert it first"
+        )
+    return xp.astype(x, xp.float64)
+
+
+def _foreign_to_numpy(x: Any, name: str) -> FloatArray:
+    """Copy a torch/JAX array to the host for a numpy-only function, unless a gradient is lost."""
+    if arrays.is_traced(x) or bool(getattr(x, "requires_grad", False)):
+        raise TypeError(
+            f"{name}: this function runs on numpy arrays only; a {type(x).__module__}."
+            f"{type(x).__name__} that is traced or requires grad would lose its gradient here "
+            "(the array-generic functions are listed in docs/tensors.md)"
+        )
+    return as_float_array(arrays.to_numpy(x), name)
+
+
+def _tol(arr: Any, tol: float) -> float:
+    """``tol``, widened for float32 (64 ulps: a float32 rotation is orthonormal to ~1e-7)."""
+    return max(tol, 64.0 * arrays.eps(arr))
+
+
+def _foreign_check_finite(arr: Any, name: str, core_ndim: int | None) -> None:
+    xp = arrays.namespace(arr)
+    if arrays.all_true(xp.isfinite(arr)) is False:
+        check_finite(arrays.to_numpy(arr), name, core_ndim)
+
+
+def _foreign_vector(x: Any, name: str, dim: int) -> Any:
+    arr = _foreign_float(x, name)
+    if arr.ndim < 1 or arr.shape[-1] != dim:
+        raise ValueError(f"{name}: expected shape (..., {dim}), got {tuple(arr.shape)}")
+    _foreign_check_finite(arr, name, 1)
+    return arr
+
+
+def _foreign_tangent(x: Any, name: str, dim: int, rot: slice) -> Any:
+    arr = _foreign_vector(x, name, dim)
+    xp = arrays.namespace(arr)
+    r = arr if dim == 3 else arr[..., rot]
+    if arrays.all_true(xp.abs(r) <= _MAX_COMPONENT) is False:
+        tangent(arrays.to_numpy(arr), name, dim, rot)
+    return arr
+
+
+def _foreign_square(x: Any, name: str, dim: int) -> Any:
+    arr = _foreign_float(x, name)
+    if arr.ndim < 2 or tuple(arr.shape[-2:]) != (dim, dim):
+        raise ValueError(f"{name}: expected shape (..., {dim}, {dim}), got {tuple(arr.shape)}")
+    _foreign_check_finite(arr, name, 2)
+    return arr
+
+
+def _foreign_finite_output(out: Any, name: str) -> Any:
+    xp = arrays.namespace(out)
+    if arrays.all_true(xp.isfinite(out)) is False:
+        finite_output(arrays.to_numpy(out), name)
+    return out
+
+
+def _foreign_rotation_ok(R: Any, tol: float) -> bool | None:
+    xp = arrays.namespace(R)
+    E = arrays.mT(R) @ R - arrays.eye(3, R)
+    err = xp.max(xp.abs(E), axis=(-1, -2))
+    return arrays.all_true((err <= tol) & (xp.linalg.det(R) > 0.0))
+
+
+def _foreign_rotation(x: Any, name: str, tol: float) -> Any:
+    arr = _foreign_square(x, name, 3)
+    tol = _tol(arr, tol)
+    if _foreign_rotation_ok(arr, tol) is False:
+        check_rotation(arrays.to_numpy(arr).astype(np.float64), name, tol)
+    return arr
+
+
+def _foreign_pose(x: Any, name: str, tol: float) -> Any:
+    arr = _foreign_square(x, name, 4)
+    xp = arrays.namespace(arr)
+    tol = _tol(arr, tol)
+    bottom = arrays.all_true(xp.all(arr[..., 3, :] == arrays.like(_E4, arr), axis=-1))
+    if _foreign_rotation_ok(arr[..., :3, :3], tol) is False or bottom is False:
+        checked_pose(arrays.to_numpy(arr).astype(np.float64), name, tol)
+    return arr
+
+
+def _foreign_covariance(x: Any, name: str, dim: int, tol: float) -> Any:
+    arr = _foreign_float(x, name)
+    if arr.ndim < 2 or tuple(arr.shape[-2:]) != (dim, dim):
+        raise ValueError(f"{name}: expected shape (..., {dim}, {dim}), got {tuple(arr.shape)}")
+    xp = arrays.namespace(arr)
+    tol = max(tol, 16.0 * arrays.eps(arr))
+    scale = xp.max(xp.abs(arr), axis=(-1, -2))
+    asym = xp.max(xp.abs(arr - arrays.mT(arr)), axis=(-1, -2))
+    ok = arrays.all_true(xp.isfinite(scale) & (asym <= tol * scale))
+    if ok is not False:
+        lam = xp.linalg.eigvalsh(0.5 * (arr + arrays.mT(arr)))[..., 0]
+        ok = arrays.all_true(lam >= -tol * scale)
+    if ok is False:
+        covariance(arrays.to_numpy(arr).astype(np.float64), name, dim, tol)
+    return arr

@@ -20,6 +20,7 @@ ROOT = Path(__file__).resolve().parents[1] / "liebridge"
 #: Floors, lowest first. A unit is the first component below ``liebridge`` ("__init__" for the
 #: package's own ``__init__.py``).
 FLOORS: list[set[str]] = [
+    {"arrays"},
     {"_validate"},
     {"lie"},
     {"conventions"},

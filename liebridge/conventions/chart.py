@@ -25,6 +25,7 @@ from abc import ABC, abstractmethod
 from typing import TYPE_CHECKING, Any
 
 from .. import _validate as validate
+from .. import arrays
 from .._validate import FloatArray
 from ..lie import Group
 from ..lie import group as group_record
@@ -120,14 +121,15 @@ class Chart(ABC):
         -------
         ndarray, same kind as ``X``
         """
+        X, d = arrays.common(X, d)
         X = self.element(X)
-        d = self._increment(d, X.shape[-2:] == (3, 3))
+        d = self._increment(d, tuple(X.shape[-2:]) == (3, 3))
         validate.batch_shape(("X", X.shape[:-2]), ("d", d.shape[:-1]))
         return validate.finite_output(self._retract(X, d), f"{self.name}.retract")
 
     def local(self, X: Any, Y: Any) -> FloatArray:
         """Inverse of :meth:`retract`: the ``d`` with ``retract(X, d) == Y`` (principal branch)."""
-        X, Y = self._pair(X, Y)
+        X, Y = self._pair(*arrays.common(X, Y))
         return validate.finite_output(self._local(X, Y), f"{self.name}.local")
 
     def local_jacobian(self, X: Any, Y: Any) -> FloatArray:
@@ -141,7 +143,7 @@ class Chart(ABC):
         to GTSAM's perturbation of ``Y`` instead, multiply by ``tangent_map(Y, "gtsam", self)``.
         False: ``J = I`` (true only at ``Y = X``: the textbook approximation that moves optima).
         """
-        X, Y = self._pair(X, Y)
+        X, Y = self._pair(*arrays.common(X, Y))
         return validate.finite_output(self._local_jacobian(X, Y), f"{self.name}.local_jacobian")
 
     def to_canonical(self, X: Any) -> FloatArray:

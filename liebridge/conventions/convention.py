@@ -49,11 +49,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
+from .. import arrays
 from .._validate import FloatArray
 from ..lie import GROUPS, Group
 from . import se3_engine as _se3_engine  # noqa: F401  (registers SE(3)/SO(3)'s fast engine)
 from .chart import Chart
-from .engine import Engine, engine_for
+from .engine import RECORD_ENGINE, Engine, engine_for
 from .rotation_coords import EULER_COORDS, FIRST_ORDER_SCALE, ROTATION_COORDS
 from .se3_engine import group_input
 from .stored_inverse import STORES, engine_storing
@@ -195,6 +196,14 @@ class Convention(Chart):
     def _engine(self) -> Engine:
         return self._eng
 
+    def _run(self, *xs: Any) -> Engine:
+        """Return the engine for these inputs.
+
+        numpy: the group's (its fast implementation where it has one); torch/JAX arrays: the
+        record-driven one, written array-generically.
+        """
+        return RECORD_ENGINE if arrays.any_foreign(*xs) else self._eng
+
     def __getstate__(self) -> dict[str, Any]:
         state = dict(self.__dict__)
         state.pop("_eng", None)  # looked up again where it is unpickled (that process's registry)
@@ -222,11 +231,11 @@ class Convention(Chart):
 
     def dim(self, X: Any = None) -> int:
         """Length of this convention's tangent (at ``X``, for an SE(3) one given a rotation: 3)."""
-        return self._engine.dim(self, X)
+        return self._run(X).dim(self, X)
 
     def element(self, X: Any, name: str = "X") -> FloatArray:
         """Validate ``X`` as an element of this convention's group (the record's validator)."""
-        return self._engine.element(self, X, name)
+        return self._run(X).element(self, X, name)
 
     @property
     def rotation_scale(self) -> float:
@@ -245,28 +254,28 @@ class Convention(Chart):
         )
 
     def _pair(self, X: Any, Y: Any) -> tuple[FloatArray, FloatArray]:
-        return self._engine.pair(self, X, Y)
+        return self._run(X, Y).pair(self, X, Y)
 
     # ----------------------------------------------------------------- retraction
     def _increment(self, d: Any, so3: bool, name: str = "d") -> FloatArray:
         """Validate an increment in this convention (rotation part bounded)."""
-        return self._engine.increment(self, d, so3, name)
+        return self._run(d).increment(self, d, so3, name)
 
     def _retract(self, X: FloatArray, d: FloatArray) -> FloatArray:
-        return self._engine.retract(self, X, d)
+        return self._run(X, d).retract(self, X, d)
 
     def _local(self, X: FloatArray, Y: FloatArray) -> FloatArray:
-        return self._engine.local(self, X, Y)
+        return self._run(X, Y).local(self, X, Y)
 
     def _local_jacobian(self, X: FloatArray, Y: FloatArray) -> FloatArray:
-        return self._engine.local_jacobian(self, X, Y)
+        return self._run(X, Y).local_jacobian(self, X, Y)
 
     # ----------------------------------------------------------------- first-order maps
     def _to_canonical(self, X: FloatArray) -> FloatArray:
-        return self._engine.to_canonical(self, X)
+        return self._run(X).to_canonical(self, X)
 
     def _from_canonical(self, X: FloatArray) -> FloatArray:
-        return self._engine.from_canonical(self, X)
+        return self._run(X).from_canonical(self, X)
 
 
 #: The canonical tangent (GTSAM's): right, rotation first, SE(3) exponential.

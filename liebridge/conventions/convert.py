@@ -28,6 +28,7 @@ from typing import Any, Literal
 import numpy as np
 
 from .. import _validate as validate
+from .. import arrays
 from .._validate import FloatArray
 from .bundle import Bundle
 from .chart import Chart
@@ -196,14 +197,20 @@ def convert_tangent(
     whenever :func:`is_exactly_linear` holds.
     """
     a, b = get(src), get(dst)
+    d, X = arrays.common(d, X)
     Xa = _element(a, b, X)
     d = a._increment(d, Xa.shape[-1] == 3)
-    validate.batch_shape(("d", d.shape[:-1]), ("X", Xa.shape[:-2]))
+    validate.batch_shape(("d", tuple(d.shape[:-1])), ("X", tuple(Xa.shape[:-2])))
     if exact:
         out = b._local(Xa, a._retract(Xa, d))
     else:
-        out = np.einsum("...ij,...j->...i", unchecked_map(Xa, a, b), d)
-    return validate.finite_output(np.asarray(out, dtype=np.float64), "convert_tangent")
+        out = arrays.matvec(unchecked_map(Xa, a, b), d)
+    return validate.finite_output(_out(out), "convert_tangent")
+
+
+def _out(x: Any) -> Any:
+    """Return a numpy result as float64, a torch/JAX result as it is."""
+    return x if arrays.is_foreign(x) else np.asarray(x, dtype=np.float64)
 
 
 def convert_covariance(
@@ -261,13 +268,19 @@ def convert_covariance(
     if method != "linear" and method != "unscented":  # "Linear", " unscented": as all options
         method = validate.option(method, "method", ("linear", "unscented"))
     a, b = get(src), get(dst)
+    cov, X = arrays.common(cov, X)
     Xa = _element(a, b, X)
     so3 = Xa.shape[-1] == 3
     n = a.dim(Xa)
     cov = validate.covariance(cov, "cov", n)
-    batch = Xa.shape[:-2]
-    if cov.shape[:-2] != batch:
-        batch = validate.batch_shape(("cov", cov.shape[:-2]), ("X", Xa.shape[:-2]))
+    batch = tuple(Xa.shape[:-2])
+    if tuple(cov.shape[:-2]) != batch:
+        batch = validate.batch_shape(("cov", tuple(cov.shape[:-2])), ("X", batch))
+    if method == "linear" and arrays.is_foreign(Xa):
+        M = unchecked_map(Xa, a, b)
+        return validate.finite_output(M @ cov @ arrays.mT(M), "convert_covariance")
+    if arrays.is_foreign(Xa):
+        raise TypeError("convert_covariance: method='unscented' runs on numpy arrays only")
     if method == "linear":
         M = unchecked_map(Xa, a, b)
         # a batch: numpy multiplies stacks of small matrices fast only when they are contiguous
@@ -357,13 +370,14 @@ def convert_information(info: Any, X: Any, src: ConventionLike, dst: ConventionL
             if _convert_ext.transform(2, plan, X, info, out) == -1:
                 return out
     a, b = get(src), get(dst)
+    info, X = arrays.common(info, X)
     Xa = _element(a, b, X)
     n = a.dim(Xa)
     info = validate.covariance(info, "info", n)
-    validate.batch_shape(("info", info.shape[:-2]), ("X", Xa.shape[:-2]))
+    validate.batch_shape(("info", tuple(info.shape[:-2])), ("X", tuple(Xa.shape[:-2])))
     Mi = unchecked_map(Xa, b, a)
     with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
-        out = np.asarray(np.swapaxes(Mi, -1, -2) @ info @ Mi, dtype=np.float64)
+        out = _out(arrays.mT(Mi) @ info @ Mi)
     return validate.finite_output(out, "convert_information")
 
 
@@ -430,15 +444,21 @@ def convert_jacobian(
         if out is not None:
             return out
     a, b = get(src), get(dst)
-    Jm = validate.as_float_array(J, "J")
+    J, at_input, at_output = arrays.common(J, at_input, at_output)
+    if arrays.is_foreign(J):
+        Jm = _jacobian_input(J)
+    else:
+        Jm = validate.as_float_array(J, "J")
     if Jm.ndim < 2:
-        raise ValueError(f"J: expected shape (..., m, n), got {Jm.shape}")
+        raise ValueError(f"J: expected shape (..., m, n), got {tuple(Jm.shape)}")
     validate.check_finite(Jm, "J", core_ndim=2)
     if at_input is None and at_output is None:
+        if arrays.is_foreign(Jm):
+            return Jm * 1.0  # nothing to convert; never an alias
         return np.array(Jm, dtype=np.float64, copy=True)  # nothing to convert; never an alias
     if at_input is not None:
         X = _element(a, b, at_input, "at_input")
-        validate.batch_shape(("J", Jm.shape[:-2]), ("at_input", X.shape[:-2]))
+        validate.batch_shape(("J", tuple(Jm.shape[:-2])), ("at_input", tuple(X.shape[:-2])))
         Mi = unchecked_map(X, b, a)
         if Jm.shape[-1] != Mi.shape[-2]:
             raise ValueError(f"J: {Jm.shape[-1]} columns, but the input tangent has {Mi.shape[-2]}")
@@ -446,13 +466,18 @@ def convert_jacobian(
             Jm = Jm @ Mi
     if at_output is not None:
         Y = _element(a, b, at_output, "at_output")
-        validate.batch_shape(("J", Jm.shape[:-2]), ("at_output", Y.shape[:-2]))
+        validate.batch_shape(("J", tuple(Jm.shape[:-2])), ("at_output", tuple(Y.shape[:-2])))
         Mo = unchecked_map(Y, a, b)
         if Jm.shape[-2] != Mo.shape[-1]:
             raise ValueError(f"J: {Jm.shape[-2]} rows, but the output tangent has {Mo.shape[-1]}")
         with np.errstate(over="ignore", invalid="ignore"):  # reported by finite_output below
             Jm = Mo @ Jm
-    return validate.finite_output(np.asarray(Jm, dtype=np.float64), "convert_jacobian")
+    return validate.finite_output(_out(Jm), "convert_jacobian")
+
+
+def _jacobian_input(J: Any) -> Any:
+    """Validate a torch/JAX Jacobian (integers become float64, as validation converts)."""
+    return validate.vector(J, "J", J.shape[-1]) if J.ndim >= 1 else J
 
 
 def _jacobian_compiled(

@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .. import arrays
 from .._validate import FloatArray
 from ..lie import Group
 from ..lie import group as group_record
@@ -46,7 +47,7 @@ def _parts(g: Group, X: FloatArray) -> tuple[FloatArray, FloatArray, list[FloatA
     k = g.matrix - len(g.cols)
     A = X[..., :k, :k]
     scale = g.kernels.scale
-    s = scale(X) if scale is not None else np.ones(X.shape[:-2])
+    s = scale(X) if scale is not None else 1.0 + 0.0 * X[..., 0, 0]
     R = A / s[..., None, None] if scale is not None else A
     vecs = [X[..., :k, c] for c in g.cols]
     return R, A, vecs, s
@@ -54,16 +55,80 @@ def _parts(g: Group, X: FloatArray) -> tuple[FloatArray, FloatArray, list[FloatA
 
 def _assemble(g: Group, R: FloatArray, vecs: list[FloatArray], s: FloatArray) -> FloatArray:
     if not g.cols:  # a rotation group: the element is the rotation
-        return np.array(R, dtype=np.float64)
+        return R * 1.0 if arrays.is_foreign(R) else np.array(R, dtype=np.float64)
     k = R.shape[-1]
-    shape = np.broadcast_shapes(R.shape[:-2], s.shape, *(x.shape[:-1] for x in vecs))
+    A = s[..., None, None] * R if g.scale is not None else R
+    if arrays.any_foreign(R, *vecs):  # the columns in order, then the constant rows
+        xp = arrays.namespace(R, *vecs)
+        if list(g.cols) != list(range(k, g.matrix)):
+            raise TypeError(f"{g.name}: vector columns out of order run on numpy arrays only")
+        top = xp.concat(
+            [A] + [xp.broadcast_to(x[..., None], (*A.shape[:-1], 1)) for x in vecs], axis=-1
+        )
+        bottom = arrays.like(np.eye(g.matrix)[k:], top)
+        batch = tuple(top.shape[:-2])
+        return xp.concat([top, xp.broadcast_to(bottom, (*batch, *bottom.shape))], axis=-2)
+    shape = np.broadcast_shapes(R.shape[:-2], np.shape(s), *(x.shape[:-1] for x in vecs))
     out = np.zeros((*shape, g.matrix, g.matrix))
-    out[..., :k, :k] = s[..., None, None] * R if g.scale is not None else R
+    out[..., :k, :k] = A
     for c, x in zip(g.cols, vecs, strict=True):
         out[..., :k, c] = x
     for j in range(k, g.matrix):
         out[..., j, j] = 1.0
     return out
+
+
+def _block_diag(g: Group, blocks: dict[int, FloatArray | float], ref: FloatArray) -> FloatArray:
+    """Return the ``dim × dim`` block-diagonal matrix of the canonical tangent's slots.
+
+    ``blocks`` maps each slot's start (rotation, vectors, scale) to its block (a number for a
+    1-wide slot); the batch shape is ``ref``'s (an element).
+    """
+    slots = sorted(_slots(g), key=lambda sl: sl.start)
+    batch = tuple(ref.shape[:-2])
+    if not arrays.is_foreign(ref):
+        J = np.zeros((*batch, g.dim, g.dim))
+        for sl in slots:
+            J[..., sl, sl] = blocks[sl.start]  # (a 1-wide slot: a number or a batch)
+        return J
+    xp = arrays.namespace(ref)
+    grid = []
+    for si in slots:
+        row = []
+        for sj in slots:
+            ni, nj = si.stop - si.start, sj.stop - sj.start
+            if si is sj:
+                b = blocks[si.start]
+                b = arrays.like(b, ref) if not arrays.is_foreign(b) else b
+                b = (
+                    xp.broadcast_to(b, (*batch, ni, nj))
+                    if b.ndim >= 2
+                    else b * arrays.eye(ni, ref, batch)
+                )
+            else:
+                b = arrays.zeros((*batch, ni, nj), ref)
+            row.append(b)
+        grid.append(row)
+    return arrays.blocks(grid)
+
+
+def _slots(g: Group) -> list[slice]:
+    """Return the canonical tangent's slots: rotation, each vector, scale (where present)."""
+    out = [g.rot] if g.rot is not None else []
+    out += list(g.vecs)
+    if g.scale is not None:
+        out.append(slice(g.scale, g.scale + 1))
+    return out
+
+
+def _concat_slots(g: Group, parts: dict[int, FloatArray]) -> FloatArray:
+    """Concatenate per-slot tangent parts (keyed by slot start) in canonical order."""
+    xp = arrays.namespace(*parts.values())
+    ordered = [parts[k] for k in sorted(parts)]
+    if xp is np:
+        return np.concatenate(np.broadcast_arrays(*ordered), axis=-1)
+    batch = tuple(np.broadcast_shapes(*(tuple(p.shape[:-1]) for p in ordered)))
+    return xp.concat([xp.broadcast_to(p, (*batch, p.shape[-1])) for p in ordered], axis=-1)
 
 
 def _rot_inc(g: Group, r: FloatArray, kind: str) -> FloatArray:
@@ -75,11 +140,19 @@ def _rot_coords(g: Group, dR: FloatArray, kind: str) -> FloatArray:
 
 
 def _mv(A: FloatArray, x: FloatArray) -> FloatArray:
-    return np.einsum("...ij,...j->...i", A, x)
+    return arrays.matvec(A, x)
 
 
 def _solve(A: FloatArray, x: FloatArray) -> FloatArray:
-    return np.asarray(np.linalg.solve(A, x[..., None])[..., 0], dtype=np.float64)
+    xp = arrays.namespace(A, x)
+    if xp is np:
+        return np.asarray(np.linalg.solve(A, x[..., None])[..., 0], dtype=np.float64)
+    return xp.linalg.solve(A, x[..., None])[..., 0]
+
+
+def _out(x: FloatArray) -> FloatArray:
+    """Return a numpy result as float64, a torch/JAX result as it is."""
+    return x if arrays.is_foreign(x) else np.asarray(x, dtype=np.float64)
 
 
 # ----------------------------------------------------------------------------- tangent layout
@@ -88,6 +161,8 @@ def to_internal(conv: Convention, d: FloatArray) -> FloatArray:
     g = _rec(conv)
     if conv.embed is not None:
         d = d[..., list(conv.embed.index)]
+    if arrays.is_foreign(d):  # out[perm] = d  ⇔  out = d[perm⁻¹]
+        return d[..., [int(i) for i in np.argsort(g.perm(conv.order))]]
     out = np.empty(d.shape)
     out[..., g.perm(conv.order)] = d
     return out
@@ -96,9 +171,11 @@ def to_internal(conv: Convention, d: FloatArray) -> FloatArray:
 def from_internal(conv: Convention, xi: FloatArray) -> FloatArray:
     """Canonical-order tangent → the convention's tangent (zeros outside an embedding)."""
     g = _rec(conv)
-    d = xi[..., g.perm(conv.order)]
+    d = xi[..., [int(i) for i in g.perm(conv.order)]]
     if conv.embed is None:
-        return np.asarray(d, dtype=np.float64)
+        return _out(d)
+    if arrays.is_foreign(d):
+        raise TypeError(f"Convention {conv.name!r}: an embedded tangent runs on numpy arrays only")
     out = np.zeros((*d.shape[:-1], conv.embed.size))
     out[..., list(conv.embed.index)] = d
     return out
@@ -132,7 +209,7 @@ def retract(conv: Convention, X: FloatArray, d: FloatArray) -> FloatArray:
     right = conv.side == "right"
     if is_coupled(conv):
         E = g.kernels.exp(xi)
-        return np.asarray(X @ E if right else E @ X, dtype=np.float64)
+        return _out(X @ E if right else E @ X)
     R, A, vecs, s = _parts(g, X)
     dR = _rot_inc(g, xi[..., g.rot], conv.rotation)
     R2 = R @ dR if right else dR @ R
@@ -141,8 +218,8 @@ def retract(conv: Convention, X: FloatArray, d: FloatArray) -> FloatArray:
         t + (_mv(A, xi[..., sl]) if body else xi[..., sl])
         for t, sl in zip(vecs, g.vecs, strict=True)
     ]
-    s2 = s * np.exp(xi[..., g.scale]) if g.scale is not None else s
-    return _assemble(g, R2, new, np.asarray(s2, dtype=np.float64))
+    s2 = s * arrays.namespace(xi).exp(xi[..., g.scale]) if g.scale is not None else s
+    return _assemble(g, R2, new, _out(s2))
 
 
 def local(conv: Convention, X: FloatArray, Y: FloatArray) -> FloatArray:
@@ -154,16 +231,16 @@ def local(conv: Convention, X: FloatArray, Y: FloatArray) -> FloatArray:
         return from_internal(conv, g.kernels.log(Xi @ Y if right else Y @ Xi))
     RX, AX, tX, sX = _parts(g, X)
     RY, _, tY, sY = _parts(g, Y)
-    RXt = np.swapaxes(RX, -1, -2)
-    shape = np.broadcast_shapes(X.shape[:-2], Y.shape[:-2])
-    xi = np.zeros((*shape, g.dim))
-    xi[..., g.rot] = _rot_coords(g, RXt @ RY if right else RY @ RXt, conv.rotation)
+    RXt = arrays.mT(RX)
+    parts: dict[int, FloatArray] = {}
+    if g.rot is not None:
+        parts[g.rot.start] = _rot_coords(g, RXt @ RY if right else RY @ RXt, conv.rotation)
     body = _body(conv)
     for a, b, sl in zip(tX, tY, g.vecs, strict=True):
-        xi[..., sl] = _solve(AX, b - a) if body else b - a
+        parts[sl.start] = _solve(AX, b - a) if body else b - a
     if g.scale is not None:
-        xi[..., g.scale] = np.log(sY / sX)
-    return from_internal(conv, xi)
+        parts[g.scale] = arrays.namespace(sY).log(sY / sX)[..., None]
+    return from_internal(conv, _concat_slots(g, parts))
 
 
 # ----------------------------------------------------------------------------- first-order maps
@@ -174,36 +251,38 @@ def _core_to(conv: Convention, X: FloatArray, inverse: bool) -> FloatArray:
     """
     g = _rec(conv)
     right = conv.side == "right"
-    shape = X.shape[:-2]
+    shape = tuple(X.shape[:-2])
     if is_coupled(conv):
         if right:
-            return np.broadcast_to(np.eye(g.dim), (*shape, g.dim, g.dim)).copy()
+            return _out(arrays.eye(g.dim, X, shape) * 1.0)
         return g.kernels.adjoint(X) if inverse else g.kernels.adjoint(g.kernels.inverse(X))
     R, A, _, _ = _parts(g, X)
-    K = np.zeros((*shape, g.dim, g.dim))
     s = conv.rotation_scale
-    rs = g.rot
-    if g.rot_dim == 1:
-        K[..., rs, rs] = 1.0 / s if inverse else s
-    elif right:
-        K[..., rs, rs] = np.eye(3) / s if inverse else s * np.eye(3)
+    blocks: dict[int, FloatArray | float] = {}
+    if g.rot is not None:
+        if g.rot_dim == 1:
+            blocks[g.rot.start] = 1.0 / s if inverse else s
+        elif right:
+            blocks[g.rot.start] = arrays.eye(3, X) * (1.0 / s if inverse else s)
+        else:
+            blocks[g.rot.start] = R / s if inverse else s * arrays.mT(R)
+    if _body(conv):
+        blk: FloatArray = arrays.eye(A.shape[-1], X, tuple(A.shape[:-2]))
+    elif inverse:
+        blk = A
     else:
-        K[..., rs, rs] = R / s if inverse else s * np.swapaxes(R, -1, -2)
-    body = _body(conv)
-    if body:
-        blk: FloatArray = np.broadcast_to(np.eye(A.shape[-1]), A.shape)
-    else:
-        blk = A if inverse else np.asarray(np.linalg.inv(A), dtype=np.float64)
+        xp = arrays.namespace(A)
+        blk = np.asarray(np.linalg.inv(A), dtype=np.float64) if xp is np else xp.linalg.inv(A)
     for sl in g.vecs:
-        K[..., sl, sl] = blk
+        blocks[sl.start] = blk
     if g.scale is not None:
-        K[..., g.scale, g.scale] = 1.0
-    return K
+        blocks[g.scale] = 1.0
+    return _block_diag(g, blocks, X)
 
 
 def to_canonical(conv: Convention, X: FloatArray) -> FloatArray:
     """Return ``M``, ``ξ_gtsam = M d``: the derivative of ``gtsam.local(X, conv.retract(X, d))``."""
-    return np.asarray(_core_to(conv, X, False) @ selection(conv), dtype=np.float64)
+    return _out(_core_to(conv, X, False) @ _selection_like(conv, X))
 
 
 def from_canonical(conv: Convention, X: FloatArray) -> FloatArray:
@@ -211,14 +290,21 @@ def from_canonical(conv: Convention, X: FloatArray) -> FloatArray:
 
     For an embedding it is a right inverse: the extra coordinates are 0.
     """
-    return np.asarray(selection(conv).T @ _core_to(conv, X, True), dtype=np.float64)
+    return _out(arrays.mT(_selection_like(conv, X)) @ _core_to(conv, X, True))
+
+
+def _selection_like(conv: Convention, X: FloatArray) -> FloatArray:
+    """:func:`selection` in ``X``'s array type."""
+    S = selection(conv)
+    return arrays.like(S, X) if arrays.is_foreign(X) else S
 
 
 def local_jacobian(conv: Convention, X: FloatArray, Y: FloatArray) -> FloatArray:
     """``∂ local(X, retract(Y, δ)) / ∂δ`` at 0 in the convention's own chart, closed form."""
     g = _rec(conv)
     right = conv.side == "right"
-    S = selection(conv)
+    S = _selection_like(conv, X)
+    St = arrays.mT(S)
     if is_coupled(conv):
         Xi = g.kernels.inverse(X)
         J = (
@@ -226,21 +312,33 @@ def local_jacobian(conv: Convention, X: FloatArray, Y: FloatArray) -> FloatArray
             if right
             else g.kernels.jl_inv(g.kernels.log(Y @ Xi))
         )
-        return np.asarray(S.T @ J @ S, dtype=np.float64)
+        return _out(St @ J @ S)
     RX, AX, _, _ = _parts(g, X)
     RY, AY, _, _ = _parts(g, Y)
-    shape = np.broadcast_shapes(X.shape[:-2], Y.shape[:-2])
-    J = np.zeros((*shape, g.dim, g.dim))
-    if g.rot_dim == 1:
-        J[..., g.rot, g.rot] = 1.0
+    xp = arrays.namespace(X, Y)
+    ref = X if X.ndim >= Y.ndim else Y
+    blocks: dict[int, FloatArray | float] = {}
+    if g.rot is not None:
+        if g.rot_dim == 1:
+            blocks[g.rot.start] = 1.0
+        else:
+            RXt = arrays.mT(RX)
+            dR = RXt @ RY if right else RY @ RXt
+            blocks[g.rot.start] = conv.rotation_scale * d_from_rotation(
+                dR, conv.rotation, conv.side
+            )
+    if _body(conv):
+        blk = np.linalg.solve(AX, AY) if xp is np else xp.linalg.solve(AX, AY)
     else:
-        RXt = np.swapaxes(RX, -1, -2)
-        dR = RXt @ RY if right else RY @ RXt
-        s = conv.rotation_scale
-        J[..., g.rot, g.rot] = s * d_from_rotation(dR, conv.rotation, conv.side)
-    blk = np.linalg.solve(AX, AY) if _body(conv) else np.eye(AX.shape[-1])
+        blk = arrays.eye(AX.shape[-1], ref)
     for sl in g.vecs:
-        J[..., sl, sl] = blk
+        blocks[sl.start] = blk
     if g.scale is not None:
-        J[..., g.scale, g.scale] = 1.0
-    return np.asarray(S.T @ J @ S, dtype=np.float64)
+        blocks[g.scale] = 1.0
+    shape = tuple(np.broadcast_shapes(tuple(X.shape[:-2]), tuple(Y.shape[:-2])))
+    ref = (
+        ref
+        if tuple(ref.shape[:-2]) == shape
+        else ref[..., :1, :1] * arrays.zeros((*shape, 1, 1), ref)
+    )
+    return _out(St @ _block_diag(g, blocks, ref) @ S)

@@ -44,6 +44,7 @@ from typing import Literal
 import numpy as np
 
 from .. import _validate as validate
+from .. import arrays
 from .._validate import FloatArray
 from ..lie import unchecked as U
 from ..lie.series import sinc
@@ -163,11 +164,21 @@ def euler_local(RX: FloatArray, RY: FloatArray, kind: str) -> FloatArray:
     return np.asarray(_wrap_angles(d, kind), dtype=np.float64)
 
 
+def _generic_kind(x: FloatArray, kind: str) -> None:
+    """Raise unless ``kind`` runs on ``x``'s array type (torch/JAX: ``exp`` and ``half_exp``)."""
+    if arrays.is_foreign(x) and kind not in ("exp", "half_exp"):
+        raise TypeError(
+            f"rotation coordinates {kind!r} run on numpy arrays only; on torch/JAX arrays the "
+            "rotation-vector coordinates 'exp' and 'half_exp' do (docs/tensors.md)"
+        )
+
+
 def to_rotation(r: FloatArray, kind: str) -> FloatArray:
     """Map coordinates ``r`` ``(..., 3)`` to the rotation increment ``(..., 3, 3)``.
 
     For the Euler kinds: the rotation with those Euler angles.
     """
+    _generic_kind(r, kind)
     if kind in EULER_COORDS:
         return euler_to_matrix(r, kind)
     if kind == "exp":
@@ -193,6 +204,7 @@ def to_rotation(r: FloatArray, kind: str) -> FloatArray:
 
 def from_rotation(R: FloatArray, kind: str) -> FloatArray:
     """Inverse of :func:`to_rotation` (principal branch: ``θ ≤ π``, quaternion ``w ≥ 0``)."""
+    _generic_kind(R, kind)
     if kind in EULER_COORDS:
         return matrix_to_euler(R, kind)
     if kind == "exp":
@@ -235,6 +247,7 @@ def d_from_rotation(R: FloatArray, kind: str, side: str) -> FloatArray:
 
     Verified against finite differences in ``tests/test_local_jacobian.py``.
     """
+    _generic_kind(R, kind)
     if kind in ("exp", "half_exp"):
         w = U.so3_log(R)
         J = U.so3_jr_inv(w) if side == "right" else U.so3_jl_inv(w)

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import arrays
 from .._validate import FloatArray
 from .chart import Chart
 from .convention import Convention
@@ -58,10 +59,12 @@ def tangent_map(X: FloatArray, src: Chart, dst: Chart) -> FloatArray:
         and src._engine.rotations_3d
         and dst._engine.rotations_3d
         and not (src.is_euler or dst.is_euler)
+        and not arrays.is_foreign(X)
     ):
         return pair_tangent_map(src, dst, X.shape[-1] == 3)(X)
     # the maps to and from the canonical tangent
-    return np.asarray(dst._from_canonical(X) @ src._to_canonical(X), dtype=np.float64)
+    M = dst._from_canonical(X) @ src._to_canonical(X)
+    return M if arrays.is_foreign(M) else np.asarray(M, dtype=np.float64)
 
 
 __all__ = ["from_canonical", "local", "local_jacobian", "retract", "tangent_map", "to_canonical"]

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from .. import _validate as validate
+from .. import arrays
 from .._validate import FloatArray
 
 Check = Callable[[Any, str], FloatArray]
@@ -24,7 +25,7 @@ def compose(X1: Any, X2: Any, check: Check, names: tuple[str, str], where: str) 
     """Return ``X1·X2`` for two validated batches (broadcast)."""
     A, B = check(X1, names[0]), check(X2, names[1])
     validate.batch_shape((names[0], A.shape[:-2]), (names[1], B.shape[:-2]))
-    return validate.finite_output(np.asarray(A @ B, dtype=np.float64), where)
+    return validate.finite_output(_float(A @ B), where)
 
 
 def act(X: Any, x: Any, check: Check, n: int, names: tuple[str, str], where: str) -> FloatArray:
@@ -32,8 +33,8 @@ def act(X: Any, x: Any, check: Check, n: int, names: tuple[str, str], where: str
     Xa = check(X, names[0])
     xa = validate.vector(x, names[1], n)
     validate.batch_shape((names[0], Xa.shape[:-2]), (names[1], xa.shape[:-1]))
-    out = np.einsum("...ij,...j->...i", Xa[..., :n, :n], xa) + Xa[..., :n, n]
-    return validate.finite_output(np.asarray(out, dtype=np.float64), where)
+    out = arrays.matvec(Xa[..., :n, :n], xa) + Xa[..., :n, n]
+    return validate.finite_output(_float(out), where)
 
 
 def interpolate(
@@ -49,8 +50,19 @@ def interpolate(
     """Return the geodesic ``X0·Exp(τ·Log(X0⁻¹X1))``; ``ops = (log, exp, inverse)`` unchecked."""
     log, exp, inverse = ops
     A, B = check(X0, names[0]), check(X1, names[1])
-    tau_ = validate.as_float_array(tau, "tau")
+    tau_ = (
+        arrays.like(validate.as_float_array(tau, "tau"), A)
+        if arrays.is_foreign(A) and not arrays.is_foreign(tau)
+        else validate.as_float_array(tau, "tau")
+    )
     validate.check_finite(tau_, "tau", core_ndim=0)
-    validate.batch_shape((names[0], A.shape[:-2]), (names[1], B.shape[:-2]), ("tau", tau_.shape))
+    validate.batch_shape(
+        (names[0], A.shape[:-2]), (names[1], B.shape[:-2]), ("tau", tuple(tau_.shape))
+    )
     xi = tangent(tau_[..., None] * log(inverse(A) @ B), f"tau·Log({names[0]}⁻¹{names[1]})")
-    return validate.finite_output(np.asarray(A @ exp(xi), dtype=np.float64), where)
+    return validate.finite_output(_float(A @ exp(xi)), where)
+
+
+def _float(x: Any) -> Any:
+    """Return a numpy result as a float64 ndarray, a torch/JAX result as it is."""
+    return x if arrays.is_foreign(x) else np.asarray(x, dtype=np.float64)

@@ -26,11 +26,13 @@ from typing import Any
 import numpy as np
 
 from .. import _validate as validate
+from .. import arrays
 from .._validate import FloatArray
 from . import _compiled, so3
 from . import _matrix_group as _mg
 from .record import Group, Kernels, register_shipped
 from .series import (
+    angle,
     jinv_coeff,
     one_minus_cos_over_t2,
     q_coeff2,
@@ -61,6 +63,14 @@ _BOTTOM = np.array([0.0, 0.0, 0.0, 1.0])
 
 
 def _assemble(R: FloatArray, t: FloatArray) -> FloatArray:
+    if arrays.is_foreign(
+        R,
+    ) or arrays.is_foreign(t):
+        bottom = arrays.like(_BOTTOM, R)
+        top = arrays.namespace(R).concat([R, t[..., None]], axis=-1)
+        return arrays.blocks(
+            [[top], [arrays.namespace(R).broadcast_to(bottom, (*top.shape[:-2], 1, 4))]]
+        )
     T = np.zeros((*R.shape[:-2], 4, 4))
     T[..., :3, :3] = R
     T[..., :3, 3] = t
@@ -70,6 +80,8 @@ def _assemble(R: FloatArray, t: FloatArray) -> FloatArray:
 
 def _blocks(a: FloatArray, b: FloatArray, c: FloatArray, d: FloatArray) -> FloatArray:
     """Return ``[[a, b], [c, d]]`` from four ``(..., 3, 3)`` blocks (broadcast)."""
+    if arrays.any_foreign(a, b, c, d):
+        return arrays.blocks([[a, b], [c, d]])
     shape = np.broadcast_shapes(a.shape, b.shape, c.shape, d.shape)
     out = np.empty((*shape[:-2], 6, 6))
     out[..., :3, :3] = a
@@ -95,6 +107,8 @@ def _blocked(
     output: its many whole-vector operations then run on data in cache instead of streaming
     the full batch through memory each time. Small batches call the kernel directly.
     """
+    if arrays.is_foreign(x):  # one expression on the device: no blocks
+        return kernel(x)
     batch = x.shape[: x.ndim - core_in]
     n = x.size // max(1, int(np.prod(x.shape[x.ndim - core_in :])))
     if n <= 2 * _BLOCK:
@@ -115,24 +129,24 @@ def _log(T: FloatArray) -> FloatArray:
 
 
 def _exp_block(xi: FloatArray) -> FloatArray:
-    """``Exp(ξ)`` written entry by entry on batch-length vectors (see ``so3._poly_into``).
+    """``Exp(ξ)`` written entry by entry on batch-length vectors (see ``so3._poly_entries``).
 
     ``R = I + A·hat(ω) + B·hat(ω)²``; ``t = V(ω)·v = A·v + B·ω × v + C·(ω·v)·ω`` (from
     ``V = I + B·hat(ω) + C·hat(ω)²``, ``hat(ω)² = ωωᵀ − θ²I`` and ``1 − Cθ² = A``).
     """
     w, v0, v1, v2 = xi[..., :3], xi[..., 3], xi[..., 4], xi[..., 5]
     w0, w1, w2 = xi[..., 0], xi[..., 1], xi[..., 2]
-    th = np.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
-    A, B, C = sinc(th), one_minus_cos_over_t2(th), t_minus_sin_over_t3(th)
-    T = np.empty((*xi.shape[:-1], 4, 4))
-    so3._poly_into(T[..., :3, :3], w, A, B)
+    th, t2 = angle(w)
+    A, B, C = sinc(th, t2), one_minus_cos_over_t2(th, t2), t_minus_sin_over_t3(th, t2)
+    r = so3._poly_entries(w, A, B)
     Bw0, Bw1, Bw2 = B * w0, B * w1, B * w2
     Cd = C * (w0 * v0 + w1 * v1 + w2 * v2)
-    T[..., 0, 3] = A * v0 + (Bw1 * v2 - Bw2 * v1) + Cd * w0
-    T[..., 1, 3] = A * v1 + (Bw2 * v0 - Bw0 * v2) + Cd * w1
-    T[..., 2, 3] = A * v2 + (Bw0 * v1 - Bw1 * v0) + Cd * w2
-    T[..., 3, :] = _BOTTOM
-    return T
+    t = [
+        A * v0 + (Bw1 * v2 - Bw2 * v1) + Cd * w0,
+        A * v1 + (Bw2 * v0 - Bw0 * v2) + Cd * w1,
+        A * v2 + (Bw0 * v1 - Bw1 * v0) + Cd * w2,
+    ]
+    return arrays.matrix([*r[0:3], t[0], *r[3:6], t[1], *r[6:9], t[2], 0.0, 0.0, 0.0, 1.0], 4, 4)
 
 
 def _log_block(T: FloatArray) -> FloatArray:
@@ -140,24 +154,30 @@ def _log_block(T: FloatArray) -> FloatArray:
     w = so3._log(T[..., :3, :3])
     w0, w1, w2 = w[..., 0], w[..., 1], w[..., 2]
     t0, t1, t2 = T[..., 0, 3], T[..., 1, 3], T[..., 2, 3]
-    D = jinv_coeff(np.sqrt(w0 * w0 + w1 * w1 + w2 * w2))
+    D = jinv_coeff(*angle(w))
     c0, c1, c2 = w1 * t2 - w2 * t1, w2 * t0 - w0 * t2, w0 * t1 - w1 * t0  # ω × t
+    u = [
+        t0 - 0.5 * c0 + D * (w1 * c2 - w2 * c1),
+        t1 - 0.5 * c1 + D * (w2 * c0 - w0 * c2),
+        t2 - 0.5 * c2 + D * (w0 * c1 - w1 * c0),
+    ]
+    if arrays.is_foreign(T):
+        xp = arrays.namespace(T)
+        return xp.concat([w, xp.stack(u, axis=-1)], axis=-1)
     out = np.empty((*T.shape[:-2], 6))
     out[..., :3] = w
-    out[..., 3] = t0 - 0.5 * c0 + D * (w1 * c2 - w2 * c1)
-    out[..., 4] = t1 - 0.5 * c1 + D * (w2 * c0 - w0 * c2)
-    out[..., 5] = t2 - 0.5 * c2 + D * (w0 * c1 - w1 * c0)
+    out[..., 3], out[..., 4], out[..., 5] = u
     return out
 
 
 def _inverse(T: FloatArray) -> FloatArray:
-    Rt = np.swapaxes(T[..., :3, :3], -1, -2)
-    return _assemble(Rt, -np.einsum("...ij,...j->...i", Rt, T[..., :3, 3]))
+    Rt = arrays.mT(T[..., :3, :3])
+    return _assemble(Rt, -arrays.matvec(Rt, T[..., :3, 3]))
 
 
 def _adjoint(T: FloatArray) -> FloatArray:
     R = T[..., :3, :3]
-    return _blocks(R, np.zeros_like(R), so3._hat(T[..., :3, 3]) @ R, R)
+    return _blocks(R, 0.0 * R, so3._hat(T[..., :3, 3]) @ R, R)
 
 
 def _q(w: FloatArray, v: FloatArray) -> FloatArray:
@@ -172,38 +192,43 @@ def _q(w: FloatArray, v: FloatArray) -> FloatArray:
 
         Q = c₁(v wᵀ + w vᵀ) − 2c₃s·w wᵀ + 2s(c₃θ² − c₁)·I + hat((½ − c₂θ²)·v + s(2c₂ − c₁)·w)
     """
-    th2 = np.einsum("...i,...i->...", w, w)
-    th = np.sqrt(th2)
-    c1 = t_minus_sin_over_t3(th)
-    c2 = q_coeff2(th)
-    c3 = q_coeff3(th)
-    s = np.einsum("...i,...i->...", w, v)
-    wv = w[..., :, None] * v[..., None, :]
-    out = c1[..., None, None] * (wv + np.swapaxes(wv, -1, -2))
-    out -= (2.0 * c3 * s)[..., None, None] * (w[..., :, None] * w[..., None, :])
+    th, th2 = angle(w)
+    c1 = t_minus_sin_over_t3(th, th2)
+    c2 = q_coeff2(th, th2)
+    c3 = q_coeff3(th, th2)
+    w0, w1, w2 = w[..., 0], w[..., 1], w[..., 2]
+    v0, v1, v2 = v[..., 0], v[..., 1], v[..., 2]
+    s = w0 * v0 + w1 * v1 + w2 * v2
     diag = 2.0 * s * (c3 * th2 - c1)
-    for k in range(3):
-        out[..., k, k] += diag
-    u = (0.5 - c2 * th2)[..., None] * v + (s * (2.0 * c2 - c1))[..., None] * w
-    out[..., 0, 1] -= u[..., 2]
-    out[..., 0, 2] += u[..., 1]
-    out[..., 1, 0] += u[..., 2]
-    out[..., 1, 2] -= u[..., 0]
-    out[..., 2, 0] -= u[..., 1]
-    out[..., 2, 1] += u[..., 0]
-    return out
+    ka, kb = 0.5 - c2 * th2, s * (2.0 * c2 - c1)
+    u0, u1, u2 = ka * v0 + kb * w0, ka * v1 + kb * w1, ka * v2 + kb * w2
+    m = -2.0 * c3 * s
+    w_, v_ = (w0, w1, w2), (v0, v1, v2)
+    sym = [
+        [c1 * (v_[i] * w_[j] + w_[i] * v_[j]) + m * w_[i] * w_[j] for j in range(3)]
+        for i in range(3)
+    ]
+    return arrays.matrix(
+        [
+            sym[0][0] + diag, sym[0][1] - u2, sym[0][2] + u1,
+            sym[1][0] + u2, sym[1][1] + diag, sym[1][2] - u0,
+            sym[2][0] - u1, sym[2][1] + u0, sym[2][2] + diag,
+        ],
+        3,
+        3,
+    )  # fmt: skip
 
 
 def _jl(xi: FloatArray) -> FloatArray:
     w = xi[..., :3]
     J = so3._jl(w)
-    return _blocks(J, np.zeros_like(J), _q(w, xi[..., 3:]), J)
+    return _blocks(J, 0.0 * J, _q(w, xi[..., 3:]), J)
 
 
 def _jl_inv(xi: FloatArray) -> FloatArray:
     w = xi[..., :3]
     Ji = so3._jl_inv(w)
-    return _blocks(Ji, np.zeros_like(Ji), -Ji @ _q(w, xi[..., 3:]) @ Ji, Ji)
+    return _blocks(Ji, 0.0 * Ji, -Ji @ _q(w, xi[..., 3:]) @ Ji, Ji)
 
 
 def hat(xi: Any) -> FloatArray:
@@ -226,7 +251,9 @@ def exp(xi: Any) -> FloatArray:
 
     ``Exp(ξ) = [[Exp(ω), V(ω) v], [0, 1]]`` with ``V = so3.jl``. GTSAM ``Pose3.Expmap``.
     """
-    out = _compiled.run(_compiled.SE3_EXP, xi)  # the compiled pass where built, else None
+    out = (
+        None if arrays.is_foreign(xi) else _compiled.run(_compiled.SE3_EXP, xi)
+    )  # the compiled pass where built, else None
     if out is not None:
         return out
     return validate.finite_output(_exp(validate.tangent(xi, "xi", 6)), "se3.exp")
@@ -238,7 +265,9 @@ def log(T: Any) -> FloatArray:
     ``ω = so3.log(R)``, ``v = V(ω)⁻¹ t`` with ``V⁻¹ = so3.jl_inv`` (finite up to θ = π).
     GTSAM ``Pose3.Logmap``.
     """
-    out = _compiled.run(_compiled.SE3_LOG, T)  # the compiled pass where built, else None
+    out = (
+        None if arrays.is_foreign(T) else _compiled.run(_compiled.SE3_LOG, T)
+    )  # the compiled pass where built, else None
     if out is not None:
         return out
     return validate.finite_output(_log(validate.pose(T, "T")), "se3.log")
@@ -265,7 +294,9 @@ def adjoint(T: Any) -> FloatArray:
     Defining identity: ``T·Exp(ξ)·T⁻¹ = Exp(Ad_T ξ)``; ``Ad_{T1 T2} = Ad_{T1} Ad_{T2}``.
     GTSAM ``Pose3.AdjointMap``.
     """
-    out = _compiled.run(_compiled.SE3_ADJOINT, T)  # the compiled pass where built, else None
+    out = (
+        None if arrays.is_foreign(T) else _compiled.run(_compiled.SE3_ADJOINT, T)
+    )  # the compiled pass where built, else None
     if out is not None:
         return out
     return validate.finite_output(_adjoint(validate.pose(T, "T")), "se3.adjoint")

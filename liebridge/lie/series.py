@@ -15,9 +15,12 @@ Checked against 50-digit arithmetic in ``tests/test_lie_series.py``.
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+
+from .. import arrays
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -94,69 +97,104 @@ JINV_COEFF_SERIES = (
 
 
 def _horner(t2: FloatArray, c: tuple[float, ...]) -> FloatArray:
-    acc = np.full_like(t2, c[-1])
+    acc = t2 * 0.0 + c[-1] if arrays.is_foreign(t2) else np.full_like(t2, c[-1])
     for ck in c[-2::-1]:
         acc = acc * t2 + ck
     return acc
 
 
 def _where_small(
-    theta: FloatArray, coeffs: tuple[float, ...], closed: Callable[[FloatArray], FloatArray]
+    theta: FloatArray,
+    coeffs: tuple[float, ...],
+    closed: Callable[[FloatArray, Any], FloatArray],
+    t2: FloatArray | None = None,
 ) -> FloatArray:
     """``closed(θ)`` for ``θ ≥ SMALL_ANGLE``, the Maclaurin series below it.
 
     The closed form is evaluated with the small entries replaced by 1 (no division by 0) and the
     series only on the small entries (a boolean gather): no work, and no overflow of high powers
-    of a large θ, in a branch that is thrown away.
+    of a large θ, in a branch that is thrown away. On torch/JAX arrays both branches are evaluated
+    on every entry and selected with ``where`` (traceable; the thrown-away branch sees only safe
+    values, so its gradient is finite and multiplied by 0), the series in ``t2 = θ²`` when given
+    (the kernels pass ``ω·ω``, whose derivatives at 0 are exact, unlike those of ``‖ω‖²``).
     """
+    if arrays.is_foreign(theta):
+        xp = arrays.namespace(theta)
+        small = theta < SMALL_ANGLE
+        safe = xp.where(small, arrays.like(1.0, theta), theta)
+        series = _horner(theta * theta if t2 is None else t2, coeffs)
+        return xp.where(small, series, closed(safe, xp))
     theta = np.asarray(theta, dtype=np.float64)
     small = theta < SMALL_ANGLE
-    out = np.array(closed(np.where(small, 1.0, theta)), dtype=np.float64)
+    out = np.array(closed(np.where(small, 1.0, theta), np), dtype=np.float64)
     if small.any():
         t = theta[small]
         out[small] = _horner(t * t, coeffs)
     return out
 
 
-def sinc(theta: FloatArray) -> FloatArray:
-    """``A(θ) = sin θ / θ``."""
-    return _where_small(theta, SINC_SERIES, lambda s: np.sin(s) / s)
+def angle(w: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """``(θ, θ²)`` of rotation vectors ``(..., 3)``: ``θ = ‖ω‖``, ``θ² = ω·ω``.
+
+    On torch/JAX arrays ``θ`` is ``sqrt`` of ``θ²`` where ``θ² > 0`` and exactly 0 elsewhere,
+    through a ``where`` whose other branch is safe, so that its gradient at ω = 0 is 0, not the
+    NaN of ``‖·‖``'s derivative there (the bug of PyPose #395, kornia #4404).
+    """
+    if arrays.is_foreign(w):
+        xp = arrays.namespace(w)
+        t2 = xp.sum(w * w, axis=-1)
+        pos = t2 > 0.0
+        th = xp.where(pos, xp.sqrt(xp.where(pos, t2, arrays.like(1.0, t2))), arrays.like(0.0, t2))
+        return th, t2
+    w0, w1, w2 = w[..., 0], w[..., 1], w[..., 2]
+    t2 = w0 * w0 + w1 * w1 + w2 * w2  # (the order the compiled passes sum in)
+    return np.sqrt(t2), t2
 
 
-def one_minus_cos_over_t2(theta: FloatArray) -> FloatArray:
+def sinc(theta: FloatArray, t2: FloatArray | None = None) -> FloatArray:
+    """``A(θ) = sin θ / θ`` (``t2``: ``θ²`` for the series on torch/JAX, see :func:`angle`)."""
+    return _where_small(theta, SINC_SERIES, lambda s, xp: xp.sin(s) / s, t2)
+
+
+def one_minus_cos_over_t2(theta: FloatArray, t2: FloatArray | None = None) -> FloatArray:
     """``B(θ) = (1 − cos θ) / θ²``."""
     return _where_small(
-        theta, ONE_MINUS_COS_OVER_T2_SERIES, lambda s: 2.0 * (np.sin(0.5 * s) / s) ** 2
+        theta, ONE_MINUS_COS_OVER_T2_SERIES, lambda s, xp: 2.0 * (xp.sin(0.5 * s) / s) ** 2, t2
     )
 
 
-def t_minus_sin_over_t3(theta: FloatArray) -> FloatArray:
+def t_minus_sin_over_t3(theta: FloatArray, t2: FloatArray | None = None) -> FloatArray:
     """``C(θ) = (θ − sin θ) / θ³``."""
-    return _where_small(theta, T_MINUS_SIN_OVER_T3_SERIES, lambda s: (s - np.sin(s)) / s**3)
+    return _where_small(theta, T_MINUS_SIN_OVER_T3_SERIES, lambda s, xp: (s - xp.sin(s)) / s**3, t2)
 
 
-def jinv_coeff(theta: FloatArray) -> FloatArray:
+def jinv_coeff(theta: FloatArray, t2: FloatArray | None = None) -> FloatArray:
     """``D(θ) = 1/θ² − (1 + cos θ)/(2θ sin θ) = 1/θ² − cot(θ/2)/(2θ)``; finite at θ = π (1/π²)."""
     return _where_small(
         theta,
         JINV_COEFF_SERIES,
-        lambda s: 1.0 / (s * s) - np.cos(0.5 * s) / (2.0 * s * np.sin(0.5 * s)),
+        lambda s, xp: 1.0 / (s * s) - xp.cos(0.5 * s) / (2.0 * s * xp.sin(0.5 * s)),
+        t2,
     )
 
 
-def q_coeff2(theta: FloatArray) -> FloatArray:
+def q_coeff2(theta: FloatArray, t2: FloatArray | None = None) -> FloatArray:
     """``(θ² + 2 cos θ − 2) / (2θ⁴)`` of Barfoot's SE(3) Q-matrix."""
     return _where_small(
-        theta, Q_COEFF2_SERIES, lambda s: (s * s - 4.0 * np.sin(0.5 * s) ** 2) / (2.0 * s**4)
+        theta,
+        Q_COEFF2_SERIES,
+        lambda s, xp: (s * s - 4.0 * xp.sin(0.5 * s) ** 2) / (2.0 * s**4),
+        t2,
     )
 
 
-def q_coeff3(theta: FloatArray) -> FloatArray:
+def q_coeff3(theta: FloatArray, t2: FloatArray | None = None) -> FloatArray:
     """``(2θ − 3 sin θ + θ cos θ) / (2θ⁵)`` of Barfoot's SE(3) Q-matrix."""
     return _where_small(
         theta,
         Q_COEFF3_SERIES,
-        lambda s: (2.0 * s - 3.0 * np.sin(s) + s * np.cos(s)) / (2.0 * s**5),
+        lambda s, xp: (2.0 * s - 3.0 * xp.sin(s) + s * xp.cos(s)) / (2.0 * s**5),
+        t2,
     )
 
 

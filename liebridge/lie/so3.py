@@ -20,11 +20,12 @@ from typing import Any
 import numpy as np
 
 from .. import _validate as validate
+from .. import arrays
 from .._validate import FloatArray
 from . import _compiled
 from . import _matrix_group as _mg
 from .record import Group, Kernels, register_shipped
-from .series import jinv_coeff, one_minus_cos_over_t2, sinc, t_minus_sin_over_t3
+from .series import angle, jinv_coeff, one_minus_cos_over_t2, sinc, t_minus_sin_over_t3
 
 __all__ = [
     "act",
@@ -48,68 +49,63 @@ _NEAR_PI_COS = -0.5
 
 
 def _hat(w: FloatArray) -> FloatArray:
-    out = np.zeros((*w.shape[:-1], 3, 3))
     x, y, z = w[..., 0], w[..., 1], w[..., 2]
-    out[..., 0, 1], out[..., 0, 2] = -z, y
-    out[..., 1, 0], out[..., 1, 2] = z, -x
-    out[..., 2, 0], out[..., 2, 1] = -y, x
-    return out
+    return arrays.matrix([0.0, -z, y, z, 0.0, -x, -y, x, 0.0], 3, 3)
 
 
-def _poly_into(out: FloatArray, w: FloatArray, a: FloatArray | float, b: FloatArray) -> None:
-    """Write ``I + a·hat(w) + b·hat(w)²`` into ``out`` ``(..., 3, 3)``, entry by entry.
+def _poly_entries(w: FloatArray, a: FloatArray | float, b: FloatArray) -> list[Any]:
+    """Return the nine entries of ``I + a·hat(w) + b·hat(w)²``, row-major, as batch-length vectors.
 
     ``hat(w)² = w wᵀ − ‖w‖² I``: off the diagonal ``b·w_i w_j ± a·w_k``, on it
     ``1 − b·(w_j² + w_k²)``. Each entry is a few operations on whole batch-length vectors, the
     layout numpy evaluates fastest (an ``(N, 3)`` operand would loop over its length-3 rows).
     """
     w0, w1, w2 = w[..., 0], w[..., 1], w[..., 2]
-    a_ = np.asarray(a)
-    aw0, aw1, aw2 = a_ * w0, a_ * w1, a_ * w2
+    aw0, aw1, aw2 = a * w0, a * w1, a * w2
     bw0, bw1 = b * w0, b * w1
     p01, p02, p12 = bw0 * w1, bw0 * w2, bw1 * w2
     s0, s1, s2 = w0 * w0, w1 * w1, w2 * w2
-    out[..., 0, 0] = 1.0 - b * (s1 + s2)
-    out[..., 1, 1] = 1.0 - b * (s0 + s2)
-    out[..., 2, 2] = 1.0 - b * (s0 + s1)
-    out[..., 0, 1] = p01 - aw2
-    out[..., 1, 0] = p01 + aw2
-    out[..., 0, 2] = p02 + aw1
-    out[..., 2, 0] = p02 - aw1
-    out[..., 1, 2] = p12 - aw0
-    out[..., 2, 1] = p12 + aw0
+    return [
+        1.0 - b * (s1 + s2), p01 - aw2, p02 + aw1,
+        p01 + aw2, 1.0 - b * (s0 + s2), p12 - aw0,
+        p02 - aw1, p12 + aw0, 1.0 - b * (s0 + s1),
+    ]  # fmt: skip
+
+
+def _poly_into(out: FloatArray, w: FloatArray, a: FloatArray | float, b: FloatArray) -> None:
+    """Write ``I + a·hat(w) + b·hat(w)²`` into the numpy array ``out`` ``(..., 3, 3)``."""
+    for k, e in enumerate(_poly_entries(w, a, b)):
+        out[..., k // 3, k % 3] = e
 
 
 def _poly(w: FloatArray, a: FloatArray | float, b: FloatArray) -> FloatArray:
     """``I + a·hat(w) + b·hat(w)²`` with scalar-per-batch coefficients ``a`` and ``b``."""
-    out = np.empty((*np.broadcast_shapes(w.shape[:-1], np.shape(a), np.shape(b)), 3, 3))
-    _poly_into(out, w, a, b)
-    return out
+    return arrays.matrix(_poly_entries(w, a, b), 3, 3)
 
 
 def _exp(w: FloatArray) -> FloatArray:
-    th = np.linalg.norm(w, axis=-1)
-    return _poly(w, sinc(th), one_minus_cos_over_t2(th))
+    th, t2 = angle(w)
+    return _poly(w, sinc(th, t2), one_minus_cos_over_t2(th, t2))
 
 
 def _jr(w: FloatArray) -> FloatArray:
-    th = np.linalg.norm(w, axis=-1)
-    return _poly(w, -one_minus_cos_over_t2(th), t_minus_sin_over_t3(th))
+    th, t2 = angle(w)
+    return _poly(w, -one_minus_cos_over_t2(th, t2), t_minus_sin_over_t3(th, t2))
 
 
 def _jl(w: FloatArray) -> FloatArray:
-    th = np.linalg.norm(w, axis=-1)
-    return _poly(w, one_minus_cos_over_t2(th), t_minus_sin_over_t3(th))
+    th, t2 = angle(w)
+    return _poly(w, one_minus_cos_over_t2(th, t2), t_minus_sin_over_t3(th, t2))
 
 
 def _jr_inv(w: FloatArray) -> FloatArray:
-    th = np.linalg.norm(w, axis=-1)
-    return _poly(w, 0.5, jinv_coeff(th))
+    th, t2 = angle(w)
+    return _poly(w, 0.5, jinv_coeff(th, t2))
 
 
 def _jl_inv(w: FloatArray) -> FloatArray:
-    th = np.linalg.norm(w, axis=-1)
-    return _poly(w, -0.5, jinv_coeff(th))
+    th, t2 = angle(w)
+    return _poly(w, -0.5, jinv_coeff(th, t2))
 
 
 def hat(w: Any) -> FloatArray:
@@ -145,10 +141,33 @@ def exp(w: Any) -> FloatArray:
 
     ``Exp(ω) = I + (sin θ/θ) hat(ω) + ((1 − cos θ)/θ²) hat(ω)²``, Taylor series near 0.
     """
-    out = _compiled.run(_compiled.SO3_EXP, w)  # the compiled pass where built, else None
-    if out is not None:
+    out = None if arrays.is_foreign(w) else _compiled.run(_compiled.SO3_EXP, w)
+    if out is not None:  # the compiled pass, where built (numpy input)
         return out
     return validate.finite_output(_exp(validate.tangent(w, "w", 3)), "so3.exp")
+
+
+def _axis_near_pi(
+    r: list[Any], c: FloatArray, theta: FloatArray, s: tuple[Any, Any, Any]
+) -> tuple[Any, Any, Any]:
+    """``θ·u`` read from the symmetric part of ``R`` (entries ``r``, row-major): for cos θ < −½.
+
+    ``S = (R + Rᵀ)/2 − cos θ·I = (1 − cos θ) u uᵀ``: its column with the largest diagonal entry
+    (the first of equal ones), the sign from ``s = sin θ·u``.
+    """
+    xp = arrays.namespace(*r)
+    d0, d1, d2 = r[0] - c, r[4] - c, r[8] - c
+    s01, s02, s12 = 0.5 * (r[1] + r[3]), 0.5 * (r[2] + r[6]), 0.5 * (r[5] + r[7])
+    k0 = (d0 >= d1) & (d0 >= d2)
+    k1 = ~k0 & (d1 >= d2)
+    u0 = xp.where(k0, d0, xp.where(k1, s01, s02))
+    u1 = xp.where(k0, s01, xp.where(k1, d1, s12))
+    u2 = xp.where(k0, s02, xp.where(k1, s12, d2))
+    n2 = u0 * u0 + u1 * u1 + u2 * u2
+    norm = xp.sqrt(xp.where(n2 > 0.0, n2, 1.0 + 0.0 * n2))  # 0 only away from π (unselected)
+    dot = u0 * s[0] + u1 * s[1] + u2 * s[2]
+    scale = xp.where(dot < 0.0, -theta, theta) / norm
+    return scale * u0, scale * u1, scale * u2
 
 
 def _log(R: FloatArray) -> FloatArray:
@@ -157,33 +176,35 @@ def _log(R: FloatArray) -> FloatArray:
     s1 = 0.5 * (R[..., 0, 2] - R[..., 2, 0])
     s2 = 0.5 * (R[..., 1, 0] - R[..., 0, 1])
     c = 0.5 * (R[..., 0, 0] + R[..., 1, 1] + R[..., 2, 2] - 1.0)
+    near_pi = c < _NEAR_PI_COS
+    if arrays.is_foreign(R):  # every entry through both branches, selected by where (traceable)
+        xp = arrays.namespace(R)
+        sn, _ = angle(xp.stack([s0, s1, s2], axis=-1))  # ‖s‖, differentiable at s = 0
+        theta = xp.atan2(sn, c)
+        k = 1.0 / xp.where(near_pi, 1.0 + 0.0 * theta, sinc(theta))
+        entries = [R[..., i, j] for i in range(3) for j in range(3)]
+        a0, a1, a2 = _axis_near_pi(entries, c, theta, (s0, s1, s2))
+        return xp.stack(
+            [
+                xp.where(near_pi, a0, s0 * k),
+                xp.where(near_pi, a1, s1 * k),
+                xp.where(near_pi, a2, s2 * k),
+            ],
+            axis=-1,
+        )
     theta = np.arctan2(np.sqrt(s0 * s0 + s1 * s1 + s2 * s2), c)
     # generic and small angles: ω = θ/sin θ · s (series through sinc)
-    near_pi = np.asarray(c < _NEAR_PI_COS)
+    near_pi = np.asarray(near_pi)
     k = 1.0 / np.where(near_pi, 1.0, sinc(theta))
     w = np.empty((*R.shape[:-2], 3))
     w[..., 0], w[..., 1], w[..., 2] = s0 * k, s1 * k, s2 * k
     if near_pi.any():  # only on those entries: gathered once by index, then scattered back
         idx = np.nonzero(near_pi) if near_pi.ndim else near_pi  # (0-d: the mask itself)
         r = R[idx].reshape(-1, 9)  # rows r00 r01 r02 r10 ... r22
-        cn, thn = c[idx], theta[idx]
-        # axis from the symmetric part S = (R + Rᵀ)/2 − cos θ·I = (1 − cos θ) u uᵀ: its column
-        # with the largest diagonal entry (the first of equal ones), sign from s = sin θ·u
-        d0, d1, d2 = r[:, 0] - cn, r[:, 4] - cn, r[:, 8] - cn
-        s01, s02, s12 = (
-            0.5 * (r[:, 1] + r[:, 3]),
-            0.5 * (r[:, 2] + r[:, 6]),
-            0.5 * (r[:, 5] + r[:, 7]),
+        a0, a1, a2 = _axis_near_pi(
+            [r[:, k] for k in range(9)], c[idx], theta[idx], (s0[idx], s1[idx], s2[idx])
         )
-        k0 = (d0 >= d1) & (d0 >= d2)
-        k1 = ~k0 & (d1 >= d2)
-        u0 = np.where(k0, d0, np.where(k1, s01, s02))
-        u1 = np.where(k0, s01, np.where(k1, d1, s12))
-        u2 = np.where(k0, s02, np.where(k1, s12, d2))
-        norm = np.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
-        dot = u0 * s0[idx] + u1 * s1[idx] + u2 * s2[idx]
-        scale = np.where(dot < 0.0, -thn, thn) / norm
-        w[idx] = np.stack([scale * u0, scale * u1, scale * u2], axis=-1)
+        w[idx] = np.stack([a0, a1, a2], axis=-1)
     return w
 
 
@@ -196,7 +217,7 @@ def log(R: Any) -> FloatArray:
     at θ = π exactly both ``±π u`` are logarithms and the one with the sign of that column is
     returned. Raises ``ValueError`` on a non-rotation (see :mod:`liebridge._validate`).
     """
-    out = _compiled.run(_compiled.SO3_LOG, R)
+    out = None if arrays.is_foreign(R) else _compiled.run(_compiled.SO3_LOG, R)
     if out is not None:
         return out
     return _log(validate.rotation(R, "R"))
@@ -224,7 +245,7 @@ def jl_inv(w: Any) -> FloatArray:
 
 def adjoint(R: Any) -> FloatArray:
     """Adjoint of SO(3), which is ``R`` itself: ``R·Exp(ω)·Rᵀ = Exp(R ω)``. Returns a copy."""
-    return np.array(validate.rotation(R, "R"), dtype=np.float64, copy=True)
+    return _adjoint_k(validate.rotation(R, "R"))
 
 
 def project(M: Any) -> FloatArray:
@@ -243,10 +264,14 @@ def project(M: Any) -> FloatArray:
 
 
 def _inverse(R: FloatArray) -> FloatArray:
+    if arrays.is_foreign(R):
+        return arrays.mT(R)
     return np.array(np.swapaxes(R, -1, -2), dtype=np.float64)
 
 
 def _adjoint_k(R: FloatArray) -> FloatArray:
+    if arrays.is_foreign(R):
+        return R * 1.0
     return np.array(R, dtype=np.float64, copy=True)
 
 
@@ -265,7 +290,7 @@ def act(R: Any, p: Any) -> FloatArray:
     R = validate.rotation(R, "R")
     p = validate.vector(p, "p", 3)
     validate.batch_shape(("R", R.shape[:-2]), ("p", p.shape[:-1]))
-    return validate.finite_output(np.einsum("...ij,...j->...i", R, p), "so3.act")
+    return validate.finite_output(arrays.matvec(R, p), "so3.act")
 
 
 def interpolate(R0: Any, R1: Any, tau: Any) -> FloatArray:
