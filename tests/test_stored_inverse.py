@@ -186,3 +186,48 @@ def test_batched_and_rotation_inputs() -> None:
     R = T[0, 0, :3, :3]
     w = np.array([0.1, -0.2, 0.3])
     assert np.abs(dpvo.retract(R, w) - R @ lb.lie.so3.exp(-w)).max() < 1e-12
+
+
+@pytest.mark.parametrize("backend", ["torch", "jax"])
+def test_stored_inverse_on_torch_and_jax_arrays_equals_numpy(backend: str) -> None:
+    """The caller's array type comes back with the numpy path's values (float64 to 1e-12)."""
+    rng = np.random.default_rng(6)
+    X = se3.exp(rng.normal(size=(3, 6)))
+    d = rng.normal(size=(3, 6)) * 0.3
+    cov = np.eye(6) * 0.01 + 0.001
+    dpvo = get("dpvo")
+    if backend == "torch":
+        torch = pytest.importorskip("torch")
+        pytest.importorskip("array_api_compat")
+
+        def to(a: np.ndarray):  # type: ignore[no-untyped-def]
+            return torch.tensor(a, dtype=torch.float64)
+
+        def back(a) -> np.ndarray:  # type: ignore[no-untyped-def]
+            assert isinstance(a, torch.Tensor)
+            return a.detach().numpy()
+    else:
+        jax = pytest.importorskip("jax")
+        pytest.importorskip("array_api_compat")
+        old = bool(jax.config.read("jax_enable_x64"))
+        jax.config.update("jax_enable_x64", True)  # restored below
+        import jax.numpy as jnp
+
+        def to(a: np.ndarray):  # type: ignore[no-untyped-def]
+            return jnp.asarray(a, dtype=jnp.float64)
+
+        def back(a) -> np.ndarray:  # type: ignore[no-untyped-def]
+            assert type(a).__module__.startswith("jax")
+            return np.asarray(a)
+
+    try:
+        Y = dpvo.retract(to(X), to(d))
+        assert np.abs(back(Y) - dpvo.retract(X, d)).max() < 1e-12
+        assert np.abs(back(dpvo.local(to(X), Y)) - d).max() < 1e-12
+        M = tangent_map(to(X), "dpvo", "gtsam")
+        assert np.abs(back(M) - tangent_map(X, "dpvo", "gtsam")).max() < 1e-12
+        S = lb.convert_covariance(to(cov), to(X), "dpvo", "theseus")
+        assert np.abs(back(S) - lb.convert_covariance(cov, X, "dpvo", "theseus")).max() < 1e-12
+    finally:
+        if backend == "jax":
+            jax.config.update("jax_enable_x64", old)

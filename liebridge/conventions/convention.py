@@ -202,7 +202,9 @@ class Convention(Chart):
         numpy: the group's (its fast implementation where it has one); torch/JAX arrays: the
         record-driven one, written array-generically.
         """
-        return RECORD_ENGINE if arrays.any_foreign(*xs) else self._eng
+        if arrays.any_foreign(*xs):
+            return engine_storing(RECORD_ENGINE, self.stores)
+        return self._eng
 
     def __getstate__(self) -> dict[str, Any]:
         state = dict(self.__dict__)

@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .. import arrays
 from .._validate import FloatArray
 from ..lie import Group
 from ..lie import group as group_record
@@ -49,19 +50,24 @@ def _parts(conv: Convention, X: FloatArray) -> tuple[Group, bool]:
     return g, X.shape[-1] != g.matrix
 
 
+def _out(A: Any) -> Any:
+    """Return numpy results as float64 arrays, torch/JAX arrays as they are (graph kept)."""
+    return A if arrays.is_foreign(A) else np.asarray(A, dtype=np.float64)
+
+
 def _inverse(conv: Convention, X: FloatArray) -> FloatArray:
     g, bare = _parts(conv, X)
     if bare:  # an SE(3) convention given a rotation (..., 3, 3)
-        return np.asarray(np.swapaxes(X, -1, -2), dtype=np.float64)
-    return np.asarray(g.kernels.inverse(X), dtype=np.float64)
+        return _out(arrays.mT(X))
+    return _out(g.kernels.inverse(X))
 
 
 def _adjoint(conv: Convention, X: FloatArray) -> FloatArray:
     """``Ad_X`` in the group's canonical (GTSAM) order; a bare rotation's is ``R``."""
     g, bare = _parts(conv, X)
     if bare:
-        return np.asarray(X, dtype=np.float64)
-    return np.asarray(g.kernels.adjoint(X), dtype=np.float64)
+        return _out(X)
+    return _out(g.kernels.adjoint(X))
 
 
 class InverseEngine(Engine):
@@ -119,14 +125,12 @@ class InverseEngine(Engine):
     def to_canonical(self, conv: Convention, X: FloatArray) -> FloatArray:
         """``−Ad_Y · M_Y(Y)`` with ``Y = X⁻¹``."""
         Y = _inverse(conv, X)
-        return np.asarray(-(_adjoint(conv, Y) @ self.base.to_canonical(conv, Y)), dtype=np.float64)
+        return _out(-(_adjoint(conv, Y) @ self.base.to_canonical(conv, Y)))
 
     def from_canonical(self, conv: Convention, X: FloatArray) -> FloatArray:
         """``−M_Y⁻¹(Y) · Ad_X`` with ``Y = X⁻¹`` (no matrix inversion)."""
         Y = _inverse(conv, X)
-        return np.asarray(
-            -(self.base.from_canonical(conv, Y) @ _adjoint(conv, X)), dtype=np.float64
-        )
+        return _out(-(self.base.from_canonical(conv, Y) @ _adjoint(conv, X)))
 
 
 _INVERSE: dict[int, InverseEngine] = {}
