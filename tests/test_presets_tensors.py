@@ -274,3 +274,17 @@ def test_bad_objects_and_names_get_clear_errors() -> None:
     with pytest.raises(ValueError, match="T"):
         interop.to_library(np.stack([np.eye(4), bad]), like="pypose")
     assert interop.as_pose_matrix([1.0, 2.0]) == [1.0, 2.0]  # not an object: unchanged
+
+
+def test_the_tensors_page_section_runs() -> None:
+    """The python block of docs/tensors.md's learned-SLAM section runs (PyPose installed)."""
+    _lib("pypose")
+    from pathlib import Path
+
+    page = Path(__file__).resolve().parents[1] / "docs" / "tensors.md"
+    text = page.read_text(encoding="utf-8")
+    section = text.split("## Learned-SLAM presets and library objects", 1)[1].split("\n## ", 1)[0]
+    blocks = [b.split("```", 1)[0] for b in section.split("```python\n")[1:]]
+    assert blocks
+    for k, code in enumerate(blocks):
+        exec(compile(code, f"tensors.md[block {k}]", "exec"), {"__name__": "tensors_md"})
