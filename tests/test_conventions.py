@@ -126,6 +126,8 @@ def test_first_order_maps_of_the_reference_table():
         "theseus": P,
         "barfoot": P @ Ad,
         "pypose": P @ Ad,
+        "lietorch": P @ Ad,
+        "dpvo": -P,
         "pytransform3d_global": Ad,
         "symforce": np.block([[Id, Z], [Z, R]]),
         "ros": np.block([[Z, R], [R, Z]]),
