@@ -288,3 +288,25 @@ def test_the_tensors_page_section_runs() -> None:
     assert blocks
     for k, code in enumerate(blocks):
         exec(compile(code, f"tensors.md[block {k}]", "exec"), {"__name__": "tensors_md"})
+
+
+@pytest.mark.parametrize("lib", ["pypose", "theseus", "kornia"])
+def test_object_matrices_go_on_into_liebridge_with_their_graph(lib: str) -> None:
+    """``as_pose_matrix`` of a torch library's object feeds liebridge's functions on torch."""
+    _lib({"kornia": "kornia.geometry.liegroup"}.get(lib, lib))
+    pytest.importorskip("array_api_compat")
+    import liebridge as lb
+
+    T = _poses()[2]
+    Tt = torch.tensor(T, requires_grad=True)
+    M = interop.as_pose_matrix(interop.to_library(Tt, like=lib))
+    M = M.reshape(4, 4) if lib == "theseus" else M  # Theseus: always a batch
+    xi = lb.lie.se3.log(M)
+    assert isinstance(xi, torch.Tensor)
+    assert np.abs(_np(xi) - lb.lie.se3.log(T)).max() < 1e-9
+    cov = lb.convert_covariance(torch.eye(6, dtype=torch.float64) * 1e-4, M, "dpvo", "gtsam")
+    assert (
+        np.abs(_np(cov) - lb.convert_covariance(np.eye(6) * 1e-4, T, "dpvo", "gtsam")).max() < 1e-15
+    )
+    xi.sum().backward()
+    assert Tt.grad is not None and np.isfinite(_np(Tt.grad)).all()
