@@ -4,7 +4,10 @@ The pipeline is evo's: read both files (TUM, KITTI or EuRoC, detected), associat
 (``--max-diff`` 0.01 s, ``--offset`` 0 s), align the estimate to the reference (``--align``:
 ``none`` by default as evo, ``se3``, ``sim3``, ``4dof``), then compute the metric. ``nees``
 also moves the estimate's covariances (``--cov`` ``(N, 6, 6)`` ``.npy``, one per pose of EST, in
-``--convention``) under the alignment, as that convention requires. ``--format json`` prints
+``--convention``; without ``--cov``, those EST carries: a bag topic's ``PoseWithCovarianceStamped``
+/ ``Odometry`` covariances, or the ``.npz`` of ``bag export --format npz``) under the alignment, as
+that convention requires. A ``nav_msgs/Path`` topic is one message (``--path-message``, default
+the last). ``--format json`` prints
 one JSON object on stdout (``rmse mean median std min max`` and more; ``anees`` for ``nees``);
 ``--plot`` writes the trajectories, the errors over time and, for ``nees``, the NEES against
 its χ² bounds. Every input error is one line on stderr.
@@ -26,6 +29,7 @@ from ._common import (
     CLIError,
     check_output_path,
     convention_arg,
+    deprecated_alias,
     need_matplotlib,
     npy_argument,
     one_line,
@@ -55,17 +59,32 @@ class _Prepared:
     resampled: str | None
 
 
-def _read_topic(path: str, topic: str, what: str) -> tuple[FloatArray, FloatArray]:
-    """Stamps and poses of a bag topic (PoseWithCovarianceStamped, Odometry, TF...)."""
+def _read_topic(
+    path: str,
+    topic: str,
+    what: str,
+    path_message: int | None = None,
+    cov_convention: Any = None,
+) -> tuple[FloatArray, FloatArray, FloatArray | None, str]:
+    """Stamps, poses, covariances and type of a bag topic (PoseStamped, Odometry, Path, TF...).
+
+    Streamed: only stamps and poses (136 B a message) are kept — and, with ``cov_convention``,
+    the pose covariances in that convention (288 B more), None for a type without them.
+    """
     try:
         from ..ros import iter_messages
     except ImportError as exc:  # the 'ros' extra
         raise CLIError(f"{what}: {exc}") from None
     stamps: list[FloatArray] = []
     poses: list[FloatArray] = []
+    covs: list[FloatArray] | None = [] if cov_convention is not None else None
     frames = None
-    try:  # streamed: only stamps and poses are kept (136 B a message), not whole messages
-        for msgs in iter_messages(path, topic):
+    msgtype = ""
+    try:
+        for msgs in iter_messages(
+            path, topic, convention=cov_convention or "ros", path_message=path_message
+        ):
+            msgtype = msgs.msgtype
             here = msgs.trajectory_frames()  # frame_id alternating map/odom is not one
             if len(msgs) and frames is not None and here != frames:
                 raise ValueError(
@@ -75,19 +94,70 @@ def _read_topic(path: str, topic: str, what: str) -> tuple[FloatArray, FloatArra
             frames = frames or (here if len(msgs) else None)
             stamps.append(np.asarray(msgs.stamps, dtype=np.float64))
             poses.append(np.asarray(msgs.T, dtype=np.float64))
+            if covs is not None and msgs.cov is not None:
+                covs.append(np.array(msgs.cov, dtype=np.float64))
     except (ValueError, OSError, ImportError) as exc:
-        raise CLIError(f"{what}: {one_line(str(exc))}") from None
-    return np.concatenate(stamps), np.concatenate(poses)
+        text = one_line(str(exc)).replace("path_message", "--path-message")
+        raise CLIError(f"{what}: {text}") from None
+    cov = np.concatenate(covs) if covs else None
+    return np.concatenate(stamps), np.concatenate(poses), cov, msgtype
+
+
+#: Arrays of the ``.npz`` that ``liebridge bag export --format npz`` writes, read back here.
+_NPZ_NEEDS = ("stamps", "T")
+
+
+def _read_npz(path: str, what: str) -> tuple[FloatArray, FloatArray, FloatArray | None, str]:
+    """Stamps, poses, covariances and their convention from ``bag export --format npz``'s file."""
+    try:
+        with np.load(path, allow_pickle=False) as d:
+            missing = [k for k in _NPZ_NEEDS if k not in d.files]
+            if missing:
+                raise CLIError(
+                    f"{what}: {path} has no {', '.join(missing)} array (an .npz as "
+                    "'liebridge bag export --format npz' writes: stamps, T, cov, convention)"
+                )
+            t = np.asarray(d["stamps"])
+            T = np.asarray(d["T"])
+            cov = np.asarray(d["cov"]) if "cov" in d.files else None
+            conv = str(d["convention"]) if "convention" in d.files else "ros"
+    except CLIError:
+        raise
+    except (ValueError, OSError, KeyError, EOFError) as exc:
+        raise CLIError(f"{what}: {path}: not a readable .npz ({one_line(str(exc))})") from None
+    n = t.shape[0] if t.ndim == 1 else -1
+    for name, a, shape in (("stamps", t, (n,)), ("T", T, (n, 4, 4)), ("cov", cov, (n, 6, 6))):
+        if a is None:
+            continue
+        if a.shape != shape or not np.issubdtype(a.dtype, np.floating):
+            raise CLIError(
+                f"{what}: {path}: array {name!r} has shape {a.shape} and dtype {a.dtype}, "
+                f"expected float {shape if n >= 0 else '(N,)'}"
+            )
+        bad = ~np.isfinite(a.reshape(max(n, 0), -1)).all(axis=-1)
+        if bad.any():
+            raise CLIError(
+                f"{what}: {path}: array {name!r} is not finite at index {int(np.argmax(bad))} "
+                f"({int(bad.sum())} of {n})"
+            )
+    return t.astype(np.float64), T.astype(np.float64), cov, conv
 
 
 def _read(
-    path: str, fmt: str, quat_order: str | None, what: str, topic: str | None = None
+    path: str,
+    fmt: str,
+    quat_order: str | None,
+    what: str,
+    topic: str | None = None,
+    path_message: int | None = None,
 ) -> tuple[FloatArray, FloatArray]:
     from ..io import trajfile
     from ..io.sanity import QuaternionOrderWarning
 
     if topic is not None:
-        return _read_topic(path, topic, what)
+        return _read_topic(path, topic, what, path_message)[:2]
+    if path.lower().endswith(".npz"):  # what 'bag export --format npz' writes
+        return _read_npz(path, what)[:2]
 
     try:
         with warnings.catch_warnings(record=True) as caught:
@@ -101,12 +171,18 @@ def _read(
 
 
 def _prepare(
-    args: argparse.Namespace, cov: FloatArray | None = None, conv: Any = None
+    args: argparse.Namespace,
+    cov: FloatArray | None = None,
+    conv: Any = None,
+    est: tuple[FloatArray, FloatArray] | None = None,
 ) -> _Prepared:
     from .. import traj
 
-    t_ref, T_ref = _read(args.ref, args.ref_format, args.quat_order, "REF", args.ref_topic)
-    t_est, T_est = _read(args.est, args.est_format, args.quat_order, "EST", args.est_topic)
+    pm = getattr(args, "path_message", None)
+    t_ref, T_ref = _read(args.ref, args.ref_format, args.quat_order, "REF", args.ref_topic, pm)
+    if est is None:
+        est = _read(args.est, args.est_format, args.quat_order, "EST", args.est_topic, pm)
+    t_est, T_est = est
     if cov is not None and cov.shape[0] != len(t_est):
         raise CLIError(
             f"--cov: {cov.shape[0]} covariances for {len(t_est)} poses of EST "
@@ -247,7 +323,7 @@ def _rpe(args: argparse.Namespace) -> int:
     if args.plot:
         check_output_path(args.plot, "--plot", (".png", ".pdf", ".svg"), inputs=_inputs(args))
     if args.unit == "frames" and not float(args.delta).is_integer():
-        raise CLIError(f"--delta: expected an integer for --unit frames, got {args.delta:g}")
+        raise CLIError(f"--delta: expected an integer for --delta-unit frames, got {args.delta:g}")
     p = _prepare(args)
     try:
         err, pairs = traj.rpe(
@@ -296,25 +372,75 @@ def _rpe(args: argparse.Namespace) -> int:
     return 0
 
 
+def _nees_inputs(
+    args: argparse.Namespace,
+) -> tuple[FloatArray, Any, tuple[FloatArray, FloatArray] | None, str]:
+    """EST's covariances, their convention, EST's poses where read here, and where from.
+
+    ``--cov FILE.npy`` (with ``--convention``) wins; else the covariances EST carries: a bag
+    topic of ``PoseWithCovarianceStamped`` / ``Odometry`` (``--est-topic``; ROS's convention,
+    converted to ``--convention`` when given) or the ``.npz`` of ``bag export --format npz`` (its
+    ``convention``, converted likewise).
+    """
+    if args.cov is not None:
+        if args.convention is None:
+            raise CLIError("--convention: required with --cov (the convention of FILE.npy)")
+        conv = convention_arg(args.convention, "--convention")
+        cov = npy_argument(args.cov, "--cov")
+        if cov.ndim != 3 or cov.shape[1:] != (6, 6):
+            raise CLIError(f"--cov: expected an array of shape (N, 6, 6), got {cov.shape}")
+        return np.asarray(cov, dtype=np.float64), conv, None, "--cov"
+    conv = convention_arg(args.convention or "ros", "--convention")
+    if args.est_topic is not None:
+        t, T, bag_cov, mt = _read_topic(
+            args.est, args.est_topic, "EST", getattr(args, "path_message", None), conv
+        )
+        if bag_cov is None:
+            raise CLIError(
+                f"--cov: required: EST topic {args.est_topic} is {mt}, which carries no "
+                "covariance (PoseWithCovarianceStamped and Odometry do)"
+            )
+        return bag_cov, conv, (t, T), f"EST topic {args.est_topic}"
+    if args.est.lower().endswith(".npz"):
+        t, T, npz_cov, src = _read_npz(args.est, "EST")
+        if npz_cov is None:
+            raise CLIError(f"--cov: required: EST {args.est} has no 'cov' array")
+        cov = npz_cov
+        if args.convention is None:
+            conv = convention_arg(src, f"EST {args.est}: its 'convention'")
+        elif src != conv.name:
+            from ..conventions import convert_covariance
+
+            try:
+                cov = convert_covariance(cov, T, src, conv)
+            except ValueError as exc:
+                raise CLIError(f"EST {args.est}: cov: {one_line(str(exc))}") from None
+        return cov, conv, (t, T), f"EST {args.est}"
+    raise CLIError(
+        "--cov: required: EST is a trajectory file without covariances; give --cov FILE.npy "
+        "with --convention, or EST as a bag topic with covariances (--est-topic), or the .npz "
+        "of 'liebridge bag export --format npz'"
+    )
+
+
 def _nees(args: argparse.Namespace) -> int:
     from .. import traj
 
-    conv = convention_arg(args.convention, "--convention")
     if args.plot:
         check_output_path(args.plot, "--plot", (".png", ".pdf", ".svg"), inputs=_inputs(args))
-    cov = npy_argument(args.cov, "--cov")
-    if cov.ndim != 3 or cov.shape[1:] != (6, 6):
-        raise CLIError(f"--cov: expected an array of shape (N, 6, 6), got {cov.shape}")
-    p = _prepare(args, np.asarray(cov, dtype=np.float64), conv)
+    cov, conv, est, source = _nees_inputs(args)
+    p = _prepare(args, cov, conv, est)
     assert p.cov_est is not None
+    flag = "--cov" if source == "--cov" else source
     try:
         C = p.alignment.transform_covariance(p.T_est, p.cov_est, conv)
         r = traj.nees(p.T_ref, p.T_aligned, C, conv, confidence=args.confidence)
     except ValueError as exc:
-        raise CLIError(f"--cov: {exc}") from None
+        raise CLIError(f"{flag}: {one_line(str(exc))}") from None
     result: dict[str, Any] = {
         "metric": "nees",
         "convention": conv.name,
+        "covariance_source": source,
         **_stats_dict(r.nees),
         "anees": r.anees,
         "anees_lower": r.anees_bounds[0],
@@ -370,6 +496,14 @@ def _common(q: argparse.ArgumentParser) -> None:
         'Odometry, PoseStamped...; needs pip install ".[ros]" (from the checkout))',
     )
     q.add_argument("--est-topic", metavar="TOPIC", help="EST is a bag: its pose topic")
+    q.add_argument(
+        "--path-message",
+        type=int,
+        default=None,
+        metavar="INDEX",
+        help="nav_msgs/Path topics (each message a whole trajectory): the message to read, "
+        "for --ref-topic and --est-topic alike (default -1, the last; 0 the first)",
+    )
     q.add_argument("--ref-format", default="auto", choices=("auto", "tum", "kitti", "euroc"))
     q.add_argument("--est-format", default="auto", choices=("auto", "tum", "kitti", "euroc"))
     q.add_argument(
@@ -422,12 +556,14 @@ def add_parser(sub: Any) -> None:
     _common(r)
     _relation(r)
     r.add_argument("--delta", type=float, default=1, help="pair distance (default 1)")
-    r.add_argument(
-        "--unit",
+    unit = r.add_argument(
+        "--delta-unit",
+        dest="unit",
         choices=("frames", "m"),
         default="frames",
         help="unit of --delta (frames, or metres of path on EST)",
     )
+    deprecated_alias(r, unit, "--unit")
     r.add_argument(
         "--all-pairs",
         action="store_true",
@@ -440,11 +576,24 @@ def add_parser(sub: Any) -> None:
     n = tsub.add_parser(
         "nees",
         help="NEES/ANEES of EST's covariances",
-        description="NEES of EST with its covariances (--cov, one 6x6 per pose of EST, in "
-        "--convention's tangent), with chi-square bounds.",
+        description="NEES of EST with its covariances, with chi-square bounds. The "
+        "covariances are --cov (one 6x6 per pose of EST, in --convention's tangent) or, "
+        "without --cov, those EST carries: a bag topic of PoseWithCovarianceStamped or "
+        "Odometry (--est-topic; ROS's convention) or the .npz of 'liebridge bag export --to "
+        "npz' (its own convention); --convention then names the convention NEES is computed "
+        "in (default: theirs).",
     )
     _common(n)
-    n.add_argument("--cov", required=True, metavar="FILE.npy", help="(N, 6, 6) covariances")
-    n.add_argument("--convention", required=True, help="the estimator's convention (a preset)")
+    n.add_argument(
+        "--cov",
+        default=None,
+        metavar="FILE.npy",
+        help="(N, 6, 6) covariances (default: EST's own, from a bag topic or an .npz)",
+    )
+    n.add_argument(
+        "--convention",
+        default=None,
+        help="the covariances' convention (a preset); required with --cov",
+    )
     n.add_argument("--confidence", type=float, default=0.95, help="of the chi-square bounds")
     n.set_defaults(func=_nees)

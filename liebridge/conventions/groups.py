@@ -18,7 +18,7 @@ implementation of the same formulas (:mod:`~liebridge.conventions.se3_engine`).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -98,7 +98,7 @@ def _block_diag(g: Group, blocks: dict[int, FloatArray | float], ref: FloatArray
         for sj in slots:
             ni, nj = si.stop - si.start, sj.stop - sj.start
             if si is sj:
-                b = blocks[si.start]
+                b: Any = blocks[si.start]
                 b = arrays.like(b, ref) if not arrays.is_foreign(b) else b
                 b = (
                     xp.broadcast_to(b, (*batch, ni, nj))
@@ -327,6 +327,7 @@ def local_jacobian(conv: Convention, X: FloatArray, Y: FloatArray) -> FloatArray
             blocks[g.rot.start] = conv.rotation_scale * d_from_rotation(
                 dR, conv.rotation, conv.side
             )
+    blk: Any
     if _body(conv):
         blk = np.linalg.solve(AX, AY) if xp is np else xp.linalg.solve(AX, AY)
     else:

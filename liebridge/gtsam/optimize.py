@@ -35,6 +35,7 @@ from __future__ import annotations
 import math
 import sys
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -44,8 +45,9 @@ import numpy as np
 
 from .batch import BatchEvaluation, PoseFactorBatch, PoseFactorSpec, group_specs
 from .custom import identify, query_values
+from .marginals import indeterminate_message
 
-__all__ = ["OptimizeResult", "optimize"]
+__all__ = ["IndeterminateSystemWarning", "OptimizeResult", "optimize"]
 
 _MIN_MODEL_FIDELITY = 1e-3
 #: Most damped solves tried within one iteration (bounds the run time whatever λ's factor).
@@ -54,9 +56,23 @@ _MAX_TRIES = 1000
 AUTO_PROGRESS_AFTER = 2.0
 
 
+class IndeterminateSystemWarning(UserWarning):
+    """:func:`optimize` ran on a graph whose linear system is not fully determined.
+
+    Levenberg–Marquardt's damping lets it run, and the error may well stop decreasing
+    (``converged``), but the optimum is one of a family (a pose graph without a prior: any
+    rigid motion of it), and GTSAM's marginals of it fail.
+    """
+
+
 @dataclass
 class OptimizeResult:
-    """Outcome of :func:`optimize`."""
+    """Outcome of :func:`optimize`.
+
+    ``converged`` says the error stopped decreasing; ``determined`` says whether the undamped
+    linear system at the result has a unique solution (``False``: e.g. no prior fixes the gauge,
+    the optimum is not unique and GTSAM's marginals fail; ``indeterminate`` holds GTSAM's word).
+    """
 
     values: Any
     initial_error: float
@@ -65,12 +81,17 @@ class OptimizeResult:
     seconds: float
     converged: bool
     final_lambda: float
+    determined: bool = True
+    indeterminate: str = ""
 
     def __repr__(self) -> str:
         """One line: the figures, and the size of ``values`` rather than every pose in it."""
+        conv = f"converged={self.converged}"
+        if not self.determined:
+            conv += " but NOT fully determined (no gauge prior?)"
         return (
             f"OptimizeResult(error {self.initial_error:.6g} -> {self.final_error:.6g}, "
-            f"{self.iterations} iterations, converged={self.converged}, "
+            f"{self.iterations} iterations, {conv}, "
             f"{self.seconds:.3g} s, final_lambda={self.final_lambda:.3g}, "
             f"values=<gtsam.Values, {self.values.size()} variables>)"
         )
@@ -349,6 +370,25 @@ def _check_keys(graph: Any, values: Any) -> list[int]:
     return keys
 
 
+def _has_unary_factor(graph: Any) -> bool:
+    n = graph.size()
+    # priors are usually added first or last: look there before scanning the rest
+    for k in (0, n - 1, *range(1, n - 1)) if n > 1 else range(n):
+        f = graph.at(k)
+        if f is not None and len(f.keys()) == 1:
+            return True
+    return False
+
+
+def _indeterminate(linear_graph: Any, ordering: Any) -> str | None:
+    """GTSAM's one-line reason if the undamped ``linear_graph`` has no unique solution."""
+    try:
+        linear_graph.optimize(ordering)
+    except RuntimeError as exc:
+        return indeterminate_message(exc)
+    return None
+
+
 def optimize(
     graph: Any,
     values: Any,
@@ -384,6 +424,10 @@ def optimize(
     Returns
     -------
     OptimizeResult
+        ``determined=False`` (and an :class:`IndeterminateSystemWarning`) when the graph has no
+        single-key factor (no prior) and its undamped linear system at the result is
+        indeterminate: a gauge-free pose graph. The check eliminates the last linear system once
+        more without damping; graphs with a single-key factor skip it (their cost is unchanged).
 
     Raises
     ------
@@ -418,6 +462,7 @@ def optimize(
         raise ValueError(f"values: the initial error is not finite ({err})")
     it = 0
     converged = err <= errtol
+    linear: _LinearModel | None = None
     while not converged and it < max_it:
         linear = split.linear_model(current, state)
         new_err = err
@@ -464,6 +509,18 @@ def optimize(
         err = new_err
         if not np.isfinite(err):
             break
+    why = None
+    if np.isfinite(err) and not _has_unary_factor(graph):
+        # the rank is the same at every linearization point: reuse the last one if any
+        system = linear.graph if linear is not None else split.linearize(current)
+        why = _indeterminate(system, ordering)
+        if why is not None:
+            warnings.warn(
+                f"liebridge.optimize: {why}; the result is one optimum of many "
+                "(OptimizeResult.determined is False)",
+                IndeterminateSystemWarning,
+                stacklevel=2,
+            )
     return OptimizeResult(
         values=current,
         initial_error=initial,
@@ -472,4 +529,6 @@ def optimize(
         seconds=time.perf_counter() - t0,
         converged=converged,
         final_lambda=lam,
+        determined=why is None,
+        indeterminate=why or "",
     )

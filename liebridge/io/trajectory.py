@@ -32,7 +32,7 @@ second, per-line pass runs only to name a fault.
 Writing uses ``repr`` of every float (the shortest text that reads back to the same double), so
 KITTI files and TUM timestamps and translations round-trip bit for bit. **The one quaternion sign
 rule** of every TUM writer (:func:`write_tum`, ``io.write_trajectory``, ``ros.write_tum``, ``bag
-export --to tum``): the first quaternion has ``w ≥ 0`` and each next one the sign that makes
+export --format tum``): the first quaternion has ``w ≥ 0`` and each next one the sign that makes
 ``q_i·q_{i−1} ≥ 0`` (hemisphere continuity), so component-wise interpolation and plots of the file
 behave; it is a function of the rotations alone (never of the sign a source happened to store).
 Tempting and false: "``w ≥ 0`` on every line" — that flips the sign wherever a trajectory turns
