@@ -231,3 +231,18 @@ def test_stored_inverse_on_torch_and_jax_arrays_equals_numpy(backend: str) -> No
     finally:
         if backend == "jax":
             jax.config.update("jax_enable_x64", old)
+
+
+def test_the_command_line_says_what_dpvo_stores() -> None:
+    import json
+    import subprocess
+    import sys
+
+    def run(*args: str) -> str:
+        cmd = [sys.executable, "-m", "liebridge.cli", "conventions", *args]
+        return subprocess.run(cmd, capture_output=True, text=True, check=True).stdout
+
+    one = run("droid_slam")
+    assert "stores=inverse" in one and "on the stored Y = X⁻¹" in one
+    rows = {r["name"]: r for r in json.loads(run("--format", "json"))}
+    assert rows["dpvo"]["stores"] == "inverse" and "stores" not in rows["lietorch"]
