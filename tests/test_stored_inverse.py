@@ -246,3 +246,17 @@ def test_the_command_line_says_what_dpvo_stores() -> None:
     assert "stores=inverse" in one and "on the stored Y = X⁻¹" in one
     rows = {r["name"]: r for r in json.loads(run("--format", "json"))}
     assert rows["dpvo"]["stores"] == "inverse" and "stores" not in rows["lietorch"]
+
+
+@pytest.mark.parametrize("theta", [0.0, 1e-12, 1e-6, 2.0, np.pi - 1e-6, np.pi])
+def test_dpvo_maps_at_edge_angles_and_30_m(theta: float) -> None:
+    """Elements at θ = 0, 1e-12, near and exactly π, 30 m away; increments small and 3 rad."""
+    dpvo, canon = get("dpvo"), _canonical("se3")
+    axis = np.array([1.0, -2.0, 0.5]) / np.linalg.norm([1.0, -2.0, 0.5])
+    X = se3.exp(np.r_[theta * axis, 30.0, -30.0, 30.0])
+    for d in (np.zeros(6), np.r_[0.1, 0.2, -0.3, 1e-12, 0.0, 0.0], np.r_[1.0, 0, 0, 0, 3.0, 0]):
+        Y = dpvo.retract(X, d)
+        assert np.abs(np.linalg.inv(Y) - get("lietorch").retract(np.linalg.inv(X), d)).max() < 1e-9
+        assert np.abs(dpvo.local(X, Y) - d).max() < 1e-8
+    M_fd = _fd(lambda e: canon.local(X, dpvo.retract(X, e)), 6, eps=1e-7)
+    assert np.abs(dpvo.to_canonical(X) - M_fd).max() < 1e-6
