@@ -28,8 +28,8 @@ import numpy as np
 BACKENDS = frozenset({"torch", "jax", "jaxlib"})
 
 _INSTALL = {
-    "torch": 'pip install ".[torch]"  (from the liebridge checkout)',
-    "jax": 'pip install ".[jax]"  (from the liebridge checkout)',
+    "torch": 'pip install ".[torch]" (in the checkout)',
+    "jax": 'pip install ".[jax]" (in the checkout)',
 }
 
 

@@ -247,7 +247,7 @@ def test_orbslam3_double_matrix_is_read_with_a_warning_orbslam3_would_misread_it
         T = read_extrinsic(path)
     np.testing.assert_allclose(T.inverse().T, EUROC_T_B_C0, atol=1e-12)  # read as written
     rc, out, err = _one_line_cli(
-        ["extrinsics", "convert", str(path), "--to", "kalibr", "--camera", "cam1"], capsys
+        ["extrinsics", "convert", str(path), "--to-system", "kalibr", "--camera", "cam1"], capsys
     )
     assert rc == 0 and out
     lines = err.splitlines()
@@ -280,16 +280,25 @@ def test_okvis_top_level_T_SC_as_format_parameter_prints_it(
     path.write_text(text)
     assert calibration.detect_file_system(path) == "okvis"
     np.testing.assert_allclose(read_extrinsic(path).T, T_CAM0_IMU.T, atol=1e-15)
-    for extra in ([], ["--from", "okvis"]):
+    for extra in ([], ["--from-system", "okvis"]):
         rc, out, err = _one_line_cli(
-            ["extrinsics", "convert", str(path), "--to", "kalibr", "--format", "json", *extra],
+            [
+                "extrinsics",
+                "convert",
+                str(path),
+                "--to-system",
+                "kalibr",
+                "--format",
+                "json",
+                *extra,
+            ],
             capsys,
         )
         assert rc == 0 and err == ""
         np.testing.assert_allclose(json.loads(out)["T"], T_CAM0_IMU.T, atol=1e-15)
     # the top-level T_SC is camera 0's: cam1 is a missing key, not camera 0 again
     rc, _, err = _one_line_cli(
-        ["extrinsics", "convert", str(path), "--to", "kalibr", "--camera", "cam1"], capsys
+        ["extrinsics", "convert", str(path), "--to-system", "kalibr", "--camera", "cam1"], capsys
     )
     assert rc == 2 and "missing key 'cameras[1].T_SC'" in err and err.count("\n") == 1
 
@@ -397,7 +406,7 @@ def test_missing_key_names_file_and_key(
     msg = str(exc.value)
     assert str(path) in msg and "\n" not in msg
     assert re.search(rf"missing key '{re.escape(key)}\b", msg), msg
-    argv = ["extrinsics", "convert", str(path), "--from", system, "--to", "kalibr"]
+    argv = ["extrinsics", "convert", str(path), "--from-system", system, "--to-system", "kalibr"]
     rc, out, err = _one_line_cli([*argv, "--camera", camera], capsys)
     assert rc == 2 and out == "" and err.count("\n") == 1, err
     assert str(path) in err and f"missing key '{key}" in err and "Traceback" not in err
@@ -414,7 +423,8 @@ def test_extrinsics_convert_of_a_kalibr_file_with_another_from_names_the_key(
     path = tmp_path / "camchain-imucam.yaml"
     path.write_text(VALID["kalibr"])
     rc, out, err = _one_line_cli(
-        ["extrinsics", "convert", str(path), "--from", system, "--to", "kalibr"], capsys
+        ["extrinsics", "convert", str(path), "--from-system", system, "--to-system", "kalibr"],
+        capsys,
     )
     assert rc == 2 and out == "" and err.count("\n") == 1
     assert str(path) in err and "missing key '" in err and "KeyError" not in err
@@ -457,14 +467,23 @@ def test_second_camera_cli_label_is_the_snippets(
     path = tmp_path / "camchain-imucam.yaml"
     path.write_text(VALID["kalibr"])
     for system in system_names():
-        argv = ["extrinsics", "convert", str(path), "--to", system, "--camera", "cam1"]
+        argv = ["extrinsics", "convert", str(path), "--to-system", system, "--camera", "cam1"]
         rc, out, _ = _one_line_cli([*argv, "--format", "json"], capsys)
         obj = json.loads(out)
         assert rc == 0 and obj["camera"] == "cam1"
         snippet = tmp_path / ("s.json" if system == "basalt" else "s.yaml")
         snippet.write_text(obj["snippet"])
         rc, out2, _ = _one_line_cli(
-            ["extrinsics", "convert", str(snippet), "--to", "kalibr", "--camera", "cam1", *JSON],
+            [
+                "extrinsics",
+                "convert",
+                str(snippet),
+                "--to-system",
+                "kalibr",
+                "--camera",
+                "cam1",
+                *JSON,
+            ],
             capsys,
         )
         tol = 4 * F32 if system == "orbslam3" else 1e-12
@@ -482,10 +501,12 @@ def test_second_camera_from_a_one_camera_file_is_refused(
     path = tmp_path / "pnp.yaml"
     path.write_text(VALID["opencv"])
     for to in ("orbslam3", "okvis", "basalt"):
-        argv = ["extrinsics", "convert", str(path), "--to", to, "--camera", "cam1"]
+        argv = ["extrinsics", "convert", str(path), "--to-system", to, "--camera", "cam1"]
         rc, out, err = _one_line_cli(argv, capsys)
         assert rc == 2 and out == "" and "holds one camera" in err and err.count("\n") == 1
-    rc, _, _ = _one_line_cli(["extrinsics", "convert", str(path), "--to", "vins_fusion"], capsys)
+    rc, _, _ = _one_line_cli(
+        ["extrinsics", "convert", str(path), "--to-system", "vins_fusion"], capsys
+    )
     assert rc == 0
 
 

@@ -176,9 +176,17 @@ def test_posestamped_topic_is_exported_read_and_written_back_as_stored(
     assert set(m.frame_id) == {"world"} and m.child_frame_id is None
     tum = tmp_path / "gt.tum"
     assert (
-        _run(capsys, "bag", "export", str(bag), "--topic", "/groundtruth", "--to", "tum", str(tum))[
-            0
-        ]
+        _run(
+            capsys,
+            "bag",
+            "export",
+            str(bag),
+            "--topic",
+            "/groundtruth",
+            "--format",
+            "tum",
+            str(tum),
+        )[0]
         == 0
     )
     rows = [ln.split() for ln in tum.read_text().splitlines() if not ln.startswith("#")]
@@ -284,7 +292,7 @@ def test_traj_nees_reads_the_npz_that_bag_export_writes(
     ref, pwcs, _, T_est, C_ros = _nees_bags(tmp_path)
     npz = tmp_path / "est.npz"
     rc, *_ = _run(
-        capsys, "bag", "export", str(pwcs), "--topic", "/est", "--to", "npz", str(npz),
+        capsys, "bag", "export", str(pwcs), "--topic", "/est", "--format", "npz", str(npz),
         "--convention", "gtsam",
     )  # fmt: skip
     assert rc == 0
@@ -371,7 +379,7 @@ def test_bag_export_g2o_refused_pose_with_covariance_and_now_writes_rank_deficie
     bag, m = _amcl_bag(tmp_path)
     out = tmp_path / "amcl.g2o"
     rc, text, err = _run(
-        capsys, "bag", "export", str(bag), "--topic", "/amcl_pose", "--to", "g2o", str(out)
+        capsys, "bag", "export", str(bag), "--topic", "/amcl_pose", "--format", "g2o", str(out)
     )
     assert rc == 0, err
     assert "--increment independent" in text and "rank 3" in text
@@ -393,7 +401,7 @@ def test_bag_export_g2o_refused_pose_with_covariance_and_now_writes_rank_deficie
     bag6, m6 = _amcl_bag(tmp_path / "full", planar=False)
     out6 = tmp_path / "full.g2o"
     rc, text, _ = _run(
-        capsys, "bag", "export", str(bag6), "--topic", "/amcl_pose", "--to", "g2o", str(out6)
+        capsys, "bag", "export", str(bag6), "--topic", "/amcl_pose", "--format", "g2o", str(out6)
     )
     assert rc == 0 and "rank-deficient" not in text
     _, cz6 = ros.increment_covariances(m6, "independent")
@@ -411,9 +419,9 @@ def test_bag_export_g2o_of_all_zero_odometry_covariances_said_singular_matrix(
         T, None, stamps=T0 + np.arange(n), frame_id="odom", msgtype="nav_msgs/msg/Odometry"
     )
     bag = ros.write_messages(tmp_path / "odom.bag", "/odom", m)
-    for extra, hint in (((), "--increment twist"), (("--increment", "twist"), "--to tum")):
+    for extra, hint in (((), "--increment twist"), (("--increment", "twist"), "--format tum")):
         rc, _, err = _run(
-            capsys, "bag", "export", str(bag), "--topic", "/odom", "--to", "g2o",
+            capsys, "bag", "export", str(bag), "--topic", "/odom", "--format", "g2o",
             str(tmp_path / "o.g2o"), *extra,
         )  # fmt: skip
         assert rc == 2 and len(err.strip().splitlines()) == 1
@@ -432,7 +440,7 @@ def test_bag_export_g2o_messages_named_python_keywords_not_cli_flags(
     errors = []
     for inc in ("twist", "difference"):
         rc, _, err = _run(
-            capsys, "bag", "export", str(bag), "--topic", "/amcl_pose", "--to", "g2o",
+            capsys, "bag", "export", str(bag), "--topic", "/amcl_pose", "--format", "g2o",
             str(tmp_path / "x.g2o"), "--increment", inc,
         )  # fmt: skip
         assert rc == 2

@@ -1,16 +1,19 @@
 """``liebridge traj ape|rpe|nees REF EST``: evo's APE/RPE, and NEES with covariances.
 
-The pipeline is evo's: read both files (TUM, KITTI or EuRoC, detected), associate by timestamp
-(``--max-diff`` 0.01 s, ``--offset`` 0 s), align the estimate to the reference (``--align``:
-``none`` by default as evo, ``se3``, ``sim3``, ``4dof``), then compute the metric. ``nees``
-also moves the estimate's covariances (``--cov`` ``(N, 6, 6)`` ``.npy``, one per pose of EST, in
-``--convention``; without ``--cov``, those EST carries: a bag topic's ``PoseWithCovarianceStamped``
-/ ``Odometry`` covariances, or the ``.npz`` of ``bag export --format npz``) under the alignment, as
-that convention requires. A ``nav_msgs/Path`` topic is one message (``--path-message``, default
-the last). ``--format json`` prints
-one JSON object on stdout (``rmse mean median std min max`` and more; ``anees`` for ``nees``);
-``--plot`` writes the trajectories, the errors over time and, for ``nees``, the NEES against
-its χ² bounds. Every input error is one line on stderr.
+The pipeline is evo's: read both files (TUM, KITTI or EuRoC, detected; the quaternion order per
+file with ``--ref-quat-order``/``--est-quat-order``, of both with ``--quat-order``, a header that
+names the order winning over a flag that contradicts it with an error; imperfect real files by
+one policy, ``--duplicates`` for repeated stamps and ``--quat-tolerance`` for quaternions off
+unit), associate by timestamp (``--max-diff`` 0.01 s, ``--offset`` 0 s), align the estimate to
+the reference (``--align``: ``none`` by default as evo, ``se3``, ``sim3``, ``4dof``), then compute
+the metric. ``nees`` also moves the estimate's covariances (``--cov`` ``(N, 6, 6)`` ``.npy``, one
+per pose of EST, in ``--convention``) under the alignment, as that convention requires.
+Without ``--cov``, ``nees`` takes the covariances EST carries: a bag topic's
+``PoseWithCovarianceStamped`` / ``Odometry`` covariances, or the ``.npz`` of ``bag export --format
+npz``. A ``nav_msgs/Path`` topic is one message (``--path-message``, default the last).
+``--format json`` prints one JSON object on stdout (``rmse mean median std min max`` and more;
+``anees`` for ``nees``); ``--plot`` writes the trajectories, the errors over time and, for
+``nees``, the NEES against its χ² bounds. Every input error is one line on stderr.
 """
 
 from __future__ import annotations
@@ -65,11 +68,13 @@ def _read_topic(
     what: str,
     path_message: int | None = None,
     cov_convention: Any = None,
+    duplicates: str = "first",
 ) -> tuple[FloatArray, FloatArray, FloatArray | None, str]:
     """Stamps, poses, covariances and type of a bag topic (PoseStamped, Odometry, Path, TF...).
 
     Streamed: only stamps and poses (136 B a message) are kept — and, with ``cov_convention``,
-    the pose covariances in that convention (288 B more), None for a type without them.
+    the pose covariances in that convention (288 B more), None for a type without them. Repeated
+    stamps follow the file readers' policy (``duplicates``).
     """
     try:
         from ..ros import iter_messages
@@ -99,8 +104,12 @@ def _read_topic(
     except (ValueError, OSError, ImportError) as exc:
         text = one_line(str(exc)).replace("path_message", "--path-message")
         raise CLIError(f"{what}: {text}") from None
+    t, T = np.concatenate(stamps), np.concatenate(poses)
     cov = np.concatenate(covs) if covs else None
-    return np.concatenate(stamps), np.concatenate(poses), cov, msgtype
+    keep = _one_per_stamp(t, f"{path}:{topic}", what, duplicates)
+    if keep is not None:
+        t, T, cov = t[keep], T[keep], (cov[keep] if cov is not None else None)
+    return t, T, cov, msgtype
 
 
 #: Arrays of the ``.npz`` that ``liebridge bag export --format npz`` writes, read back here.
@@ -143,31 +152,117 @@ def _read_npz(path: str, what: str) -> tuple[FloatArray, FloatArray, FloatArray 
     return t.astype(np.float64), T.astype(np.float64), cov, conv
 
 
+def _one_per_stamp(t: FloatArray, source: str, what: str, duplicates: str) -> Any:
+    """Apply the file readers' repeated-stamp policy to a bag topic: indices kept, or None."""
+    from ..io import sanity
+
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", sanity.ImperfectFileWarning)
+            keep = sanity.repeated_stamps(t, duplicates, source=source)
+    except sanity.RepeatedStampError as exc:
+        raise CLIError(
+            f"{what}: {exc.detail}; --duplicates first or last keeps one of each"
+        ) from None
+    for w in caught:
+        say(f"liebridge traj: warning: {what}: {one_line(str(w.message))}")
+    return None if keep.size == t.size else keep
+
+
 def _read(
     path: str,
     fmt: str,
     quat_order: str | None,
     what: str,
     topic: str | None = None,
+    *,
+    order_flag: str = "--quat-order",
+    duplicates: str = "first",
+    quat_tolerance: float = 1e-3,
     path_message: int | None = None,
 ) -> tuple[FloatArray, FloatArray]:
-    from ..io import trajfile
-    from ..io.sanity import QuaternionOrderWarning
+    from ..io import sanity, trajfile
 
     if topic is not None:
-        return _read_topic(path, topic, what, path_message)[:2]
+        if quat_order is not None and order_flag != "--quat-order":
+            raise CLIError(
+                f"{order_flag}: {what} is a bag topic; its messages name their quaternion fields"
+            )
+        return _read_topic(path, topic, what, path_message, duplicates=duplicates)[:2]
     if path.lower().endswith(".npz"):  # what 'bag export --format npz' writes
         return _read_npz(path, what)[:2]
-
+    if quat_order is not None and order_flag != "--quat-order":
+        try:
+            kind = trajfile.detect_format(path) if fmt == "auto" else fmt
+        except (ValueError, OSError):
+            kind = fmt  # the reader below names the fault
+        if kind == "kitti":
+            raise CLIError(
+                f"{order_flag}: {what} is a KITTI file (rotation matrices, no quaternions)"
+            )
+    hint = {
+        sanity.QuaternionOrderConflictError: (
+            "the header wins: drop --quat-order (it sets both files) and give the other file's "
+            "order alone with --ref-quat-order or --est-quat-order"
+            if order_flag == "--quat-order"
+            else f"the header wins: drop {order_flag}"
+        ),
+        sanity.RepeatedStampError: "--duplicates first or last keeps one of each",
+        sanity.QuaternionNormError: "--quat-tolerance accepts and normalises more",
+    }
     try:
         with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", QuaternionOrderWarning)
-            out = trajfile.read_trajectory(path, fmt, quat_order=quat_order)
+            warnings.simplefilter("always", sanity.QuaternionOrderWarning)
+            warnings.simplefilter("always", sanity.ImperfectFileWarning)
+            out = trajfile.read_trajectory(
+                path,
+                fmt,
+                quat_order=quat_order,
+                duplicates=duplicates,
+                quat_tolerance=quat_tolerance,
+            )
+    except (
+        sanity.QuaternionOrderConflictError,
+        sanity.RepeatedStampError,
+        sanity.QuaternionNormError,
+    ) as exc:
+        raise CLIError(f"{what}: {exc.detail}; {hint[type(exc)]}") from None
     except (ValueError, OSError) as exc:
         raise CLIError(f"{what}: {exc}") from None
     for w in caught:  # one line each on stderr, never Python's two-line warning format
         say(f"liebridge traj: warning: {what}: {one_line(str(w.message))}")
     return out.stamps, out.T
+
+
+def _order_read(path: str, fmt: str, order: str | None) -> str | None:
+    """Return the quaternion order a file was read in (None: KITTI, no quaternions)."""
+    from ..io import trajectory, trajfile
+
+    kind = trajfile.detect_format(path) if fmt == "auto" else fmt
+    if kind == "kitti":
+        return None
+    if kind == "euroc":
+        return "wxyz"
+    return order or trajectory.tum_header_order(path) or "xyzw"
+
+
+def _check_pair_order(T_ref: FloatArray, T_est: FloatArray, est_order: str) -> None:
+    """Warn when EST's rotations match REF's only in the other quaternion order."""
+    from ..io import sanity
+
+    with np.errstate(all="ignore"):
+        try:
+            ev = sanity.relative_order_evidence(T_ref[:, :3, :3], T_est[:, :3, :3], est_order)
+        except ValueError:
+            return
+    if ev.likely_order is None or ev.likely_order == est_order:
+        return
+    say(
+        f"liebridge traj: warning: REF and EST disagree on the quaternion order: EST read as "
+        f"{est_order} matches REF's rotations only when read as {ev.likely_order} "
+        f"({ev.confidence} evidence: {ev.reason}); if EST is {ev.likely_order}, pass "
+        f"--est-quat-order {ev.likely_order} (if REF is the one misread, --ref-quat-order)"
+    )
 
 
 def _prepare(
@@ -178,11 +273,36 @@ def _prepare(
 ) -> _Prepared:
     from .. import traj
 
+    tol = args.quat_tolerance
+    if not (np.isfinite(tol) and tol >= 0):
+        raise CLIError(f"--quat-tolerance: expected a finite number ≥ 0, got {tol:g}")
     pm = getattr(args, "path_message", None)
-    t_ref, T_ref = _read(args.ref, args.ref_format, args.quat_order, "REF", args.ref_topic, pm)
-    if est is None:
-        est = _read(args.est, args.est_format, args.quat_order, "EST", args.est_topic, pm)
-    t_est, T_est = est
+    files = []
+    read_as: list[str | None] = []
+    for what, path, fmt, topic, own, flag in (
+        ("REF", args.ref, args.ref_format, args.ref_topic, args.ref_quat_order, "--ref-quat-order"),
+        ("EST", args.est, args.est_format, args.est_topic, args.est_quat_order, "--est-quat-order"),
+    ):
+        order, used = (own, flag) if own is not None else (args.quat_order, "--quat-order")
+        if what == "EST" and est is not None:  # read already (with its covariances)
+            files.append(est)
+            read_as.append(None)
+            continue
+        files.append(
+            _read(
+                path,
+                fmt,
+                order,
+                what,
+                topic,
+                order_flag=used,
+                duplicates=args.duplicates,
+                quat_tolerance=tol,
+                path_message=pm,
+            )
+        )
+        read_as.append(None if topic is not None else _order_read(path, fmt, order))
+    (t_ref, T_ref), (t_est, T_est) = files
     if cov is not None and cov.shape[0] != len(t_est):
         raise CLIError(
             f"--cov: {cov.shape[0]} covariances for {len(t_est)} poses of EST "
@@ -204,6 +324,8 @@ def _prepare(
         )
     except ValueError as exc:
         raise CLIError(str(exc)) from None
+    if read_as[0] is not None and read_as[1] is not None:
+        _check_pair_order(s.T_ref, s.T_est, read_as[1])
     try:
         A = traj.align(s.T_ref, s.T_est, args.align)
     except ValueError as exc:
@@ -393,7 +515,12 @@ def _nees_inputs(
     conv = convention_arg(args.convention or "ros", "--convention")
     if args.est_topic is not None:
         t, T, bag_cov, mt = _read_topic(
-            args.est, args.est_topic, "EST", getattr(args, "path_message", None), conv
+            args.est,
+            args.est_topic,
+            "EST",
+            getattr(args, "path_message", None),
+            conv,
+            duplicates=getattr(args, "duplicates", "first"),
         )
         if bag_cov is None:
             raise CLIError(
@@ -510,7 +637,36 @@ def _common(q: argparse.ArgumentParser) -> None:
         "--quat-order",
         choices=("xyzw", "wxyz"),
         default=None,
-        help="quaternion order of TUM files (default: from the header, else xyzw)",
+        help="quaternion order of BOTH files (TUM; default: from the header, else xyzw); a "
+        "header naming the other order is an error (the header wins)",
+    )
+    q.add_argument(
+        "--ref-quat-order",
+        choices=("xyzw", "wxyz"),
+        default=None,
+        help="quaternion order of REF only (overrides --quat-order for REF)",
+    )
+    q.add_argument(
+        "--est-quat-order",
+        choices=("xyzw", "wxyz"),
+        default=None,
+        help="quaternion order of EST only (overrides --quat-order for EST)",
+    )
+    q.add_argument(
+        "--duplicates",
+        choices=("first", "last", "error"),
+        default="first",
+        help="repeated timestamps in a file or topic: keep the first of each (default, with a "
+        "warning giving the count), the last, or stop with an error",
+    )
+    q.add_argument(
+        "--quat-tolerance",
+        type=float,
+        default=1e-3,
+        metavar="TOL",
+        help="quaternions off unit by at most TOL are normalised (warning with the worst "
+        "deviation when the printed precision does not explain it); beyond it an error naming "
+        "file and line (default 1e-3)",
     )
 
 

@@ -282,7 +282,10 @@ def _core_to(conv: Convention, X: FloatArray, inverse: bool) -> FloatArray:
 
 def to_canonical(conv: Convention, X: FloatArray) -> FloatArray:
     """Return ``M``, ``ξ_gtsam = M d``: the derivative of ``gtsam.local(X, conv.retract(X, d))``."""
-    return _out(_core_to(conv, X, False) @ _selection_like(conv, X))
+    K = _core_to(conv, X, False)
+    if conv.embed is None:  # K·S with S a permutation: its columns, gathered
+        return _out(K[..., :, [int(i) for i in _rec(conv).perm(conv.order)]])
+    return _out(K @ _selection_like(conv, X))
 
 
 def from_canonical(conv: Convention, X: FloatArray) -> FloatArray:
@@ -290,7 +293,22 @@ def from_canonical(conv: Convention, X: FloatArray) -> FloatArray:
 
     For an embedding it is a right inverse: the extra coordinates are 0.
     """
-    return _out(arrays.mT(_selection_like(conv, X)) @ _core_to(conv, X, True))
+    K = _core_to(conv, X, True)
+    if conv.embed is None:  # Sᵀ·K: its rows, gathered
+        return _out(K[..., [int(i) for i in _rec(conv).perm(conv.order)], :])
+    return _out(arrays.mT(_selection_like(conv, X)) @ K)
+
+
+def is_canonical(conv: Convention) -> bool:
+    """Whether ``conv``'s tangent is the canonical one (its maps to and from it are ``I``)."""
+    g = _rec(conv)
+    return (
+        is_coupled(conv)
+        and conv.side == "right"
+        and conv.embed is None
+        and conv.rotation_scale == 1.0
+        and [int(i) for i in g.perm(conv.order)] == list(range(g.dim))
+    )
 
 
 def _selection_like(conv: Convention, X: FloatArray) -> FloatArray:

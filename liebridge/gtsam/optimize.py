@@ -43,6 +43,7 @@ from typing import Any
 import gtsam
 import numpy as np
 
+from .autodiff import AutodiffBatch, AutodiffSpec
 from .batch import BatchEvaluation, PoseFactorBatch, PoseFactorSpec, group_specs
 from .custom import identify, query_values
 from .marginals import indeterminate_message
@@ -166,6 +167,14 @@ class _Damping:
         return out
 
 
+@dataclass(frozen=True)
+class _State:
+    """What :meth:`_SplitGraph.evaluate` computed at one ``Values``, kept for linearizing there."""
+
+    poses: BatchEvaluation | None  # liebridge's between/prior factors
+    autodiff: list[Any] | None  # the autodiff factors' stacked poses
+
+
 class _LinearModel:
     """One linearization: the ``GaussianFactorGraph`` GTSAM eliminates and its error in numpy.
 
@@ -174,23 +183,32 @@ class _LinearModel:
     arrays (one pybind call instead of one per factor).
     """
 
-    def __init__(self, split: _SplitGraph, graph: Any, rest: Any, system: Any) -> None:
+    def __init__(
+        self, split: _SplitGraph, graph: Any, rest: Any, system: Any, ad_system: Any = None
+    ) -> None:
         self.split, self.graph, self.rest, self.system = split, graph, rest, system
+        self.ad_system = ad_system  # the autodiff factors' stacked (A, b, at), or None
 
     def error(self, delta: Any) -> float:
         err = float(self.rest.error(delta))
-        if self.system is None:
+        if self.system is None and self.ad_system is None:
             return err
-        assert self.split.batch is not None
         # blocks in the order of the graph's sorted keys, whatever the map's iteration order
         vec = np.asarray(delta.vector(self.split.keys), dtype=np.float64).reshape(-1)
-        return err + self.split.batch.linear_error(self.system, vec)
+        if self.system is not None:
+            assert self.split.batch is not None
+            err += self.split.batch.linear_error(self.system, vec)
+        if self.ad_system is not None:
+            err += AutodiffBatch.linear_error(self.ad_system, vec)
+        return err
 
     def error_at_zero(self, delta: Any) -> float:
         """``L(0) = ½ Σ ‖b‖²``: the same for every λ of an iteration."""
         err = float(self.rest.error(gtsam.VectorValues.Zero(delta))) if self.rest.size() else 0.0
         if self.system is not None:
             err += sum(0.5 * float(np.einsum("ki,ki->", b, b)) for _, _, b in self.system.values())
+        if self.ad_system is not None:
+            err += AutodiffBatch.error_at_zero(self.ad_system)
         return err
 
 
@@ -198,13 +216,16 @@ class _SplitGraph:
     """A graph split into GTSAM-evaluated factors and batched liebridge factors.
 
     The batched factors are bound once to the graph's keys and elimination ordering
-    (:class:`~liebridge.gtsam.batch.PoseFactorBatch`); ``evaluate`` returns the residuals it
-    computed with the error, and ``linear_model`` linearizes from them.
+    (:class:`~liebridge.gtsam.batch.PoseFactorBatch`; autodiff factors:
+    :class:`~liebridge.gtsam.autodiff.AutodiffBatch`, one vectorised call per residual
+    function); ``evaluate`` returns the residuals it computed with the error, and
+    ``linear_model`` linearizes from them.
     """
 
     def __init__(self, graph: Any, values: Any, batch: bool, ordering: Any = None) -> None:
         self.rest = gtsam.NonlinearFactorGraph()
         self.batch: PoseFactorBatch | None = None
+        self.autodiff: AutodiffBatch | None = None
         self.n_batched = 0
         self.keys: list[int] = []  # the graph's keys, sorted: the layout of linear_error's delta
         if not batch:
@@ -212,6 +233,7 @@ class _SplitGraph:
             return
         query = query_values()
         specs: list[PoseFactorSpec] = []
+        ad_specs: list[AutodiffSpec] = []
         for k in range(graph.size()):
             f = graph.at(k)
             if f is None:
@@ -220,9 +242,12 @@ class _SplitGraph:
             if isinstance(spec, PoseFactorSpec):
                 specs.append(spec)
                 continue
+            if isinstance(spec, AutodiffSpec):
+                ad_specs.append(spec)
+                continue
             self.rest.add(f)
-        self.n_batched = len(specs)
-        if not specs:
+        self.n_batched = len(specs) + len(ad_specs)
+        if not specs and not ad_specs:
             return
         if ordering is None:
             ordering = gtsam.Ordering.ColamdNonlinearFactorGraph(graph)
@@ -235,34 +260,47 @@ class _SplitGraph:
         for k in self.keys:
             offset[k] = total
             total += int(zero.at(k).shape[0])
-        self.batch = PoseFactorBatch(group_specs(specs), values, position, offset)
+        if specs:
+            self.batch = PoseFactorBatch(group_specs(specs), values, position, offset)
+        if ad_specs:
+            self.autodiff = AutodiffBatch(ad_specs, values, offset)
 
     def damping_groups(self) -> list[tuple[int, ...]]:
         """Key tuples whose damping can share a factor (see :class:`_Damping`)."""
         return [] if self.batch is None else self.batch.damping_groups()
 
-    def evaluate(self, values: Any) -> tuple[float, BatchEvaluation | None]:
+    def evaluate(self, values: Any) -> tuple[float, _State]:
         """Return the graph's error at ``values`` and the batched residuals computed for it."""
         err = float(self.rest.error(values))
-        if self.batch is None:
-            return err, None
-        ev = self.batch.evaluate(values)
-        return err + ev.error, ev
+        ev, ad = None, None
+        if self.batch is not None:
+            ev = self.batch.evaluate(values)
+            err += ev.error
+        if self.autodiff is not None:
+            ad_err, ad = self.autodiff.evaluate(values)
+            err += ad_err
+        return err, _State(ev, ad)
 
     def error(self, values: Any) -> float:
         return self.evaluate(values)[0]
 
-    def linear_model(self, values: Any, ev: BatchEvaluation | None) -> _LinearModel:
-        """Linearize at ``values``; ``ev``: :meth:`evaluate`'s residuals there (or None)."""
+    def linear_model(self, values: Any, state: _State | None) -> _LinearModel:
+        """Linearize at ``values``; ``state``: :meth:`evaluate`'s residuals there (or None)."""
         rest = self.rest.linearize(values)
-        if self.batch is None:
+        if self.batch is None and self.autodiff is None:
             return _LinearModel(self, rest, rest, None)
-        if ev is None:
-            ev = self.batch.evaluate(values)
+        if state is None:
+            state = self.evaluate(values)[1]
         linear = gtsam.GaussianFactorGraph()
         linear.push_back(rest)
-        system = self.batch.linearize(ev, linear)
-        return _LinearModel(self, linear, rest, system)
+        system, ad_system = None, None
+        if self.batch is not None:
+            assert state.poses is not None
+            system = self.batch.linearize(state.poses, linear)
+        if self.autodiff is not None:
+            assert state.autodiff is not None
+            ad_system = self.autodiff.linearize(state.autodiff, linear)
+        return _LinearModel(self, linear, rest, system, ad_system)
 
     def linearize(self, values: Any) -> Any:
         """Return the whole linear system at ``values`` as one ``GaussianFactorGraph``."""
