@@ -14,6 +14,8 @@ off. The maps, as the presets state them:
 
 from __future__ import annotations
 
+import dataclasses
+
 import mpmath
 import numpy as np
 
@@ -153,9 +155,19 @@ def _blocks(group: str, X: mpmath.matrix) -> tuple[mpmath.matrix, list[list]]:
     return R, [[X[i, c] for i in range(nr)] for c in cols]
 
 
+def _mp_inv(X: np.ndarray) -> np.ndarray:
+    """The inverse at 50 digits, rounded (for a convention that stores the inverse)."""
+    with mpmath.workdps(DPS):
+        return _f(mpmath.inverse(_m(X)))
+
+
 def retract(conv: Convention, group: str, X: np.ndarray, d: np.ndarray) -> np.ndarray:
     """50-digit ``conv.retract(X, d)`` (``group``: what ``X`` is; ``so3`` for an SE(3) preset's
-    rotation part)."""
+    rotation part). A convention that stores the inverse updates ``X⁻¹``."""
+    if conv.stores == "inverse":
+        with mpmath.workdps(DPS):
+            Y = _m(retract(dataclasses.replace(conv, stores="pose"), group, _mp_inv(X), d))
+            return _f(mpmath.inverse(Y))
     with mpmath.workdps(DPS):
         Xm = _m(X)
         r, u, scale = _split(conv, group, d)
@@ -184,6 +196,8 @@ def retract(conv: Convention, group: str, X: np.ndarray, d: np.ndarray) -> np.nd
 
 def local(conv: Convention, group: str, X: np.ndarray, Y: np.ndarray) -> np.ndarray:
     """50-digit ``conv.local(X, Y)`` (the inverse of :func:`retract`)."""
+    if conv.stores == "inverse":
+        return local(dataclasses.replace(conv, stores="pose"), group, _mp_inv(X), _mp_inv(Y))
     with mpmath.workdps(DPS):
         Xm, Ym = _m(X), _m(Y)
         if group in ("so3", "so2") or conv.chart in ("se3", "se2", "sim3", "se23", "so2"):

@@ -126,6 +126,8 @@ def test_first_order_maps_of_the_reference_table():
         "theseus": P,
         "barfoot": P @ Ad,
         "pypose": P @ Ad,
+        "lietorch": P @ Ad,
+        "dpvo": -P,
         "pytransform3d_global": Ad,
         "symforce": np.block([[Id, Z], [Z, R]]),
         "ros": np.block([[Z, R], [R, Z]]),
@@ -545,7 +547,7 @@ def test_fuzz_either_a_finite_answer_or_one_clear_error(group: str, data: st.Dat
 # ----------------------------------------------------------------------------- SE(3) unchanged
 def test_se3_users_see_no_change() -> None:
     assert C.GTSAM.group == "se3" and C.get("ros").group == "se3"
-    assert len(C.PRESETS) == 22 and C.names()[:22] == [c.name for c in C.PRESETS]
+    assert len(C.PRESETS) == 24 and C.names()[:24] == [c.name for c in C.PRESETS]
     c = Convention("mine", "right", "rot_first", "so3xr3_body", "exp", "wxyz")
     assert c.group == "se3" and c.fields == ("right", "rot_first", "so3xr3_body", "exp")
     R = se23.exp(np.r_[0.1, 0.2, 0.3, np.zeros(6)])[:3, :3]

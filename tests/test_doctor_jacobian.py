@@ -384,7 +384,7 @@ def test_result_is_json_ready():
 
 DISTINCT = {}
 for _p in PRESETS:
-    if not _p.is_euler:
+    if not _p.is_euler and _p.stores == "pose":  # the doctor's words: side, order, chart
         DISTINCT.setdefault(_p.fields, _p)  # one preset per retraction
 PAIRS = [
     (a, b)
@@ -530,3 +530,13 @@ def test_the_printed_fix_for_input_and_output_sides_is_right():
     )
     np.testing.assert_allclose(fixed, se3.adjoint(se3.inverse(Z)), atol=1e-12)
     assert diagnose_jacobian(compose, fixed, X, solver_convention="gtsam").verdict == "correct"
+
+
+def test_a_pypose_jacobian_given_to_a_solver_on_world_to_camera_poses():
+    """A solver that updates the stored inverse (dpvo): the cause names the stored inverse."""
+    J = lb.convert_jacobian(act_right(X), X, "gtsam", "pypose")
+    d = diagnose_jacobian(act, J, X, solver_convention="dpvo")
+    assert d.verdict == "convention_mismatch" and "pypose" in d.explanation, d
+    assert d.cause == "stored_inverse", d
+    fixed = J @ lb.tangent_map(X, "dpvo", "pypose")
+    assert diagnose_jacobian(act, fixed, X, solver_convention="dpvo").verdict == "correct"

@@ -389,6 +389,8 @@ def tangent_label(conv: Any) -> str:
     """E.g. ``(v, ω), right X·Exp(d), se3``: what a 6-vector in ``conv`` means."""
     order = "(ω, v)" if conv.order == "rot_first" else "(v, ω)"
     side = "right X·Exp(d)" if conv.side == "right" else "left Exp(d)·X"
+    if getattr(conv, "stores", "pose") == "inverse":  # the library updates Y = X⁻¹
+        side = side.replace("X", "Y") + " on the stored Y = X⁻¹"
     return f"{order}, {side}, chart {conv.chart}, rotation {conv.rotation}"
 
 

@@ -141,6 +141,8 @@ def _as_dict(c: Chart) -> dict[str, Any]:
     if isinstance(c, NavChart):
         out |= {"pose": c.pose.describe(), "velocity": c.velocity}
     row = _row(c)
+    if isinstance(c, Convention) and c.stores != "pose":
+        out["stores"] = c.stores  # the library holds the inverse of liebridge's element
     return out | {
         "name": c.name,
         "side": row["side"],

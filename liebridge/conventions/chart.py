@@ -83,7 +83,7 @@ class Chart(ABC):
 
     # ----------------------------------------------------------------- shared descriptors
     @property
-    def fields(self) -> tuple[str, str, str, str]:
+    def fields(self) -> tuple[str, ...]:
         """Return the key of this retraction (a Convention's ``(side, order, chart, rotation)``)."""
         return self._key
 

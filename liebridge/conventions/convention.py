@@ -32,6 +32,12 @@ A :class:`Convention` says how a library perturbs a pose ``X = (R, t)`` with a 6
 ``embed``
     optional :class:`Embed`: the tangent is a longer vector holding the group's coordinates at
     fixed entries (``ros_pose2``: SE(2)'s ``(x, y, yaw)`` at entries 0, 1, 5 of ROS's 6-vector).
+``stores``
+    ``pose`` (default): the library holds liebridge's element ``X``; ``inverse``: it holds
+    ``X⁻¹`` and applies the fields above to that (DPVO and DROID-SLAM keep world→camera poses in
+    lietorch, liebridge's element is ``T_world_cam``), so ``retract(X, d) =
+    inv(retract_Y(X⁻¹, d))`` and ``to_canonical(X) = −Ad_{X⁻¹}·M_Y(X⁻¹)``; coupled chart only
+    (:mod:`liebridge.conventions.stored_inverse`).
 
 Canonical (GTSAM) is ``right, rot_first, se3, exp``. ``local(X, retract(X, d)) == d`` within the
 chart's domain (``‖ω‖ < π``; ``‖r‖ < 1`` for ``quat_vec``), and the first-order maps
@@ -51,6 +57,7 @@ from .chart import Chart
 from .engine import RECORD_ENGINE, Engine, engine_for
 from .rotation_coords import EULER_COORDS, FIRST_ORDER_SCALE, ROTATION_COORDS
 from .se3_engine import group_input
+from .stored_inverse import STORES, engine_storing
 
 #: The groups liebridge ships (every registered one: ``liebridge.lie.GROUPS``).
 GROUP_NAMES = ("so2", "se2", "so3", "se3", "sim3", "se23")
@@ -77,6 +84,7 @@ class Embed:
 
 
 Side = Literal["right", "left"]
+Stores = Literal["pose", "inverse"]
 Order = Literal["rot_first", "trans_first"]
 #: A chart's name (the shipped groups': their own, ``split_body``/``split_world``, SE(3)'s
 #: ``se3``/``so3xr3_body``/``so3xr3_world``; a registered group may declare others).
@@ -127,6 +135,8 @@ class Convention(Chart):
         The group (its registered name or record; stored as the name).
     embed : Embed, optional
         A tangent stored inside a longer vector.
+    stores : {"pose", "inverse"}
+        What the library holds: liebridge's element, or its inverse (a world→camera pose).
     """
 
     name: str
@@ -139,6 +149,7 @@ class Convention(Chart):
     notes: str = field(default="", compare=False, repr=False)
     group: str = DEFAULT_GROUP  # a registered Group record is accepted and stored as its name
     embed: Embed | None = None
+    stores: Stores = "pose"
     _key: tuple[str, str, str, str] = field(init=False, repr=False, compare=False)
     _eng: Engine = field(init=False, repr=False, compare=False)
 
@@ -150,7 +161,8 @@ class Convention(Chart):
         object.__setattr__(self, "chart", g.chart(self.chart))
         _check_field("rotation", self.rotation, ROTATION_COORDS)
         _check_field("quat_order", self.quat_order, QUAT_ORDERS)
-        eng = engine_for(g)
+        _check_field("stores", self.stores, STORES)
+        eng = engine_storing(engine_for(g), self.stores)
         object.__setattr__(self, "_eng", eng)  # the group's engine, looked up once
         if self.rotation in EULER_COORDS and not eng.euler:
             raise ValueError(
@@ -194,7 +206,9 @@ class Convention(Chart):
         numpy: the group's (its fast implementation where it has one); torch/JAX arrays: the
         record-driven one, written array-generically.
         """
-        return RECORD_ENGINE if arrays.any_foreign(*xs) else self._eng
+        if arrays.any_foreign(*xs):
+            return engine_storing(RECORD_ENGINE, self.stores)
+        return self._eng
 
     def __getstate__(self) -> dict[str, Any]:
         state = dict(self.__dict__)
@@ -204,12 +218,17 @@ class Convention(Chart):
     def __setstate__(self, state: dict[str, Any]) -> None:
         for k, v in state.items():
             object.__setattr__(self, k, v)
-        object.__setattr__(self, "_eng", engine_for(state["group"]))
+        stores = state.setdefault("stores", "pose")  # pickled before the field existed
+        object.__setattr__(self, "stores", stores)
+        object.__setattr__(self, "_eng", engine_storing(engine_for(state["group"]), stores))
 
     @property
-    def fields(self) -> tuple[str, str, str, str]:
-        """``(side, order, chart, rotation)``: what a retraction determines (not ``quat_order``)."""
-        return self._key
+    def fields(self) -> tuple[str, ...]:
+        """``(side, order, chart, rotation)``: what a retraction determines (not ``quat_order``).
+
+        A convention that stores the inverse appends ``"inverse"``: its retraction differs.
+        """
+        return self._key if self.stores == "pose" else (*self._key, "inverse")
 
     @property
     def is_euler(self) -> bool:
@@ -233,6 +252,8 @@ class Convention(Chart):
         """One line: name and fields."""
         head = f"{self.name}: " if self.group == DEFAULT_GROUP else f"{self.name} ({self.group}): "
         tail = f", embed={self.embed.index} in {self.embed.size}" if self.embed else ""
+        if self.stores != "pose":
+            tail += f", stores={self.stores}"
         return (
             f"{head}side={self.side}, order={self.order}, chart={self.chart}, "
             f"rotation={self.rotation}, quat_order={self.quat_order}{tail}"

@@ -3,7 +3,9 @@
 ``detect_convention(retract)`` calls ``retract(X, d)`` at a generic pose (or rotation) for a set of
 increments and compares the results with every convention of the model (2 sides × 2 orders ×
 (SE(3) exp + 2 decoupled charts × 4 rotation coordinates) = 36 for poses, 8 for rotations, plus
-the Euler-angle charts (``euler_zyx``, ``euler_rpy``; side-free): 8 for poses, 2 for rotations).
+the Euler-angle charts (``euler_zyx``, ``euler_rpy``; side-free): 8 for poses, 2 for rotations,
+plus, for poses, the group exponential applied to the stored inverse (``stores="inverse"``,
+2 sides × 2 orders: DPVO's and DROID-SLAM's world→camera poses in lietorch)).
 Distinct conventions give distinct retractions at these probes, including the pairs that agree to
 first order (``half_exp`` vs ``quat_vec``, ``se3`` vs ``so3xr3_body``), because the increments
 are finite (‖d‖ ≈ 0.5). Nothing about the library is assumed: GTSAM's own build is checked this
@@ -53,12 +55,27 @@ def _candidates(g: Group) -> list[Convention]:
     # a rotation group perturbs its rotation only: its first split chart, if it has one
     charts = (g.charts[min(1, len(g.charts) - 1)],) if rotation_group else g.charts
     sides = SIDES if g.rot is not None else ("right",)
-    return [
+    out = [
         Convention("detected:" + "/".join(c), *c, "wxyz", group=g.name)  # type: ignore[arg-type]
         for c in itertools.product(sides, orders, charts, rots)
         if (c[2] != g.coupled_chart or c[3] == "exp")
         and (c[0] == "right" or c[3] not in EULER_COORDS)
     ]
+    if not rotation_group:  # a library that updates the stored inverse (world→camera poses)
+        out += [
+            Convention(
+                f"detected:{side}/{order}/{g.coupled_chart}/exp/inverse",
+                side,  # type: ignore[arg-type]
+                order,  # type: ignore[arg-type]
+                g.coupled_chart,
+                "exp",
+                "wxyz",
+                group=g.name,
+                stores="inverse",
+            )
+            for side, order in itertools.product(SIDES, orders)
+        ]
+    return out
 
 
 def _as_matrix(y: Any, what: str = "retract(X, d)", g: Group | None = None) -> FloatArray:
@@ -103,8 +120,8 @@ def detect_convention(
         coordinates of the group.
     prefer : str, optional
         Among presets with the same retraction (Sophus, manif, Pinocchio, jaxlie and Theseus are
-        all right/(v, ω)/SE(3) exp), return this one if it matches; else the first in registry
-        order. :func:`matching_presets` lists them all.
+        all right/(v, ω)/SE(3) exp; PyPose and lietorch left/(v, ω)), return this one if it
+        matches; else the first in registry order. :func:`matching_presets` lists them all.
     tol : float
         Accepted max-abs mismatch of the probed matrices.
     rng : numpy.random.Generator, optional
@@ -201,6 +218,7 @@ def detect_convention(
         "wxyz",
         source="measured by liebridge.detect_convention",
         group=cand.group,
+        stores=cand.stores,
     )
 
 

@@ -337,6 +337,64 @@ MR_SPACE = Convention(
 )
 """Modern Robotics space twist: left, (ω, v), SE(3) exp."""
 
+LIETORCH = Convention(
+    name="lietorch",
+    side="left",
+    order="trans_first",
+    chart="se3",
+    rotation="exp",
+    quat_order="xyzw",
+    source="S princeton-vl/lietorch@e7df865 lietorch/groups.py:153-156 (retr: 'Exp(a) * X'), "
+    ":44-45 (LieGroupParameter.add_ = exp(update)·group), :265-272 (SE3 storage [t, q_xyzw]); "
+    "include/se3.h:34-43, 89-97 (exp with the left Jacobian V, tangent (tau, phi)); "
+    "src/lietorch_gpu.cu:41-42 (gradients w.r.t. a left perturbation). N read, not run: "
+    "lietorch builds only with CUDA; its convention is PyPose's, measured through pypose",
+    notes=(
+        "X.retr(a) = Exp(a)·X (left), a = (τ, φ) translation first, the true SE(3) exp; storage "
+        "SE3.data = [tx, ty, tz, qx, qy, qz, qw]; gradients are taken w.r.t. a left "
+        "perturbation. Same convention as PyPose (which ships Jr, lietorch Jinv). False: "
+        "X·Exp(a), and data = [qw, qx, qy, qz, ...] (the wxyz swap of lietorch#14)."
+    ),
+)
+"""lietorch ``SE3``: left, (τ, φ), SE(3) exp; storage ``[tx, ty, tz, qx, qy, qz, qw]``.
+
+Storage order ``[t, q_xyzw]``; tangent order (translation, rotation); side left,
+``retr(a) = Exp(a)·X``. Defining identity: ``X.retr(a).matrix() = expm(hat(a))·X.matrix()`` with
+``hat`` of ``(τ, φ)``. Tempting and false: ``X·Exp(a)`` (Theseus's side), or a quaternion stored
+``wxyz``. Read in the source (CUDA only, not run here); PyPose's identical convention is run.
+"""
+
+DPVO = Convention(
+    name="dpvo",
+    side="left",
+    order="trans_first",
+    chart="se3",
+    rotation="exp",
+    quat_order="xyzw",
+    stores="inverse",
+    source="S lietorch on the stored inverse T_cam_world: princeton-vl/DPVO dpvo/dpvo.py "
+    "(terminate: poses.inv(), 'internal representation is world-to-camera'), dpvo/ba.py "
+    "(poses updated with lietorch retr); princeton-vl/"
+    "DROID-SLAM droid_slam/droid.py (terminate returns camera_trajectory.inv()); DPVO#27, "
+    "DROID-SLAM#77; lietorch as the 'lietorch' preset. N not run: lietorch needs CUDA; the "
+    "same update is run with PyPose's identical convention on the stored inverse",
+    notes=(
+        "DPVO and DROID-SLAM keep T_cam_world (world→camera) in lietorch and update it "
+        "Exp(a)·T_cam_world. On liebridge's element T_world_cam that is "
+        "T_world_cam·Exp(−P·a), P = (τ, φ) → (ω, v): a right update with the sign flipped. "
+        "False: the stored 7-vector is the camera pose in the world (it is its inverse), and "
+        "T_world_cam·Exp(P·a) (the sign)."
+    ),
+)
+"""DPVO / DROID-SLAM (alias ``droid_slam``): lietorch on world→camera poses.
+
+Storage ``[tx, ty, tz, qx, qy, qz, qw]`` of ``T_cam_world`` (the inverse of liebridge's
+``T_world_cam``); tangent order (τ, φ); side left on the stored world→camera pose, so on
+``T_world_cam``: ``retract(T, a) = T·Exp(−P·a)``. Defining identity: ``retract(T, a) =
+inv(Exp(a)·inv(T))``. Tempting and false: treating the stored vector as ``T_world_cam``, or
+dropping the minus sign (``T·Exp(P·a)``).
+"""
+
 KORNIA = Convention(
     name="kornia",
     side="right",
@@ -344,15 +402,25 @@ KORNIA = Convention(
     chart="se3",
     rotation="exp",
     quat_order="wxyz",
-    source="V kornia 0.9.0 (Se3.exp/log, composition); S kornia/geometry/liegroup/se3.py",
+    source="V kornia 0.9.0 (Se3.exp/log, composition, Se3.r.q storage); "
+    "S kornia/geometry/liegroup/se3.py",
     notes=(
-        "Se3.exp(v), v = (translation part, rotation vector) = (v, ω); Se3.r is a Quaternion "
-        "stored wxyz. kornia has no update: the side is the one Sophus's (which kornia's Se3 "
-        "follows) uses, X·exp(v); the order and the exponential are kornia's. False: "
-        "v = (ω, v) as in GTSAM."
+        "Se3.exp(v), v = (υ, ω) (translation part first); Se3.r is a Quaternion stored "
+        "(w, x, y, z); a * b is the matrix product. kornia has no update of its own: the side is "
+        "the user's choice; this preset uses X·exp(v) (replace(KORNIA, side='left') for "
+        "exp(v)·X). False: v = (ω, υ) as in GTSAM, and a quaternion stored (x, y, z, w)."
     ),
 )
-"""kornia ``Se3``: (v, ω), SE(3) exp, quaternions wxyz (no update: right, as Sophus)."""
+"""kornia ``Se3``: (υ, ω), SE(3) exp, quaternion ``(w, x, y, z)``; the side is the user's choice.
+
+Storage: ``Se3.r`` a ``Quaternion`` with ``.data = [w, x, y, z]``, ``Se3.t`` the translation;
+tangent order (υ, ω) for ``Se3.exp``/``log``; ``a * b`` is the matrix product. kornia has no
+update (no ``retract``/``plus``), so the side is the user's: this preset takes ``X·Exp(v)``
+(right, as Sophus, which kornia's ``Se3`` follows); ``dataclasses.replace(KORNIA, name=...,
+side="left")`` gives the other. Defining identity: ``Se3.exp(v).matrix() = expm(hat(v))`` with
+``hat`` of ``(υ, ω)``. Tempting and false: ``v = (ω, υ)`` (GTSAM's order), a quaternion read
+``xyzw``.
+"""
 
 #: All presets, in registry order (ties in :func:`detect_convention` resolve to the first).
 PRESETS: tuple[Convention, ...] = (
@@ -365,6 +433,8 @@ PRESETS: tuple[Convention, ...] = (
     JAXLIE,
     THESEUS,
     PYPOSE,
+    LIETORCH,
+    DPVO,
     BARFOOT,
     PYTRANSFORM3D_GLOBAL,
     PYTRANSFORM3D_LOCAL,
@@ -681,6 +751,10 @@ GROUP_PRESETS: tuple[Convention, ...] = (
 
 #: Every preset of every group (``PRESETS`` keeps the SE(3)/SO(3) ones, as before groups).
 ALL_PRESETS: tuple[Convention, ...] = PRESETS + GROUP_PRESETS
+
+#: Second names of presets (``get(alias)`` returns the preset itself): DROID-SLAM stores its
+#: poses as DPVO does (both are lietorch on world→camera poses, by the same authors).
+ALIASES: dict[str, str] = {"droid_slam": "dpvo"}
 
 
 @dataclass(frozen=True)

@@ -8,7 +8,8 @@ from typing import Any
 from .._validate import FloatArray
 from .chart import Chart
 from .convention import Convention
-from .presets import ALL_PRESETS
+from .engine import engine_for
+from .presets import ALIASES, ALL_PRESETS
 from .registration_presets import REGISTRATION_PRESETS
 from .state_presets import STATE_PRESETS
 
@@ -45,9 +46,12 @@ def get(name: ConventionLike) -> Chart:
     key = name.strip().lower().replace("-", "_")
     if key in _REGISTRY:
         return _REGISTRY[key]
+    if key in ALIASES:  # a second name of a preset (droid_slam → dpvo)
+        return _REGISTRY[ALIASES[key]]
     # near misses first (a typo), then looser ones
-    close = difflib.get_close_matches(key, _REGISTRY, n=3, cutoff=0.75)
-    close = close or difflib.get_close_matches(key, _REGISTRY, n=3, cutoff=0.5)
+    known = [*_REGISTRY, *ALIASES]
+    close = difflib.get_close_matches(key, known, n=3, cutoff=0.75)
+    close = close or difflib.get_close_matches(key, known, n=3, cutoff=0.5)
     hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
     raise ValueError(f"convention: unknown name {name!r}{hint} (known: {', '.join(_REGISTRY)})")
 
@@ -76,7 +80,7 @@ def pose_convention(chart: Any, name: str, X: FloatArray | None = None) -> Conve
     the conventions whose engine acts on poses and 3-D rotations.
     """
     label = getattr(chart, "name", repr(chart))
-    if not isinstance(chart, Convention) or not chart._engine.rotations_3d:
+    if not isinstance(chart, Convention) or not engine_for(chart.group).rotations_3d:
         group = getattr(chart, "group", None)
         raise ValueError(
             f"{name}: {label!r} is a convention of {group}, but this operation takes poses "

@@ -52,20 +52,26 @@ def from_canonical(conv: Chart, X: FloatArray) -> FloatArray:
     return conv._from_canonical(X)
 
 
+def _canonical(c: Chart) -> bool:
+    """Whether ``c``'s maps to and from the canonical tangent are ``I`` (a stored pose's)."""
+    return isinstance(c, Convention) and c.stores == "pose" and is_canonical(c)
+
+
 def tangent_map(X: FloatArray, src: Chart, dst: Chart) -> FloatArray:
     """``tangent_map(X, src, dst)`` without validation: ``δ_dst = M δ_src`` at ``X``."""
     if (  # SE(3)/SO(3) conventions: the closed-form pair grid
         isinstance(src, Convention)
         and isinstance(dst, Convention)
         and src._engine.rotations_3d
+        and dst._engine.rotations_3d
         and not (src.is_euler or dst.is_euler)
         and not arrays.is_foreign(X)
     ):
         return pair_tangent_map(src, dst, X.shape[-1] == 3)(X)
     # the maps to and from the canonical tangent (one of them I: skipped)
-    if isinstance(src, Convention) and is_canonical(src):
+    if _canonical(src):
         M = dst._from_canonical(X)
-    elif isinstance(dst, Convention) and is_canonical(dst):
+    elif _canonical(dst):
         M = src._to_canonical(X)
     else:
         M = dst._from_canonical(X) @ src._to_canonical(X)

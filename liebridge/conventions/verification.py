@@ -89,6 +89,8 @@ class Check:
     variants : tuple of (str, str)
         ``(detected preset, verdict text)`` for known builds of another variant (e.g.
         ``gtsam_cayley`` on an exponential-chart wheel).
+    install : str
+        How to install the library, where it is not ``pip install <dist>``.
     """
 
     preset: str
@@ -99,6 +101,7 @@ class Check:
     make: Callable[[Any], Ops]
     on: str = ""
     variants: tuple[tuple[str, str], ...] = ()
+    install: str = ""
 
 
 @dataclass(frozen=True)
@@ -548,6 +551,46 @@ def _pypose(kind: str) -> Callable[[Any], Ops]:
     return make
 
 
+def _inverted(ops: Ops) -> Ops:
+    """Apply a library's ops to the stored inverse ``X⁻¹`` (world→camera poses, DPVO)."""
+    inv = np.linalg.inv
+
+    def retract(X: FloatArray, d: FloatArray) -> FloatArray:
+        return inv(ops.retract(inv(X), d))
+
+    local = ops.local
+    if local is None:
+        return Ops(retract)
+    return Ops(retract, lambda X, Y: local(inv(X), inv(Y)))
+
+
+def _pypose_stored_inverse(pp: Any) -> Ops:
+    """PyPose's ``Retr``/``Log`` on ``T_cam_world``: DPVO's update (lietorch has PyPose's)."""
+    return _inverted(_pypose("se3")(pp))
+
+
+def _lietorch(stores: str) -> Callable[[Any], Ops]:
+    def make(lt: Any) -> Ops:
+        import torch  # lietorch's own dependency
+
+        def G(X: FloatArray) -> Any:
+            q = _quat_wxyz(X[:3, :3])
+            v = np.concatenate([X[:3, 3], q[1:], q[:1]])  # [t, qx, qy, qz, qw]
+            return lt.SE3(torch.tensor(v[None], dtype=torch.float64))
+
+        def retract(X: FloatArray, d: FloatArray) -> FloatArray:
+            a = torch.tensor(np.asarray(d)[None], dtype=torch.float64)
+            return _np(G(X).retr(a).matrix())[0]
+
+        def local(X: FloatArray, Y: FloatArray) -> FloatArray:
+            return _np((G(Y) * G(X).inv()).log())[0]
+
+        ops = Ops(retract, local)
+        return _inverted(ops) if stores == "inverse" else ops
+
+    return make
+
+
 def _theseus(kind: str) -> Callable[[Any], Ops]:
     def make(th: Any) -> Ops:
         import torch  # theseus's own dependency
@@ -692,6 +735,12 @@ def _ceres_pose(pyceres: Any) -> Ops:
 _EXP = "exp/log and composition on the preset's side (the library has no update)"
 
 #: Every measurable (preset, library call), in registry order of the presets.
+#: lietorch is built from its sources with a CUDA toolkit (no wheel on PyPI): read, not run, here.
+_LIETORCH_INSTALL = (
+    "pip install git+https://github.com/princeton-vl/lietorch.git, CUDA toolkit needed; "
+    "its convention was read in the source and is PyPose's, run in the pypose rows"
+)
+
 CHECKS: tuple[Check, ...] = (
     Check("gtsam", "gtsam", "gtsam", "gtsam", "Pose3.retract/localCoordinates", _gtsam_pose3),
     Check("gtsam", "gtsam", "gtsam", "gtsam", "Rot3.retract/localCoordinates", _gtsam_rot3, "so3"),
@@ -757,6 +806,33 @@ CHECKS: tuple[Check, ...] = (
     Check("jaxlie", "jaxlie", "jaxlie", "jaxlie", "manifold.rplus/rminus on SE3", _jaxlie("se3")),
     Check("theseus", "theseus-ai", "theseus", "theseus-ai", "SE3.retract/local", _theseus("se3")),
     Check("pypose", "pypose", "pypose", "pypose", "SE3 Retr / (Y·X⁻¹).Log", _pypose("se3")),
+    Check(
+        "lietorch",
+        "lietorch",
+        "lietorch",
+        "lietorch",
+        "SE3.retr / (Y·X⁻¹).log",
+        _lietorch("pose"),
+        install=_LIETORCH_INSTALL,
+    ),
+    Check(
+        "dpvo",
+        "lietorch",
+        "lietorch",
+        "lietorch",
+        "SE3.retr / log on the stored T_cam_world (DPVO's and DROID-SLAM's update)",
+        _lietorch("inverse"),
+        install=_LIETORCH_INSTALL,
+    ),
+    Check(
+        "dpvo",
+        "pypose",
+        "pypose",
+        "pypose",
+        "SE3 Retr / Log on the stored T_cam_world (DPVO's lietorch update; PyPose has lietorch's "
+        "convention)",
+        _pypose_stored_inverse,
+    ),
     Check(
         "pytransform3d_global",
         "pytransform3d",
@@ -1182,7 +1258,7 @@ def verify(
                     None,
                     None,
                     None,
-                    f"not installed (pip install {check.dist})",
+                    f"not installed ({check.install or 'pip install ' + check.dist})",
                     check.what,
                 )
             )

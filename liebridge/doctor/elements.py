@@ -210,7 +210,8 @@ def candidates(kind: str, extra: Sequence[Convention] = ()) -> list[Convention]:
             for c in itertools.product(SIDES, ORDERS, rec.charts)
         ]
     else:
-        presets = [p for p in PRESETS if not p.is_euler]
+        # a stored inverse (dpvo) is not a side/order/chart the doctor's words describe
+        presets = [p for p in PRESETS if not p.is_euler and p.stores == "pose"]
         if rec is so3.GROUP:
             combos = [
                 Convention("/".join((s, r)), s, "rot_first", "so3xr3_body", r, "wxyz")  # type: ignore[arg-type]

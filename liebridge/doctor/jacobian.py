@@ -199,6 +199,8 @@ def _cause_of(found: Convention, want: Convention, kind: str) -> str:
         parts.append("half_angle")
     if blocks and found.chart != want.chart:
         parts.append("chart")
+    if found.stores != want.stores:  # e.g. a solver on world→camera poses (dpvo)
+        parts.append("stored_inverse")
     return "+".join(parts) or "convention"
 
 

@@ -107,6 +107,7 @@ def is_coupled_chart(conv: Convention) -> bool:
         and type(conv) is Convention
         and conv.embed is None
         and conv.chart == g.coupled_chart
+        and conv.stores == "pose"  # a stored inverse (dpvo) takes the general path
     )
 
 
