@@ -172,6 +172,7 @@ def as_float_array(x: Any, name: str) -> FloatArray:
     A pose or rotation object of a known library (:data:`LIBRARY_OBJECTS`), or a list of them,
     becomes its homogeneous matrix (a batch for a list or a vectorized object).
     """
+    x = arrays.unwrap(x, name)
     if arrays.is_foreign(x):
         return _foreign_to_numpy(x, name)
     if type(x) is np.ndarray and x.dtype is _F64:
@@ -415,6 +416,7 @@ def checked_rotation(arr: FloatArray, name: str, tol: float = ROTATION_TOL) -> F
 
 def rotation(x: Any, name: str, tol: float = ROTATION_TOL) -> FloatArray:
     """Validate a batch of rotation matrices, shape ``(..., 3, 3)``."""
+    x = arrays.unwrap(x, name)
     if arrays.is_foreign(x):
         return _foreign_rotation(x, name, tol)
     return checked_rotation(as_float_array(x, name), name, tol)
@@ -447,6 +449,7 @@ def checked_pose(arr: FloatArray, name: str, tol: float = ROTATION_TOL) -> Float
 
 def pose(x: Any, name: str, tol: float = ROTATION_TOL) -> FloatArray:
     """Validate a batch of homogeneous SE(3) matrices, shape ``(..., 4, 4)``."""
+    x = arrays.unwrap(x, name)
     if arrays.is_foreign(x):
         return _foreign_pose(x, name, tol)
     return checked_pose(as_float_array(x, name), name, tol)

@@ -107,12 +107,26 @@ def to_numpy(x: Any) -> np.ndarray:
     return np.asarray(x)
 
 
+#: Readers of other libraries' pose objects that hold tensors (PyPose ``LieTensor``, lietorch,
+#: Theseus, kornia, jaxlie), by top-level module: ``root → reader(obj, name) -> matrix`` in the
+#: object's own array type. :mod:`liebridge.interop` registers them (this floor names no library).
+OBJECT_READERS: dict[str, Callable[[Any, str], Any]] = {}
+
+
+def unwrap(x: Any, name: str) -> Any:
+    """``x``'s homogeneous matrix if it is a registered library's pose object, else ``x``."""
+    reader = OBJECT_READERS.get(type(x).__module__.partition(".")[0])
+    return reader(x, name) if reader is not None else x
+
+
 def common(*xs: Any) -> tuple[Any, ...]:
     """``xs`` with numpy arrays, lists and numbers moved to the first torch/JAX array's type.
 
     Mixed calls (a tensor pose and a numpy increment) then run on the tensor's namespace, device
     and dtype; anything else (another library's pose object, a string) is left for validation.
     """
+    if OBJECT_READERS:
+        xs = tuple(unwrap(x, "argument") for x in xs)
     ref = next((x for x in xs if is_foreign(x)), None)
     if ref is None:
         return xs

@@ -59,6 +59,7 @@ from typing import Any
 import numpy as np
 
 from . import _validate as validate
+from . import arrays
 from ._validate import library_key
 
 __all__ = [
@@ -458,3 +459,13 @@ def to_library(T: Any, like: Any, name: str = "T") -> Any:
             return cls(list(flat))
         return cls.from_matrix(flat)
     return _build_nested(cls, M, how, core)
+
+
+def _read_object(obj: Any, name: str) -> Any:
+    key = tensor_library_key(obj)
+    return obj if key is None or isinstance(obj, type) else _tensor_matrix(obj, key, name)
+
+
+for _root in {module.partition(".")[0] for module, _, _ in TENSOR_LIBRARIES.values()}:
+    # every function that takes a pose reads these objects (liebridge.arrays.unwrap)
+    arrays.OBJECT_READERS[_root] = _read_object

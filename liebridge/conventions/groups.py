@@ -303,7 +303,8 @@ def is_canonical(conv: Convention) -> bool:
     """Whether ``conv``'s tangent is the canonical one (its maps to and from it are ``I``)."""
     g = _rec(conv)
     return (
-        is_coupled(conv)
+        conv.stores == "pose"
+        and is_coupled(conv)
         and conv.side == "right"
         and conv.embed is None
         and conv.rotation_scale == 1.0
