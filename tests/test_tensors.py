@@ -414,3 +414,17 @@ def test_integer_tensors_become_float64(x64: None) -> None:
     torch = pytest.importorskip("torch")
     out = se3.exp(torch.zeros(6, dtype=torch.int64))
     assert out.dtype == torch.float64
+
+
+def test_library_pose_objects_are_read_wherever_a_pose_is(x64: None) -> None:
+    """A PyPose ``LieTensor`` (a torch subclass) goes in as the pose it holds, graph kept."""
+    torch = pytest.importorskip("torch")
+    pp = pytest.importorskip("pypose")
+    X = pp.randn_SE3(3, dtype=torch.float64, requires_grad=True)
+    T = X.matrix()
+    M = lb.tangent_map(X, "pypose", "gtsam")
+    assert type(M) is torch.Tensor and M.requires_grad
+    np.testing.assert_allclose(
+        M.detach().numpy(), lb.tangent_map(T.detach().numpy(), "pypose", "gtsam")
+    )
+    np.testing.assert_allclose(se3.log(X).detach().numpy(), se3.log(T.detach().numpy()), atol=1e-12)
