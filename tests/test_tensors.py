@@ -203,7 +203,7 @@ def test_compose_act_interpolate(B: Backend, shape: tuple[int, ...]) -> None:
 
 # ----------------------------------------------------------------------------- conventions
 def _tensor_conventions() -> list[str]:
-    """Every registered SE(3)/SO(3) convention that runs on tensors (rotation-vector coords)."""
+    """Every registered convention that runs on tensors (array-API group, rotation vector)."""
     out = []
     for name in lb.conventions.names():
         c = lb.conventions.get(name)
@@ -222,11 +222,55 @@ TENSOR_CONVENTIONS = _tensor_conventions()
 
 def test_the_tensor_conventions_include_the_learned_slam_ones() -> None:
     assert {"gtsam", "pypose", "sophus", "barfoot", "theseus", "jaxlie"} <= set(TENSOR_CONVENTIONS)
+    assert {"gtsam_pose2", "gtsam_rot2", "gtsam_navstate"} <= set(TENSOR_CONVENTIONS)
 
 
 def _element_for(c: Convention, shape: tuple[int, ...]) -> np.ndarray:
-    T = _batch(se3.exp(_twists()), shape, 2)
-    return T[..., :3, :3] if c.group == "so3" else T
+    if c.group in ("se3", "so3"):
+        T = _batch(se3.exp(_twists()), shape, 2)
+        return T[..., :3, :3] if c.group == "so3" else T
+    g = c.record
+    xi = np.random.default_rng(7).normal(size=(12, g.dim))
+    if g.rot is not None:
+        xi[0, g.rot] = 0.0
+        xi[1, g.rot] = np.pi / np.sqrt(g.rot.stop - g.rot.start) * 0.999
+    return _batch(g.exp(xi), shape, 2)
+
+
+ARRAY_API_GROUPS = [name for name, g in lb.lie.GROUPS.items() if g.array_api]
+
+
+def test_the_array_api_groups() -> None:
+    assert {"so2", "se2", "so3", "se3", "se23"} <= set(ARRAY_API_GROUPS)
+
+
+@pytest.mark.parametrize("shape", SHAPES, ids=str)
+@pytest.mark.parametrize("group", ARRAY_API_GROUPS)
+def test_every_array_api_group_record_same_values(
+    B: Backend, group: str, shape: tuple[int, ...]
+) -> None:
+    """The record's validated kernels of every array-API group, on each backend."""
+    g = lb.lie.GROUPS[group]
+    xi = np.random.default_rng(8).normal(size=(12, g.dim))
+    if g.rot is not None:
+        xi[0, g.rot] = 0.0
+        xi[1, g.rot] = 1e-9
+    xi = _batch(xi, shape, 1)
+    X = g.exp(xi)
+    Y = g.exp(0.5 * xi[..., ::-1].copy())
+    n = g.matrix - len(g.cols)
+    p = _batch(np.random.default_rng(9).normal(size=(12, n)), shape, 1)
+    cases = [
+        (g.exp(B(xi)), X),
+        (g.log(B(X)), g.log(X)),
+        (g.inverse(B(X)), g.inverse(X)),
+        (g.adjoint(B(X)), g.adjoint(X)),
+        (g.compose(B(X), B(Y)), g.compose(X, Y)),
+        (g.act(B(X), B(p)), g.act(X, p)),
+        (g.interpolate(B(X), B(Y), 0.3), g.interpolate(X, Y, 0.3)),
+    ] + [(getattr(g, k)(B(xi)), getattr(g, k)(xi)) for k in ("jr", "jl", "jr_inv", "jl_inv")]
+    for out, ref in cases:
+        np.testing.assert_allclose(B.check(out), ref, atol=1e-11 * max(1.0, np.abs(ref).max()))
 
 
 @pytest.mark.parametrize("shape", SHAPES, ids=str)

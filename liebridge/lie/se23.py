@@ -50,6 +50,17 @@ DIM, MATRIX = 9, 5
 
 
 def _assemble(R: FloatArray, p: FloatArray, vel: FloatArray) -> FloatArray:
+    if arrays.any_foreign(R, p, vel):
+        xp = arrays.namespace(R, p, vel)
+        batch = tuple(
+            np.broadcast_shapes(tuple(R.shape[:-2]), tuple(p.shape[:-1]), tuple(vel.shape[:-1]))
+        )
+        top = xp.concat(
+            [xp.broadcast_to(R, (*batch, 3, 3)), xp.broadcast_to(p[..., None], (*batch, 3, 1)),
+             xp.broadcast_to(vel[..., None], (*batch, 3, 1))], axis=-1,
+        )  # fmt: skip
+        bottom = arrays.like(np.eye(5)[3:], top)
+        return xp.concat([top, xp.broadcast_to(bottom, (*batch, 2, 5))], axis=-2)
     shape = np.broadcast_shapes(R.shape[:-2], p.shape[:-1], vel.shape[:-1])
     X = np.zeros((*shape, 5, 5))
     X[..., :3, :3] = R
@@ -60,7 +71,7 @@ def _assemble(R: FloatArray, p: FloatArray, vel: FloatArray) -> FloatArray:
 
 
 def _mv(A: FloatArray, x: FloatArray) -> FloatArray:
-    return np.einsum("...ij,...j->...i", A, x)
+    return arrays.matvec(A, x)
 
 
 def _exp(xi: FloatArray) -> FloatArray:
@@ -72,44 +83,35 @@ def _exp(xi: FloatArray) -> FloatArray:
 def _log(X: FloatArray) -> FloatArray:
     w = so3._log(X[..., :3, :3])
     Ji = so3._jl_inv(w)
-    return np.concatenate([w, _mv(Ji, X[..., :3, 3]), _mv(Ji, X[..., :3, 4])], axis=-1)
+    parts = [w, _mv(Ji, X[..., :3, 3]), _mv(Ji, X[..., :3, 4])]
+    return arrays.namespace(*parts).concat(parts, axis=-1)
 
 
 def _inverse(X: FloatArray) -> FloatArray:
-    Rt = np.swapaxes(X[..., :3, :3], -1, -2)
+    Rt = arrays.mT(X[..., :3, :3])
     return _assemble(Rt, -_mv(Rt, X[..., :3, 3]), -_mv(Rt, X[..., :3, 4]))
+
+
+def _lower(D: FloatArray, L1: FloatArray, L2: FloatArray) -> FloatArray:
+    """``[[D, 0, 0], [L1, D, 0], [L2, 0, D]]`` from ``(..., 3, 3)`` blocks."""
+    Z = 0.0 * D
+    return arrays.blocks([[D, Z, Z], [L1, D, Z], [L2, Z, D]])
 
 
 def _adjoint(X: FloatArray) -> FloatArray:
     R = X[..., :3, :3]
-    out = np.zeros((*X.shape[:-2], 9, 9))
-    for k in range(3):
-        out[..., 3 * k : 3 * k + 3, 3 * k : 3 * k + 3] = R
-    out[..., 3:6, :3] = so3._hat(X[..., :3, 3]) @ R
-    out[..., 6:, :3] = so3._hat(X[..., :3, 4]) @ R
-    return out
+    return _lower(R, so3._hat(X[..., :3, 3]) @ R, so3._hat(X[..., :3, 4]) @ R)
 
 
 def _jl(xi: FloatArray) -> FloatArray:
     w = xi[..., :3]
-    J = so3._jl(w)
-    out = np.zeros((*xi.shape[:-1], 9, 9))
-    for k in range(3):
-        out[..., 3 * k : 3 * k + 3, 3 * k : 3 * k + 3] = J
-    out[..., 3:6, :3] = se3._q(w, xi[..., 3:6])
-    out[..., 6:, :3] = se3._q(w, xi[..., 6:])
-    return out
+    return _lower(so3._jl(w), se3._q(w, xi[..., 3:6]), se3._q(w, xi[..., 6:]))
 
 
 def _jl_inv(xi: FloatArray) -> FloatArray:
     w = xi[..., :3]
     Ji = so3._jl_inv(w)
-    out = np.zeros((*xi.shape[:-1], 9, 9))
-    for k in range(3):
-        out[..., 3 * k : 3 * k + 3, 3 * k : 3 * k + 3] = Ji
-    out[..., 3:6, :3] = -Ji @ se3._q(w, xi[..., 3:6]) @ Ji
-    out[..., 6:, :3] = -Ji @ se3._q(w, xi[..., 6:]) @ Ji
-    return out
+    return _lower(Ji, -Ji @ se3._q(w, xi[..., 3:6]) @ Ji, -Ji @ se3._q(w, xi[..., 6:]) @ Ji)
 
 
 def _jr(xi: FloatArray) -> FloatArray:
@@ -142,67 +144,56 @@ def vee(X: Any) -> FloatArray:
     return np.concatenate([so3.vee(X[..., :3, :3]), X[..., :3, 3], X[..., :3, 4]], axis=-1)
 
 
-@arrays.numpy_only
 def exp(xi: Any) -> FloatArray:
     """SE₂(3) exponential ``(..., 9)`` → ``(..., 5, 5)``. GTSAM ``NavState.Expmap``."""
     return validate.finite_output(_exp(_tangent(xi)), "se23.exp")
 
 
-@arrays.numpy_only
 def log(X: Any) -> FloatArray:
     """SE₂(3) logarithm → ``(ω, ρ_p, ρ_v)``, ``‖ω‖ ∈ [0, π]``. GTSAM ``NavState.Logmap``."""
     return validate.finite_output(_log(validate.extended_pose(X, "X")), "se23.log")
 
 
-@arrays.numpy_only
 def jr(xi: Any) -> FloatArray:
     """Right Jacobian ``Exp(ξ + δ) ≈ Exp(ξ)·Exp(jr δ)``, ``(..., 9, 9)``."""
     return validate.finite_output(_jr(_tangent(xi)), "se23.jr")
 
 
-@arrays.numpy_only
 def jl(xi: Any) -> FloatArray:
     """Left Jacobian ``Exp(ξ + δ) ≈ Exp(jl δ)·Exp(ξ)``, ``(..., 9, 9)``."""
     return validate.finite_output(_jl(_tangent(xi)), "se23.jl")
 
 
-@arrays.numpy_only
 def jr_inv(xi: Any) -> FloatArray:
     """Inverse right Jacobian (closed-form block inverse), ``(..., 9, 9)``."""
     return validate.finite_output(_jr_inv(_tangent(xi)), "se23.jr_inv")
 
 
-@arrays.numpy_only
 def jl_inv(xi: Any) -> FloatArray:
     """Inverse left Jacobian (closed-form block inverse), ``(..., 9, 9)``."""
     return validate.finite_output(_jl_inv(_tangent(xi)), "se23.jl_inv")
 
 
-@arrays.numpy_only
 def adjoint(X: Any) -> FloatArray:
     """``Ad_X`` in ``(ω, ρ_p, ρ_v)``: ``X·Exp(ξ)·X⁻¹ = Exp(Ad_X ξ)``. GTSAM ``AdjointMap``."""
     return validate.finite_output(_adjoint(validate.extended_pose(X, "X")), "se23.adjoint")
 
 
-@arrays.numpy_only
 def inverse(X: Any) -> FloatArray:
     """``[[Rᵀ, −Rᵀp, −Rᵀv], [0, I₂]]``."""
     return validate.finite_output(_inverse(validate.extended_pose(X, "X")), "se23.inverse")
 
 
-@arrays.numpy_only
 def compose(X1: Any, X2: Any) -> FloatArray:
     """``X1·X2`` (broadcast): ``(R1R2, p1 + R1p2, v1 + R1v2)``."""
     return _mg.compose(X1, X2, validate.extended_pose, ("X1", "X2"), "se23.compose")
 
 
-@arrays.numpy_only
 def act(X: Any, x: Any) -> FloatArray:
     """Apply the pose part to points: ``R x + p``, ``(..., 3)``."""
     return _mg.act(X, x, validate.extended_pose, 3, ("X", "x"), "se23.act")
 
 
-@arrays.numpy_only
 def interpolate(X0: Any, X1: Any, tau: Any) -> FloatArray:
     """Geodesic ``X0·Exp(τ·Log(X0⁻¹X1))``; ``τ`` broadcasts against the batch."""
     ops = (_log, _exp, _inverse)
@@ -222,6 +213,6 @@ GROUP = register_shipped(
         ),
         probe=_exp(np.array([0.4, -0.7, 0.5, 1.5, -2.0, 0.8, -0.6, 1.1, 0.7])),
         label="SE₂(3)", tangent_doc="(ω, ρ_p, ρ_v)",
-        note="extended pose / navigation state",
+        note="extended pose / navigation state", array_api=True,
     )
 )  # fmt: skip
