@@ -16,6 +16,7 @@ from typing import Any, Literal
 import numpy as np
 
 from .. import _validate as validate
+from .. import arrays
 from .._validate import FloatArray
 from ..conventions import (
     Convention,
@@ -30,10 +31,50 @@ __all__ = ["UncertainPoint", "UncertainPose"]
 
 
 def _frozen(a: Any) -> FloatArray:
-    """Return a read-only float64 copy (immutable objects; the caller's array is untouched)."""
+    """Return a read-only float64 copy (immutable objects; the caller's array is untouched).
+
+    A torch/JAX array stays one (its type, device, dtype and autograd graph): a new array
+    (``a * 1.0``: never an alias of the caller's tensor, no host round trip); it cannot be made
+    read-only, but nothing in liebridge writes into it.
+    """
+    if arrays.is_foreign(a):
+        return a * 1.0
     out = np.array(a, dtype=np.float64, copy=True)
     out.setflags(write=False)
     return out
+
+
+def _broadcast(a: Any, shape: tuple[int, ...]) -> Any:
+    """Return ``a`` broadcast to ``shape`` in its own namespace."""
+    return arrays.namespace(a).broadcast_to(a, shape)
+
+
+def element_input(X: Any, name: str) -> Any:
+    """Validate a pose ``(..., 4, 4)`` or a rotation ``(..., 3, 3)`` of any array type.
+
+    numpy input goes through :func:`~liebridge.conventions.group_input`; a torch/JAX array is
+    checked in its own namespace (:func:`liebridge._validate.pose`/``rotation``: the same error
+    wording, a host copy only to word it) and returned as it is, graph included.
+    """
+    if not arrays.is_foreign(X):
+        return group_input(X, name)
+    shape = tuple(X.shape[-2:]) if X.ndim >= 2 else tuple(X.shape)
+    if shape == (4, 4):
+        return validate.pose(X, name)
+    if shape == (3, 3):
+        return validate.rotation(X, name)
+    raise ValueError(
+        f"{name}: expected a pose (..., 4, 4) or a rotation (..., 3, 3), got {tuple(X.shape)}"
+    )
+
+
+def same_dtype(ref: Any, x: Any, name: str, ref_name: str) -> None:
+    """Raise ``TypeError`` when two torch/JAX arrays of one operation have different dtypes."""
+    if arrays.is_foreign(ref) and arrays.is_foreign(x) and x.dtype != ref.dtype:
+        raise TypeError(
+            f"{name}: dtype {x.dtype} differs from {ref_name}'s {ref.dtype}; convert one first "
+            "(liebridge does not promote float32 tensors silently)"
+        )
 
 
 def _matrix_of(T: Any) -> Any:
@@ -80,13 +121,15 @@ class UncertainPose:
     def __init__(self, T: Any, cov: Any, convention: ConventionLike) -> None:
         conv = get(convention)
         pose_convention(conv, "convention")  # before T is read as a 3×3 rotation
-        Ta = group_input(_matrix_of(T), "T")
+        T, cov = arrays.common(_matrix_of(T), cov)
+        Ta = element_input(T, "T")
         pose_convention(conv, "convention", Ta)
         n = 3 if Ta.shape[-1] == 3 else 6
         C = validate.covariance(cov, "cov", n)
-        shape = validate.batch_shape(("T", Ta.shape[:-2]), ("cov", C.shape[:-2]))
-        object.__setattr__(self, "T", _frozen(np.broadcast_to(Ta, (*shape, *Ta.shape[-2:]))))
-        object.__setattr__(self, "cov", _frozen(np.broadcast_to(C, (*shape, n, n))))
+        same_dtype(Ta, C, "cov", "T")
+        shape = validate.batch_shape(("T", tuple(Ta.shape[:-2])), ("cov", tuple(C.shape[:-2])))
+        object.__setattr__(self, "T", _frozen(_broadcast(Ta, (*shape, *Ta.shape[-2:]))))
+        object.__setattr__(self, "cov", _frozen(_broadcast(C, (*shape, n, n))))
         object.__setattr__(self, "convention", conv)
 
     def __setattr__(self, name: str, value: Any) -> None:
@@ -178,11 +221,13 @@ class UncertainPoint:
     cov: FloatArray
 
     def __init__(self, p: Any, cov: Any) -> None:
+        p, cov = arrays.common(p, cov)
         pa = validate.vector(p, "p", 3)
         C = validate.covariance(cov, "cov", 3)
-        shape = validate.batch_shape(("p", pa.shape[:-1]), ("cov", C.shape[:-2]))
-        object.__setattr__(self, "p", _frozen(np.broadcast_to(pa, (*shape, 3))))
-        object.__setattr__(self, "cov", _frozen(np.broadcast_to(C, (*shape, 3, 3))))
+        same_dtype(pa, C, "cov", "p")
+        shape = validate.batch_shape(("p", tuple(pa.shape[:-1])), ("cov", tuple(C.shape[:-2])))
+        object.__setattr__(self, "p", _frozen(_broadcast(pa, (*shape, 3))))
+        object.__setattr__(self, "cov", _frozen(_broadcast(C, (*shape, 3, 3))))
 
     def __setattr__(self, name: str, value: Any) -> None:
         raise AttributeError(f"UncertainPoint is immutable (cannot set {name!r})")
