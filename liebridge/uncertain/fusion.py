@@ -27,8 +27,8 @@ from .. import arrays
 from .._validate import FloatArray
 from ..conventions import Convention, unchecked
 from ..lie import unchecked as U
-from .ops import _check_pair, _check_uncertain, _rot, _sym
-from .pose import UncertainPose, same_dtype
+from .ops import _check_pair, _check_uncertain, _sym
+from .pose import UncertainPose, _rot, moved, same_dtype
 
 __all__ = ["average", "fuse"]
 
@@ -229,7 +229,7 @@ def _average_generic(
     ref = next(E.T for E in est if arrays.is_foreign(E.T))
     for i, E in enumerate(est):  # numpy estimates join the tensors' type, device and dtype
         if not arrays.is_foreign(E.T):
-            est[i] = E = UncertainPose(arrays.like(E.T, ref), arrays.like(E.cov, ref), E.convention)
+            est[i] = E = moved(E, ref)
         same_dtype(ref, E.T, f"{names[i]}.T", "the first torch/JAX estimate's T")
     xp = arrays.namespace(ref)
     c, n = est[0].convention, est[0].dim
@@ -266,12 +266,13 @@ def _average_generic(
         [[Cs[i] if i == j else Z for j in others] for i in others]
     )  # block diagonal, (*shape, m·n, m·n)
     X = T_prior
+    tol = max(STEP_TOL, 64.0 * arrays.eps(ref))  # float32: its rounding floor, not 1e-12
     for it in range(MAX_ITERATIONS):
         delta, P = _step_generic(c, X, T_prior, C_prior, T_oth, R_big, n, m)
         X = _g_retract(c, X, delta)
         if arrays.all_true(xp.isfinite(X)) is False:
             break
-        small = xp.max(xp.abs(delta)) <= STEP_TOL * xp.clip(xp.max(xp.abs(X)), min=1.0)
+        small = xp.max(xp.abs(delta)) <= tol * xp.clip(xp.max(xp.abs(X)), min=1.0)
         done = arrays.all_true(small)
         if done or (done is None and it + 1 >= TRACED_ITERATIONS):
             _, P = _step_generic(c, X, T_prior, C_prior, T_oth, R_big, n, m)

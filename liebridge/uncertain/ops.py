@@ -49,10 +49,18 @@ import numpy as np
 from .. import _validate as validate
 from .. import arrays
 from .._validate import FloatArray
-from ..conventions import CANONICAL, Convention, unchecked
+from ..conventions import CANONICAL, Convention
 from ..conventions.cubature import cubature_rule_5, sqrt_psd
 from ..lie import unchecked as U
-from .pose import UncertainPoint, UncertainPose, _matrix_of, element_input, same_dtype
+from .pose import (
+    UncertainPoint,
+    UncertainPose,
+    _map,
+    _matrix_of,
+    element_input,
+    moved,
+    same_dtype,
+)
 
 __all__ = ["act", "compose", "inverse", "relative", "sigma_points", "transform"]
 
@@ -93,9 +101,9 @@ def _numpy_only(op: str, method: str, *xs: Any) -> None:
 def _align(A: UncertainPose, B: UncertainPose, nb: str) -> tuple[UncertainPose, UncertainPose]:
     """Move a numpy operand to the other's torch/JAX type (dtype and device); dtypes must agree."""
     if arrays.is_foreign(A.T) and not arrays.is_foreign(B.T):
-        B = UncertainPose(arrays.like(B.T, A.T), arrays.like(B.cov, A.T), B.convention)
+        B = moved(B, A.T)
     elif arrays.is_foreign(B.T) and not arrays.is_foreign(A.T):
-        A = UncertainPose(arrays.like(A.T, B.T), arrays.like(A.cov, B.T), A.convention)
+        A = moved(A, B.T)
     same_dtype(A.T, B.T, f"{nb}.T", "A.T")
     return A, B
 
@@ -108,25 +116,6 @@ def _to_g(X: FloatArray, c: Convention) -> FloatArray:
 def _from_g(X: FloatArray, c: Convention) -> FloatArray:
     """``M`` with ``δ_c = M ξ_gtsam`` at ``X``."""
     return _map(X, CANONICAL, c)
-
-
-def _rot(c: Convention) -> slice:
-    return slice(0, 3) if c.order == "rot_first" else slice(3, 6)
-
-
-def _map(X: FloatArray, src: Convention, dst: Convention) -> FloatArray:
-    """``unchecked.tangent_map(X, src, dst)``; on torch/JAX rotations through the embedded pose.
-
-    The array-generic (record-driven) engine maps SE(3) conventions on poses only. A rotation
-    ``R`` is the pose ``[[R, 0], [0, 1]]``, and in every SE(3) chart a pose's rotation increment
-    depends on the rotation coordinates alone (``Exp(ξ)``'s rotation is ``Exp(ω)``; split
-    charts perturb ``R`` by itself), so the rotation block of the pose map is the rotation map
-    (the numpy engine's rotation maps equal it; the tests compare them).
-    """
-    if X.shape[-1] == 4 or not arrays.is_foreign(X):
-        return unchecked.tangent_map(X, src, dst)
-    P = U.se3_assemble(X, arrays.zeros((*X.shape[:-2], 3), X))
-    return unchecked.tangent_map(P, src, dst)[..., _rot(dst), _rot(src)]
 
 
 def _kind(A: UncertainPose) -> str:
@@ -478,7 +467,7 @@ def transform(
         raise ValueError("cross: only meaningful with an uncertain T_fixed (an UncertainPose)")
     TF = _matrix_of(T_fixed)
     if arrays.is_foreign(TF) and not arrays.is_foreign(A.T):
-        A = UncertainPose(arrays.like(A.T, TF), arrays.like(A.cov, TF), A.convention)
+        A = moved(A, TF)
     F = element_input(arrays.common(A.T, TF)[1], "T_fixed")
     same_dtype(A.T, F, "T_fixed", "A.T")
     _numpy_only("transform", method, A.T)
@@ -539,7 +528,7 @@ def act(A: UncertainPose, p: Any, cov_p: Any = None, method: Method = "linear") 
     _check_method(method)
     ref = next((x for x in (p, cov_p) if arrays.is_foreign(x)), None)
     if ref is not None and not arrays.is_foreign(A.T):
-        A = UncertainPose(arrays.like(A.T, ref), arrays.like(A.cov, ref), A.convention)
+        A = moved(A, ref)
     _, p, cov_p = arrays.common(A.T, p, cov_p)
     _numpy_only("act", method, A.T)
     pa = validate.vector(p, "p", 3)

@@ -25,7 +25,9 @@ from ..conventions import (
     get,
     group_input,
     pose_convention,
+    unchecked,
 )
+from ..lie.unchecked import se3_assemble as U_se3_assemble
 
 __all__ = ["UncertainPoint", "UncertainPose"]
 
@@ -47,6 +49,31 @@ def _frozen(a: Any) -> FloatArray:
 def _broadcast(a: Any, shape: tuple[int, ...]) -> Any:
     """Return ``a`` broadcast to ``shape`` in its own namespace."""
     return arrays.namespace(a).broadcast_to(a, shape)
+
+
+def _rot(c: Convention) -> slice:
+    return slice(0, 3) if c.order == "rot_first" else slice(3, 6)
+
+
+def _map(X: FloatArray, src: Convention, dst: Convention) -> FloatArray:
+    """``unchecked.tangent_map(X, src, dst)``; on torch/JAX rotations through the embedded pose.
+
+    The array-generic (record-driven) engine maps SE(3) conventions on poses only. A rotation
+    ``R`` is the pose ``[[R, 0], [0, 1]]``, and in every SE(3) chart a pose's rotation increment
+    depends on the rotation coordinates alone (``Exp(ξ)``'s rotation is ``Exp(ω)``; split
+    charts perturb ``R`` by itself), so the rotation block of the pose map is the rotation map
+    (the numpy engine's rotation maps equal it; the tests compare them).
+    """
+    if X.shape[-1] == 4 or not arrays.is_foreign(X):
+        return unchecked.tangent_map(X, src, dst)
+    P = U_se3_assemble(X, arrays.zeros((*X.shape[:-2], 3), X))
+    return unchecked.tangent_map(P, src, dst)[..., _rot(dst), _rot(src)]
+
+
+def moved(A: UncertainPose, ref: Any) -> UncertainPose:
+    """Return a numpy :class:`UncertainPose` as one of ``ref``'s array type, device and dtype."""
+    T = arrays.like(np.array(A.T), ref)  # a writable copy: torch warns on read-only numpy
+    return UncertainPose(T, arrays.like(np.array(A.cov), ref), A.convention)
 
 
 def element_input(X: Any, name: str) -> Any:
@@ -186,6 +213,9 @@ class UncertainPose:
         """
         dst = get(convention)
         pose_convention(dst, "convention", self.T)
+        if self.is_rotation and arrays.is_foreign(self.T) and method == "linear":
+            M = _map(self.T, self.convention, dst)  # the generic engine maps poses only
+            return UncertainPose(self.T, M @ self.cov @ arrays.mT(M), dst)
         cov = convert_covariance(self.cov, self.T, self.convention, dst, method=method)
         return UncertainPose(self.T, cov, dst)
 
