@@ -38,7 +38,7 @@ translations, the max abs difference of liebridge and of jaxlie from GTSAM (``Ro
 ``Expmap``, ``Logmap``, ``AdjointMap``); liebridge's is asserted ≤ 1e-12 × max(1, |value|).
 
 Usage: ``python benchmarks/bench_jaxlie.py [--quick] [--sizes 10000,100000,1000000]
-[--repeat R] [--out benchmarks/results/jaxlie.json]``. Needs ``pip install "liebridge[bench]"``
+[--repeat R] [--out benchmarks/results/jaxlie.json]``. Needs ``pip install ".[bench]"``
 (jax, jaxlie); without them it prints why and exits 0 without writing anything.
 """
 
@@ -379,7 +379,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any] | None:
     except ImportError as e:
         print(
             f"bench_jaxlie: skipped, jax/jaxlie not installed ({e}); "
-            'pip install "liebridge[bench]" to run it',
+            'pip install ".[bench]" in the checkout to run it',
             flush=True,
         )
         return None

@@ -2,12 +2,16 @@
 
 Rows, each against what a user would otherwise write, in the same run:
 
-* ``bag_export_tum``: ``liebridge bag export BAG --topic /odom --to tum`` (streamed,
+* ``bag_export_tum``: ``liebridge bag export BAG --topic /odom --format tum`` (streamed,
   :func:`liebridge.ros.iter_messages`) on ROS 1 bags of ``nav_msgs/Odometry`` at two sizes,
   against ``read_messages`` (all arrays in memory) and the loop a user writes with rosbags
   (``AnyReader``: every message deserialized into a list, then written). Peak resident set
   (``ru_maxrss`` of a fresh subprocess each) and its growth per message between the two sizes:
   the streamed export must not grow with the bag.
+* ``read_messages_bytes``: bytes that :func:`liebridge.ros.read_messages`' result holds per
+  ``nav_msgs/Odometry`` message (``tracemalloc``: allocated and still held after the call, and
+  the peak during it), on a ROS 1 bag of 1e5 messages, against the list of deserialized
+  message objects a user's ``AnyReader`` loop holds (measured the same way on a tenth of them).
 * ``unscented_compose``: ``liebridge.uncertain.compose(A, B, method="unscented")`` of ``n``
   poses (chunked) at two sizes; the unchunked pass (one chunk: what the code did before) at the
   smaller size only, its growth per pose extrapolated.
@@ -84,7 +88,7 @@ def _write_bag(path: Path, n: int) -> None:
 
 _EXPORT = """
 from liebridge.cli import main
-assert main(["bag", "export", {bag!r}, "--topic", "/odom", "--to", "tum", {out!r}]) == 0
+assert main(["bag", "export", {bag!r}, "--topic", "/odom", "--format", "tum", {out!r}]) == 0
 """
 _READ = """
 from liebridge import ros
@@ -128,6 +132,51 @@ def bench_bags(sizes: tuple[int, int], tmp: Path) -> dict[str, Any]:
         runs["export_tum"][1]["seconds"] / runs["user"][1]["seconds"]
     )
     return rows
+
+
+_HELD = """
+import gc, tracemalloc
+from pathlib import Path
+from rosbags.highlevel import AnyReader
+from liebridge import ros
+ros.bag_info({bag!r})  # imports and type stores loaded before the count starts
+gc.collect()
+tracemalloc.start()
+before = tracemalloc.get_traced_memory()[0]
+if {user}:
+    with AnyReader([Path({bag!r})]) as r:
+        conns = [c for c in r.connections if c.topic == "/odom"]
+        held = []
+        for c, t, raw in r.messages(connections=conns):
+            held.append((t, r.deserialize(raw, c.msgtype)))
+            if len(held) == {n}:
+                break
+else:
+    held = ros.read_messages({bag!r}, "/odom")
+gc.collect()
+now, peak = tracemalloc.get_traced_memory()
+out["n"] = len(held)
+out["held_bytes_per_message"] = (now - before) / len(held)
+out["peak_bytes_per_message"] = (peak - before) / len(held)
+"""
+
+
+def bench_read_bytes(n: int, tmp: Path) -> dict[str, Any]:
+    """``read_messages``' bytes per Odometry message held (tracemalloc), vs the user's list."""
+    bag = tmp / f"odom_read_{n}.bag"
+    _write_bag(bag, n)
+    ours = _child(_HELD.format(bag=str(bag), user=False, n=n))
+    user = _child(_HELD.format(bag=str(bag), user=True, n=max(n // 10, 1)))
+    bag.unlink()
+    return {
+        "messages": n,
+        "read_messages_held_bytes_per_message": ours["held_bytes_per_message"],
+        "read_messages_peak_bytes_per_message": ours["peak_bytes_per_message"],
+        "read_messages_seconds_traced": ours["seconds"],
+        "user_list_messages": user["n"],
+        "user_list_held_bytes_per_message": user["held_bytes_per_message"],
+        "ratio_held_vs_user": ours["held_bytes_per_message"] / user["held_bytes_per_message"],
+    }
 
 
 _COMPOSE = """
@@ -188,7 +237,7 @@ def bench_yaml(mb: float, tmp: Path) -> dict[str, Any]:
         calls = []
         real = C._load_text
         C._load_text = lambda text, path: calls.append(1) or real(text, path)
-        assert main(["extrinsics", "convert", {str(f)!r}, "--to", "okvis"]) == 0
+        assert main(["extrinsics", "convert", {str(f)!r}, "--to-system", "okvis"]) == 0
         out["parses"] = len(calls)
         """
     )
@@ -214,7 +263,17 @@ def main() -> int:
     ap.add_argument("--quick", action="store_true", help="small sizes (a smoke run)")
     ap.add_argument("--out", default=str(HERE / "results" / "scale.json"))
     ap.add_argument("--yaml-mb", type=float, default=None)
+    ap.add_argument(
+        "--only", choices=("read_messages_bytes",), default=None, help="run one row only"
+    )
     args = ap.parse_args()
+    if args.only == "read_messages_bytes":
+        with tempfile.TemporaryDirectory() as d:
+            res = {
+                "read_messages_bytes": bench_read_bytes(10_000 if args.quick else 100_000, Path(d))
+            }
+        print(json.dumps(res, indent=2))
+        return 0
     bag_sizes = (10_000, 40_000) if args.quick else (100_000, 400_000)
     compose_sizes = (2_000, 8_000) if args.quick else (25_000, 100_000)
     yaml_mb = args.yaml_mb or (1.0 if args.quick else 20.0)
@@ -225,6 +284,7 @@ def main() -> int:
             "python": platform.python_version(),
             "quick": args.quick,
             "bag_export_tum": bench_bags(bag_sizes, tmp),
+            "read_messages_bytes": bench_read_bytes(bag_sizes[0], tmp),
             "unscented_compose": bench_compose(compose_sizes),
             "kalibr_yaml": bench_yaml(yaml_mb, tmp),
         }

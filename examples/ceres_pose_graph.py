@@ -63,7 +63,7 @@ def main() -> None:
     first = int(g.vertex_ids[0])
 
     # GTSAM: the same graph, a prior on the first vertex
-    graph, init = g.to_gtsam()
+    graph, init = g.to_gtsam(prior=None)  # the prior is added below
     T0 = init.atPose3(first).matrix()
     graph.add(
         gtsam.PriorFactorPose3(

@@ -49,7 +49,7 @@ def optimized_graph(dataset: str, max_poses: int | None) -> tuple[Any, Any, list
     if max_poses is not None:
         keys = keys[:max_poses]
     graph, values = gtsam.NonlinearFactorGraph(), gtsam.Values()
-    full, init = g.to_gtsam()
+    full, init = g.to_gtsam(prior=None)
     for k in range(full.size()):
         f = full.at(k)
         if all(int(key) in set(keys.tolist()) for key in f.keys()):

@@ -76,7 +76,7 @@ def build(g: lb.io.g2o.G2OGraph, convention: str, covs: np.ndarray, prior_cov: n
 
 def gtsam_reference(g: lb.io.g2o.G2OGraph, prior_sigma: float) -> tuple[Any, Any]:
     """GTSAM's own pipeline: native factors from the file's information, GTSAM's LM."""
-    graph, values = g.to_gtsam()
+    graph, values = g.to_gtsam(prior=None)  # the prior is added below
     noise = gtsam.noiseModel.Isotropic.Sigma(6, prior_sigma)
     graph.add(gtsam.PriorFactorPose3(int(g.vertex_ids[0]), gtsam.Pose3(g.poses[0]), noise))
     result = gtsam.LevenbergMarquardtOptimizer(graph, values).optimize()

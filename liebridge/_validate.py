@@ -716,13 +716,7 @@ def _foreign_float(x: Any, name: str) -> Any:
 
 def _foreign_to_numpy(x: Any, name: str) -> FloatArray:
     """Copy a torch/JAX array to the host for a numpy-only function, unless a gradient is lost."""
-    if arrays.is_traced(x) or bool(getattr(x, "requires_grad", False)):
-        raise TypeError(
-            f"{name}: this function runs on numpy arrays only; a {type(x).__module__}."
-            f"{type(x).__name__} that is traced or requires grad would lose its gradient here "
-            "(the array-generic functions are listed in docs/tensors.md)"
-        )
-    return as_float_array(arrays.to_numpy(x), name)
+    return as_float_array(arrays.host(x, name), name)
 
 
 def _tol(arr: Any, tol: float) -> float:

@@ -18,8 +18,9 @@ module is in :data:`BACKENDS` (and, if it traces, :func:`is_traced` knows its tr
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import Any
+import functools
+from collections.abc import Callable, Sequence
+from typing import Any, ParamSpec, TypeVar
 
 import numpy as np
 
@@ -27,8 +28,8 @@ import numpy as np
 BACKENDS = frozenset({"torch", "jax", "jaxlib"})
 
 _INSTALL = {
-    "torch": 'pip install ".[torch]"  (from the liebridge checkout)',
-    "jax": 'pip install ".[jax]"  (from the liebridge checkout)',
+    "torch": 'pip install ".[torch]" (in the checkout)',
+    "jax": 'pip install ".[jax]" (in the checkout)',
 }
 
 
@@ -126,6 +127,44 @@ def common(*xs: Any) -> tuple[Any, ...]:
     return tuple(out)
 
 
+def host(x: Any, where: str) -> Any:
+    """``x`` as a host numpy array for numpy-only code (other values unchanged).
+
+    A traced array, or a tensor that requires grad, is refused with ``TypeError``: copying it to
+    the host would silently cut the gradient.
+    """
+    if not is_foreign(x):
+        return x
+    if is_traced(x) or bool(getattr(x, "requires_grad", False)):
+        raise TypeError(
+            f"{where}: runs on numpy arrays only; a {type(x).__module__}.{type(x).__name__} that "
+            "is traced or requires grad would lose its gradient here (docs/tensors.md lists the "
+            "array-generic functions)"
+        )
+    return to_numpy(x)
+
+
+_P = ParamSpec("_P")
+_R = TypeVar("_R")
+
+
+def numpy_only(fn: Callable[_P, _R]) -> Callable[_P, _R]:
+    """Mark a function as numpy-only: torch/JAX arguments are copied to the host first.
+
+    Its result is then numpy (as before the array-generic core); a traced array or a tensor that
+    requires grad gets :func:`host`'s ``TypeError`` instead of a silently cut gradient.
+    """
+    where = f"{fn.__module__.removeprefix('liebridge.')}.{fn.__name__}"
+
+    @functools.wraps(fn)
+    def wrapper(*args: _P.args, **kwargs: _P.kwargs) -> _R:
+        a = tuple(host(x, where) for x in args)
+        k = {name: host(v, where) for name, v in kwargs.items()}
+        return fn(*a, **k)
+
+    return wrapper
+
+
 def float_dtype(x: Any) -> Any:
     """Return the float dtype results take: ``x``'s if it is float32/float64, else float64."""
     xp = namespace(x)
@@ -148,6 +187,8 @@ def like(value: Any, ref: Any) -> Any:
         return np.asarray(value, dtype=np.float64)
     import array_api_compat
 
+    if isinstance(value, np.ndarray) and not value.flags.writeable:
+        value = np.array(value)  # torch refuses to wrap read-only memory (a broadcast view)
     return xp.asarray(value, dtype=ref.dtype, device=array_api_compat.device(ref))
 
 

@@ -33,6 +33,9 @@ def test_bench_scale_quick(tmp_path: Path) -> None:
         bag["export_tum"]["rss_growth_bytes_per_message"]
         < 0.5 * bag["read_messages"]["rss_growth_bytes_per_message"]
     )
+    held = res["read_messages_bytes"]  # arrays, not message objects: well under a kB a message
+    assert held["read_messages_held_bytes_per_message"] < 800
+    assert held["read_messages_held_bytes_per_message"] < held["user_list_held_bytes_per_message"]
     comp = res["unscented_compose"]
     assert (
         comp["chunked_rss_growth_bytes_per_pose"]

@@ -345,7 +345,7 @@ def test_optimize_in_barfoot_matches_gtsam_and_writes_marginals_and_plot(
     assert g.shape == b.shape == (100, 6, 6)
     # the optimum, in-process, as the default run builds it
     graph = lb.g2o.read(edge3_file)
-    fg, values = graph.to_gtsam()
+    fg, values = graph.to_gtsam(prior=None)
     fg.add(gtsam.PriorFactorPose3(0, gtsam.Pose3(), gtsam.noiseModel.Isotropic.Sigma(6, 1e-4)))
     res = lb.factors.optimize(fg, values, progress=False)
     T = lb.gtsam_glue.from_values(res.values, graph.vertex_ids.tolist())
@@ -509,7 +509,7 @@ def _bad_cases(tmp: Path) -> dict[str, tuple[list[str], str, dict[str, str] | No
         ),
         "optimize-bad-file": (["optimize", str(bad_file)], "bad.g2o:3: not a number: 'oops'", None),
         "optimize-disconnected": (
-            ["optimize", str(disconnected), "--marginals", str(tmp / "m.npy")],
+            ["optimize", str(disconnected), "--out-cov", str(tmp / "m.npy")],
             "the graph is not connected: 2 vertices (2, 3) have no path of edges",
             None,
         ),

@@ -69,7 +69,7 @@ def test_marginals_in_an_se2_convention_match_gtsam_marginals_converted(
     want = lb.convert_covariance(marg.marginalCovariance(k), X, "gtsam_pose2", "ros_pose2")
     np.testing.assert_allclose(cov[k], want, rtol=1e-6, atol=1e-12)
     # GTSAM's own graph (native factors, its objective): the same to second order
-    graph, values = g.to_gtsam()
+    graph, values = g.to_gtsam(prior=None)
     graph.add(
         gtsam.PriorFactorPose2(
             0, values.atPose2(0), gtsam.noiseModel.Isotropic.Sigma(3, PRIOR_SIGMA)

@@ -363,7 +363,7 @@ def test_unknown_system_and_camera(kalibr_file: Path, tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="cannot tell which system"):
         read_extrinsic(path)
     path.write_text(json.dumps({"value0": {"T_imu_cam": [{"px": 0.0}]}}))
-    with pytest.raises(ValueError, match=r"T_imu_cam\[0\]: expected keys"):
+    with pytest.raises(ValueError, match=r"missing key 'T_imu_cam\[0\]\.py'"):
         read_extrinsic(path)
 
 

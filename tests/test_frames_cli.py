@@ -98,12 +98,15 @@ def test_errors_one_line(tmp_path: Path, camchain: Path) -> None:
     nothing = tmp_path / "nothing.yaml"
     nothing.write_text("a: 1\n")
     cases = [
-        (["--to", "rovio", str(camchain)], "unknown system 'rovio'"),
-        (["--to", "okvis", "--from", "kalibrr", str(camchain)], "--from: unknown system"),
-        (["--to", "okvis", str(tmp_path / "missing.yaml")], "no such file"),
-        (["--to", "okvis", str(bad)], "cam0.T_cam_imu: not a rotation"),
-        (["--to", "okvis", "--camera", "cam3", str(camchain)], "no camera 'cam3'"),
-        (["--to", "okvis", str(nothing)], "cannot tell which system"),
+        (["--to-system", "rovio", str(camchain)], "unknown system 'rovio'"),
+        (
+            ["--to-system", "okvis", "--from-system", "kalibrr", str(camchain)],
+            "--from-system: unknown system",
+        ),
+        (["--to-system", "okvis", str(tmp_path / "missing.yaml")], "no such file"),
+        (["--to-system", "okvis", str(bad)], "cam0.T_cam_imu: not a rotation"),
+        (["--to-system", "okvis", "--camera", "cam3", str(camchain)], "no camera 'cam3'"),
+        (["--to-system", "okvis", str(nothing)], "cannot tell which system"),
     ]
     for args, msg in cases:
         r = subprocess.run(

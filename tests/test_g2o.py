@@ -93,7 +93,7 @@ M_LITERAL = np.block([[np.zeros((3, 3)), np.eye(3)], [0.5 * np.eye(3), np.zeros(
 
 @pytest.mark.parametrize("name", ALL_FILES)
 def test_gtsam_reading_reproduces_readG2o_factor_by_factor(name: str) -> None:
-    ours, ours_values = read(name, "gtsam").to_gtsam()
+    ours, ours_values = read(name, "gtsam").to_gtsam(prior=None)
     ref, ref_values = gtsam.readG2o(data(name), True)
     assert ours.size() == ref.size()
     for k in range(ref.size()):
@@ -155,8 +155,8 @@ def test_chi2_matches_g2o_at_file_values_within_second_order(name: str) -> None:
     This is an identity bound if Λ_gtsam = Mᵀ Λ_g2o M; it is tight where residuals are small
     (here ~1e-6 on the chained edges), where the 4× gtsam reading violates it.
     """
-    graph, values = read(name, "g2o").to_gtsam()
-    graph_t, _ = read(name, "gtsam").to_gtsam()
+    graph, values = read(name, "g2o").to_gtsam(prior=None)
+    graph_t, _ = read(name, "gtsam").to_gtsam(prior=None)
     total_ours = total_g2o = total_bound = 0.0
     caught = 0
     for k, (_, i, j, _, upper) in enumerate(file_edges(name)):
@@ -192,8 +192,8 @@ def test_chi2_matches_g2o_at_file_values_within_second_order(name: str) -> None:
 
 @pytest.mark.parametrize("name", QUAT_FILES)
 def test_chi2_matches_g2o_at_small_residuals_per_edge(name: str) -> None:
-    graph, values = read(name, "g2o").to_gtsam()
-    graph_t, _ = read(name, "gtsam").to_gtsam()
+    graph, values = read(name, "g2o").to_gtsam(prior=None)
+    graph_t, _ = read(name, "gtsam").to_gtsam(prior=None)
     rng = np.random.default_rng(1)
     s = 1e-6  # residual size: relative second-order error ~ s·cond(Λ)^(1/2) ~ 1e-5 at most
     for k, (_, i, j, _, upper) in enumerate(file_edges(name)):
@@ -244,14 +244,14 @@ def test_chi2_matches_g2o_on_a_whole_graph_with_small_residuals(tmp_path: Path) 
     Z, info = np.array(Z), np.array(info)
     p = tmp_path / "graph.g2o"
     write_g2o_text(p, T, edges, Z, info)
-    graph, values = g2o.read(p).to_gtsam()
+    graph, values = g2o.read(p).to_gtsam(prior=None)
     chi2 = 0.0
     for (i, j), Zk, L in zip(edges, Z, info, strict=True):
         e = g2o_error(np.linalg.inv(Zk) @ np.linalg.inv(T[i]) @ T[j])
         chi2 += 0.5 * e @ L @ e
     # residuals ~1e-5: relative second-order difference ≲ 1e-4
     assert graph.error(values) == pytest.approx(chi2, rel=1e-3)
-    graph_t, _ = g2o.read(p, "gtsam").to_gtsam()
+    graph_t, _ = g2o.read(p, "gtsam").to_gtsam(prior=None)
     assert graph_t.error(values) != pytest.approx(chi2, rel=0.1)
 
 
@@ -352,7 +352,7 @@ def test_edge3_information_map_by_finite_differences(tmp_path: Path, rpy: tuple)
 
 def test_edge3_chi2_matches_isam_error_at_small_residuals() -> None:
     G = read("sphere2500.txt")
-    graph, values = G.to_gtsam()
+    graph, values = G.to_gtsam(prior=None)
     rng = np.random.default_rng(4)
     edges = file_edges("sphere2500.txt")
     for k in rng.choice(len(edges), size=20, replace=False):
@@ -436,7 +436,7 @@ def test_write_keeps_full_precision_unlike_writeG2o(tmp_path: Path) -> None:
     p = tmp_path / "ours.g2o"
     g2o.write(p, G)
     assert np.array_equal(g2o.read(p).poses[1, :3, 3], T[:3, 3])
-    graph, values = G.to_gtsam()
+    graph, values = G.to_gtsam(prior=None)
     q = tmp_path / "gtsam.g2o"
     gtsam.writeG2o(graph, values, str(q))
     assert "1234.57" in q.read_text() and "1234.5678901234567" in p.read_text()

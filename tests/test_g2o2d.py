@@ -23,7 +23,7 @@ def data(name: str) -> str:
 @pytest.mark.parametrize("name", G2O_ORDER_FILES)
 def test_factors_and_values_equal_gtsams_readg2o(name: str) -> None:
     ref_graph, ref_values = gtsam.readG2o(data(name), False)
-    graph, values = g2o2d.read(data(name)).to_gtsam()
+    graph, values = g2o2d.read(data(name)).to_gtsam(prior=None)
     assert graph.size() == ref_graph.size() and values.size() == ref_values.size()
     for k in range(graph.size()):
         a, b = graph.at(k), ref_graph.at(k)

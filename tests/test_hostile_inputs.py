@@ -591,7 +591,7 @@ def test_extrinsics_convert_of_a_4_decimal_kalibr_file_is_one_json_object(
         + "  - [0, 0, 0, 1]\n"
     )
     rc, out, _ = _cli(
-        ["extrinsics", "convert", str(f), "--to", "okvis", "--format", "json"], capsys
+        ["extrinsics", "convert", str(f), "--to-system", "okvis", "--format", "json"], capsys
     )
     assert rc == 0 and json.loads(out)["system"] == "okvis"
 
@@ -619,7 +619,7 @@ def test_kalibr_timeshift_beyond_float64_or_int64_ns_is_named(
         calib.read_kalibr(f)
     with pytest.raises(ValueError, match=match):
         calib.read_timeshift(f)
-    rc, _, err = _cli(["extrinsics", "convert", str(f), "--to", "basalt"], capsys)
+    rc, _, err = _cli(["extrinsics", "convert", str(f), "--to-system", "basalt"], capsys)
     assert rc == 2 and len(err.strip().splitlines()) == 1
 
 
@@ -628,7 +628,9 @@ def test_extrinsics_convert_from_the_wrong_system_names_the_missing_key(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], system: str
 ) -> None:
     f = _kalibr(tmp_path, "0.01")
-    rc, _, err = _cli(["extrinsics", "convert", str(f), "--from", system, "--to", "kalibr"], capsys)
+    rc, _, err = _cli(
+        ["extrinsics", "convert", str(f), "--from-system", system, "--to-system", "kalibr"], capsys
+    )
     assert rc == 2 and f"expected in a {system} file" in err and "KeyError" not in err
 
 
@@ -756,7 +758,7 @@ def test_extrinsics_convert_parses_a_large_kalibr_file_once(
     monkeypatch.setattr(
         calib, "_load_text", lambda text, path: calls.append(str(path)) or real(text, path)
     )
-    rc, out, _ = _cli(["extrinsics", "convert", str(f), "--to", "okvis"], capsys)
+    rc, out, _ = _cli(["extrinsics", "convert", str(f), "--to-system", "okvis"], capsys)
     assert rc == 0 and "time offset: t_imu = t_cam + 0.01 s" in out
     assert calls == [str(f)]
     parsed = calib.CalibrationFile.read(f)

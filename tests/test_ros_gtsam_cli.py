@@ -101,7 +101,10 @@ def test_cli_info_export_write_marginals(
     rc, out, _ = run(capsys, "bag", "info", str(p))
     assert rc == 0 and "/odom" in out and "nav_msgs/msg/Odometry" in out and "[reads]" in out
     tum = tmp_path / "o.tum"
-    assert run(capsys, "bag", "export", str(p), "--topic", "/odom", "--to", "tum", str(tum))[0] == 0
+    assert (
+        run(capsys, "bag", "export", str(p), "--topic", "/odom", "--format", "tum", str(tum))[0]
+        == 0
+    )
     m = ros.read_messages(p, "/odom")
     first = tum.read_text().splitlines()[2].split()
     assert np.array_equal([float(x) for x in first[1:]], [*m.position[1], *m.orientation_xyzw[1]])
@@ -113,7 +116,7 @@ def test_cli_info_export_write_marginals(
         str(p),
         "--topic",
         "/odom",
-        "--to",
+        "--format",
         "npz",
         str(npz),
         "--convention",
@@ -124,7 +127,9 @@ def test_cli_info_export_write_marginals(
     g = m.with_convention("gtsam")
     assert g.cov is not None and np.array_equal(d["cov"], g.cov) and str(d["convention"]) == "gtsam"
     g2o_path = tmp_path / "o.g2o"
-    rc, *_ = run(capsys, "bag", "export", str(p), "--topic", "/odom", "--to", "g2o", str(g2o_path))
+    rc, *_ = run(
+        capsys, "bag", "export", str(p), "--topic", "/odom", "--format", "g2o", str(g2o_path)
+    )
     assert rc == 0
     from liebridge.io import g2o
 
@@ -152,7 +157,7 @@ def test_cli_info_export_write_marginals(
     [
         (["bag", "info", "{tmp}/missing.bag"], "missing.bag: no such bag"),
         (
-            ["bag", "export", "{bag}", "--topic", "/nope", "--to", "tum", "{tmp}/x.tum"],
+            ["bag", "export", "{bag}", "--topic", "/nope", "--format", "tum", "{tmp}/x.tum"],
             "no topic '/nope' (topics: /odom)",
         ),
         (["bag", "info", "{tmp}/trunc.bag"], "trunc.bag: not a readable bag"),
@@ -163,7 +168,7 @@ def test_cli_info_export_write_marginals(
                 "{bag}",
                 "--topic",
                 "/odom",
-                "--to",
+                "--format",
                 "npz",
                 "{tmp}/x.npz",
                 "--convention",
@@ -225,7 +230,7 @@ def test_cli_wrong_covariance_length_one_line(
         str(tmp_path / "w.bag"),
         "--topic",
         "/pose",
-        "--to",
+        "--format",
         "tum",
         str(tmp_path / "w.tum"),
     )
@@ -280,7 +285,7 @@ def test_cli_progress_on_long_bag(tmp_path: Path, capsys: pytest.CaptureFixture[
         str(p),
         "--topic",
         "/tf_one",
-        "--to",
+        "--format",
         "tum",
         str(tmp_path / "l.tum"),
     )

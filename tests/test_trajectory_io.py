@@ -75,7 +75,7 @@ def test_tum_reads_benchmark_style_file(tmp_path: Path) -> None:
         ("1.0 1 2 x 0 0 0 1", "not a number: 'x'"),
         ("1.0 1 2 nan 0 0 0 1", "NaN or Inf"),
         ("1.0 1 2 3 1 1 0 0", "quaternion norm off by 0.414"),
-        ("1.0 1 2 3 0 0 0 1.0000100", "quaternion norm off by 1e-05"),
+        ("1.0 1 2 3 0 0 0 1.0100000", "quaternion norm off by 0.01"),
     ],
 )
 def test_tum_malformed_line_names_file_and_line(tmp_path: Path, line: str, match: str) -> None:

@@ -21,6 +21,7 @@ __all__ = [
     "array_argument",
     "check_output_path",
     "convention_arg",
+    "deprecated_alias",
     "format_matrix",
     "need_matplotlib",
     "positive_int",
@@ -40,11 +41,90 @@ class CLIError(Exception):
 
 
 class OneLineParser(argparse.ArgumentParser):
-    """An ``ArgumentParser`` whose usage errors are one line on stderr (exit status 2)."""
+    """An ``ArgumentParser`` whose usage errors are one line on stderr (exit status 2).
+
+    It also enforces the options made required "in either spelling" by
+    :func:`deprecated_alias` (argparse alone would demand the new spelling): such an option's
+    default is a :class:`_Missing` marker, and a namespace still holding one is an error.
+    """
 
     def error(self, message: str) -> NoReturn:
         """Print ``PROG: error: MESSAGE (see 'PROG --help')`` and exit with status 2."""
         self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+
+    def parse_known_args(  # type: ignore[override]
+        self, args: Any = None, namespace: Any = None
+    ) -> tuple[argparse.Namespace, list[str]]:
+        """Parse, then require each option made required in either spelling."""
+        ns, rest = super().parse_known_args(args, namespace)
+        missing = [v for v in vars(ns).values() if isinstance(v, _Missing)]
+        if missing:
+            prog = missing[0].prog
+            names = ", ".join(m.option for m in missing)
+            self.exit(
+                2,
+                f"{prog}: error: the following arguments are required: {names} "
+                f"(see '{prog} --help')\n",
+            )
+        return ns, rest
+
+
+class _Missing:
+    """The default of an option required in either of its spellings (see :class:`OneLineParser`)."""
+
+    def __init__(self, option: str, prog: str) -> None:
+        self.option, self.prog = option, prog
+
+    def __repr__(self) -> str:
+        return f"<{self.option} missing>"
+
+
+class _DeprecatedAlias(argparse.Action):
+    """An old spelling of an option: stores into the new option's ``dest``, with a warning."""
+
+    def __init__(self, option_strings: list[str], dest: str, new: str = "", **kw: Any) -> None:
+        self.new = new
+        super().__init__(option_strings, dest, **kw)
+
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: Any,
+        option_string: str | None = None,
+    ) -> None:
+        print(
+            f"{parser.prog}: warning: {option_string} is deprecated (use {self.new}); "
+            "it will be removed in the next release",
+            file=sys.stderr,
+        )
+        setattr(namespace, self.dest, values)
+
+
+def deprecated_alias(parser: argparse.ArgumentParser, new: argparse.Action, old: str) -> None:
+    """Keep ``old`` working, for one release, as a deprecated spelling of the option ``new``.
+
+    ``new`` is what ``parser.add_argument`` returned for the new spelling (a ``store`` option);
+    ``old`` stores into the same ``dest`` with the same ``type``, ``choices`` and ``metavar``,
+    is listed in ``--help`` as "(deprecated: use NEW)" and prints a one-line warning on stderr
+    when used. A required ``new`` becomes "required in either spelling".
+    """
+    name = new.option_strings[-1]
+    if new.required:
+        new.required = False
+        new.default = _Missing(name, parser.prog)
+    kw: dict[str, Any] = {"choices": new.choices, "metavar": new.metavar}
+    if new.type is not None:
+        kw["type"] = new.type
+    parser.add_argument(
+        old,
+        action=_DeprecatedAlias,
+        new=name,
+        dest=new.dest,
+        default=argparse.SUPPRESS,
+        help=f"(deprecated: use {name})",
+        **kw,
+    )
 
 
 def one_line(text: str) -> str:

@@ -1,8 +1,8 @@
 """``liebridge bag``: ROS 1 / ROS 2 bags without ROS (info, export, write-marginals).
 
 ``bag info BAG`` lists the topics and which ones liebridge reads; ``bag export BAG --topic T
---to tum|g2o|npz OUT`` writes one trajectory topic as a TUM file (exact stamps, ``repr`` floats),
-a g2o odometry chain (information over GTSAM's tangent, converted from the messages' ROS
+--format tum|g2o|npz OUT`` writes one trajectory topic as a TUM file (exact stamps, ``repr``
+floats), a g2o odometry chain (information over GTSAM's tangent, converted from the messages' ROS
 covariances — never copied) or an ``.npz`` of arrays with the covariance in ``--convention``;
 ``bag write-marginals IN OUT`` optimizes a pose graph (a g2o file, or a bag trajectory topic as an
 odometry chain) with GTSAM and writes the estimates with their marginal covariances, converted
@@ -13,14 +13,22 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from .._validate import SINGULAR_ATOL, SINGULAR_RTOL
 from ..frames.transform import frame_name
-from ._common import CLIError, check_connected, check_output_path, convention_arg, say
+from ._common import (
+    CLIError,
+    check_connected,
+    check_output_path,
+    convention_arg,
+    deprecated_alias,
+    one_line,
+    say,
+)
 
 __all__ = ["add_parser"]
 
@@ -62,8 +70,79 @@ def _info(args: argparse.Namespace) -> int:
     return 0
 
 
-def _read(ros: Any, bag: str, topic: str, convention: Any) -> Any:
-    return ros.read_messages(bag, topic, convention=convention, progress=_progress(f"read {topic}"))
+def _read(ros: Any, bag: str, topic: str, convention: Any, path_message: Any = None) -> Any:
+    try:
+        return ros.read_messages(
+            bag,
+            topic,
+            convention=convention,
+            progress=_progress(f"read {topic}"),
+            path_message=path_message,
+        )
+    except ValueError as exc:
+        raise CLIError(_flags(one_line(str(exc)))) from None
+
+
+def _flags(text: str) -> str:
+    """Name the CLI flag where a library message names the ``increment`` argument."""
+    text = re.sub(r"^msgs: ", "", text)  # the Python argument's name, not the command's
+    text = text.replace("path_message", "--path-message")
+    return re.sub(r"\bincrement '(\w+)'", r"--increment \1", text)
+
+
+def _default_increment(msgtype: str) -> str:
+    """``--increment`` when not given: growing covariances for Odometry, else independent."""
+    return "difference" if msgtype == "nav_msgs/msg/Odometry" else "independent"
+
+
+def _export_g2o(ros: Any, args: argparse.Namespace, m: Any, out: Path) -> None:
+    """Write an odometry chain: one edge per pair of consecutive messages (``ros.graph``).
+
+    Policy for the increment information: the inverse of the increment covariance where it has
+    full rank; its pseudo-inverse, with the rank printed, where it is rank-deficient (a planar
+    covariance, zero in z, roll and pitch); refused, naming the message, where it is all zero
+    (ROS publishers leave an unknown covariance zero: there is no information to write).
+    """
+    from ..io import g2o as g2o_io
+
+    if m.cov is None and args.increment != "twist":
+        raise CLIError(
+            f"--topic {args.topic}: {m.msgtype} carries no covariance, and a g2o edge needs "
+            "one (topics of PoseWithCovarianceStamped or Odometry; or export with --format tum)"
+        )
+    increment = args.increment or _default_increment(m.msgtype)
+    try:
+        Z, cz = ros.increment_covariances(m, increment)
+        info, rank = ros.increment_information(cz)
+    except ValueError as exc:
+        raise CLIError(f"--topic {args.topic}: {_flags(one_line(str(exc)))}") from None
+    if (rank == 0).any():
+        k = int(np.argmax(rank == 0))
+        odom = m.msgtype == "nav_msgs/msg/Odometry" and increment != "twist"
+        which = "twist" if increment == "twist" else "pose"
+        raise CLIError(
+            f"--topic {args.topic}: the covariance of the increment from message {k} to {k + 1} "
+            f"is all zero, singular ({int((rank == 0).sum())} of {len(rank)} increments; the "
+            f"messages' {which} covariances are zero, ROS's 'unknown'): no information to write "
+            f"as a g2o edge (try {'--increment twist' if odom else '--format tum'})"
+        )
+    n = len(m)
+    g = g2o_io.G2OGraph.from_matrices(
+        np.arange(n), m.T, np.c_[np.arange(n - 1), np.arange(1, n)], Z, info
+    )
+    with ros.atomic_output(out) as tmp:
+        g2o_io.write(tmp, g)
+    deficient = int((rank < 6).sum())
+    note = (
+        f"; {deficient} rank-deficient (rank {int(rank.min())}..{int(rank.max())}: "
+        "pseudo-inverse, zero information where the messages have no variance)"
+        if deficient
+        else ""
+    )
+    print(
+        f"wrote {out}: {n} vertices, {n - 1} odometry edges (--increment {increment}, "
+        f"from the messages' ROS covariance{note})"
+    )
 
 
 def _export(args: argparse.Namespace) -> int:
@@ -76,12 +155,19 @@ def _export(args: argparse.Namespace) -> int:
 
         def batches() -> Any:
             for m in ros.iter_messages(
-                args.bag, args.topic, convention=conv, progress=_progress(f"read {args.topic}")
+                args.bag,
+                args.topic,
+                convention=conv,
+                progress=_progress(f"read {args.topic}"),
+                path_message=args.path_message,
             ):
                 seen.append((len(m), m.trajectory_frames() if len(m) else None))
                 yield m
 
-        ros.write_tum(out, batches())
+        try:
+            ros.write_tum(out, batches())
+        except ValueError as exc:
+            raise CLIError(_flags(one_line(str(exc)))) from None
         n = sum(k for k, _ in seen)
         frames = next((f for _, f in seen if f is not None), ("", None))
         print(
@@ -89,33 +175,9 @@ def _export(args: argparse.Namespace) -> int:
             f"{(frames[1] or 'body') if n else ''} (TUM, exact stamps, repr floats)"
         )
         return 0
-    m = _read(ros, args.bag, args.topic, conv)
+    m = _read(ros, args.bag, args.topic, conv, args.path_message)
     if args.to == "g2o":
-        from ..io import g2o as g2o_io
-
-        Z, cz = ros.increment_covariances(m, args.increment)
-        lam = np.linalg.eigvalsh(cz)
-        bad = ~(lam[:, 0] > SINGULAR_RTOL * 6 * lam[:, -1]) | ~(lam[:, 0] >= SINGULAR_ATOL)
-        if bad.any():
-            k = int(np.argmax(bad))
-            raise CLIError(
-                f"{args.topic}: the covariance of the increment from message {k} to {k + 1} is "
-                f"singular (eigenvalues {lam[k, 0]:.3g} … {lam[k, -1]:.3g}; all-zero message "
-                f"covariances?): a g2o edge needs its inverse (try --increment "
-                f"{'twist' if args.increment == 'difference' else 'difference'}, or --to tum)"
-            )
-        info = np.linalg.inv(cz)
-        info = 0.5 * (info + np.swapaxes(info, -1, -2))
-        n = len(m)
-        g = g2o_io.G2OGraph.from_matrices(
-            np.arange(n), m.T, np.c_[np.arange(n - 1), np.arange(1, n)], Z, info
-        )
-        with ros.atomic_output(out) as tmp:
-            g2o_io.write(tmp, g)
-        print(
-            f"wrote {out}: {n} vertices, {n - 1} odometry edges (increment covariance "
-            f"'{args.increment}', converted from the messages' ROS covariance)"
-        )
+        _export_g2o(ros, args, m, out)
         return 0
     arrays: dict[str, Any] = {
         "stamps": m.stamps,
@@ -165,7 +227,7 @@ def _write_marginals(args: argparse.Namespace) -> int:
                 f"--period: {len(keys)} vertices {args.period!r} s apart end at {last!r} s, "
                 f"beyond the {ros.messages.STAMP_MAX} s a ROS time holds"
             )
-        graph, initial = g.to_gtsam()
+        graph, initial = g.to_gtsam(prior=None)  # the prior of --prior-sigma follows
         graph.add(
             gtsam.PriorFactorPose3(
                 k0, initial.atPose3(k0), gtsam.noiseModel.Isotropic.Sigma(6, args.prior_sigma)
@@ -180,9 +242,24 @@ def _write_marginals(args: argparse.Namespace) -> int:
     else:
         if args.topic is None:
             raise CLIError("--topic: required when IN is a bag (the trajectory topic to optimize)")
-        m = _read(ros, args.input, args.topic, "ros")
+        m = _read(ros, args.input, args.topic, "ros", args.path_message)
         graph = gtsam.NonlinearFactorGraph()
-        for f in ros.odometry_factors(m, increment=args.increment):
+        try:
+            _, cz = ros.increment_covariances(m, args.increment)
+            rank = ros.increment_information(cz)[1]
+            if (rank < 6).any():
+                k = int(np.argmax(rank < 6))
+                raise CLIError(
+                    f"--topic {args.topic}: the covariance of the increment from message {k} to "
+                    f"{k + 1} has rank {int(rank[k])} of 6 ({int((rank < 6).sum())} of "
+                    f"{len(rank)} increments; zero or planar message covariances): GTSAM's "
+                    "marginals need every edge of full rank; 'bag export --format g2o' writes it "
+                    "with its rank-deficient information"
+                )
+            factors = ros.odometry_factors(m, increment=args.increment)
+        except ValueError as exc:
+            raise CLIError(f"--topic {args.topic}: {_flags(one_line(str(exc)))}") from None
+        for f in factors:
             graph.add(f)
         keys = list(range(len(m)))
         initial = gtsam.Values()
@@ -221,6 +298,17 @@ def _write_marginals(args: argparse.Namespace) -> int:
     return 0
 
 
+def _path_message_option(q: argparse.ArgumentParser) -> None:
+    q.add_argument(
+        "--path-message",
+        type=int,
+        default=None,
+        metavar="INDEX",
+        help="nav_msgs/Path topics (each message a whole trajectory): the message to read "
+        "(default -1, the last; 0 the first)",
+    )
+
+
 def add_parser(sub: Any) -> None:
     """Register ``liebridge bag`` and its subcommands."""
     p = sub.add_parser(
@@ -237,14 +325,19 @@ def add_parser(sub: Any) -> None:
     e = bsub.add_parser(
         "export",
         help="one pose topic as TUM, g2o or npz",
-        description="Export a PoseWithCovariance(Stamped), Odometry, TransformStamped or "
-        "TFMessage topic. tum: 'sec.nanosec x y z qx qy qz qw' exactly as stored; g2o: an "
-        "odometry chain whose edge information is the increment covariance in GTSAM's tangent; "
+        description="Export a PoseStamped, PoseWithCovariance(Stamped), Odometry, "
+        "TransformStamped, TFMessage or nav_msgs/Path (one message: --path-message) topic. "
+        "tum: 'sec.nanosec x y z qx qy qz qw' exactly as stored; g2o (topics with "
+        "covariances): an odometry chain whose edge information is the increment covariance's "
+        "(pseudo-)inverse in GTSAM's tangent; "
         "npz: stamps, T (N,4,4), cov (N,6,6) in --convention, twist/twist_cov (child frame).",
     )
     e.add_argument("bag", metavar="BAG")
     e.add_argument("--topic", required=True)
-    e.add_argument("--to", required=True, choices=("tum", "g2o", "npz"))
+    fmt = e.add_argument(
+        "--format", dest="to", required=True, choices=("tum", "g2o", "npz"), help="what OUT is"
+    )
+    deprecated_alias(e, fmt, "--to")
     e.add_argument("out", metavar="OUT")
     e.add_argument(
         "--convention",
@@ -253,11 +346,15 @@ def add_parser(sub: Any) -> None:
     )
     e.add_argument(
         "--increment",
-        default="difference",
-        choices=("difference", "twist"),
-        help="g2o: increment covariance from growing pose covariances (difference) "
-        "or from the Odometry twist covariance × dt² (twist)",
+        default=None,
+        choices=("difference", "twist", "independent"),
+        help="g2o: increment covariance from growing pose covariances (difference; default for "
+        "Odometry), the Odometry twist covariance × dt² (twist), or independent absolute "
+        "covariances propagated to first order (independent; default for "
+        "PoseWithCovariance(Stamped), e.g. /amcl_pose). A rank-deficient increment "
+        "covariance (planar: zero z, roll, pitch) is written as its pseudo-inverse",
     )
+    _path_message_option(e)
     e.set_defaults(func=_export)
 
     w = bsub.add_parser(
@@ -282,7 +379,10 @@ def add_parser(sub: Any) -> None:
     w.add_argument("--frame-id", help="parent frame (default: the input's, or 'map')")
     w.add_argument("--child-frame-id", default=None, help="Odometry child frame (base_link)")
     w.add_argument("--storage", choices=("rosbag1", "sqlite3", "mcap"), default=None)
-    w.add_argument("--increment", default="difference", choices=("difference", "twist"))
+    w.add_argument(
+        "--increment", default="difference", choices=("difference", "twist", "independent")
+    )
+    _path_message_option(w)
     w.add_argument(
         "--prior-sigma",
         type=float,

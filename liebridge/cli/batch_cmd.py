@@ -21,7 +21,15 @@ import time
 from pathlib import Path
 from typing import Any
 
-from ._common import CLIError, check_output_path, one_line, option_value, positive_int, say
+from ._common import (
+    CLIError,
+    check_output_path,
+    deprecated_alias,
+    one_line,
+    option_value,
+    positive_int,
+    say,
+)
 
 __all__ = ["add_parser"]
 
@@ -412,13 +420,15 @@ def add_parser(sub: Any) -> None:
     )
     _engine_args(c)
     c.add_argument("--dst-dir", dest="dst_dir", required=True, metavar="DIR")
-    c.add_argument(
-        "--to",
+    fmt = c.add_argument(
+        "--format",
+        dest="to",
         type=option_value,
         choices=("tum", "kitti", "euroc"),
         default="tum",
-        help="(default tum)",
+        help="the format of the files written (default tum)",
     )
+    deprecated_alias(c, fmt, "--to")
     c.add_argument("--glob", default="*.txt", help="directory: the files to convert (*.txt)")
     c.add_argument(
         "--src-format",

@@ -12,7 +12,7 @@ a path to a ``.py`` file) and reads from it:
 
 It prints :func:`liebridge.doctor.diagnose_jacobian`'s diagnosis and the errors per candidate.
 ``traj`` reads a TUM file (``timestamp tx ty tz q q q q``; quaternion order declared by
-``--order``, else by a header naming ``qw`` first, else TUM's ``xyzw``) and prints
+``--quat-order``, else by a header naming ``qw`` first, else TUM's ``xyzw``) and prints
 :func:`liebridge.doctor.scan_trajectory`'s findings. Exit status: 0 nothing wrong found, 1 a
 problem found, 2 a usage error (one line on stderr).
 """
@@ -36,6 +36,7 @@ from ._common import (
     CLIError,
     check_output_path,
     convention_arg,
+    deprecated_alias,
     need_matplotlib,
     one_line,
     option_value,
@@ -251,13 +252,18 @@ def add_parser(sub: Any) -> None:
         description="Scan FILE (TUM: timestamp tx ty tz q q q q, or timestamp q q q q) for "
         "duplicate/backward stamps, time gaps, non-unit quaternions, pose jumps, rotation-log "
         "branch-cut crossings near π, quaternion sign flips (and the SLERP spin they would "
-        "cause) and the quaternion storage order (measured; declared by --order, else by a "
+        "cause) and the quaternion storage order (measured; declared by --quat-order, else by a "
         "header naming qw first, else xyzw as TUM).",
     )
     t.add_argument("file", metavar="FILE")
-    t.add_argument(
-        "--order", type=option_value, choices=("xyzw", "wxyz"), help="declared quaternion order"
+    order = t.add_argument(
+        "--quat-order",
+        dest="order",
+        type=option_value,
+        choices=("xyzw", "wxyz"),
+        help="declared quaternion order",
     )
+    deprecated_alias(t, order, "--order")
     t.add_argument("--format", type=option_value, choices=("text", "json"), default="text")
     t.add_argument(
         "--plot",

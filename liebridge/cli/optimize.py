@@ -23,12 +23,14 @@ from typing import Any
 import numpy as np
 
 from .._validate import FloatArray
+from ..io.g2o import GAUGE_PRIOR_SIGMA, gauge_keys
 from ..lie import se3
 from ._common import (
     CLIError,
     check_connected,
     check_output_path,
     convention_arg,
+    deprecated_alias,
     need_matplotlib,
     option_value,
     save_figure,
@@ -46,8 +48,9 @@ __all__ = [
 
 #: The file ``liebridge optimize`` reads without arguments (from the installed GTSAM's data).
 DEFAULT_DATASET = "sphere2500.txt"
-#: Gauge prior standard deviation (every direction of GTSAM's tangent).
-PRIOR_SIGMA = 1e-4
+#: Gauge prior standard deviation (every direction of GTSAM's tangent): the default of
+#: ``G2OGraph.to_gtsam(prior="gauge")``.
+PRIOR_SIGMA = GAUGE_PRIOR_SIGMA
 _PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg")
 
 
@@ -109,7 +112,7 @@ def _semantics_line(information: str) -> str:
 
 
 def _gauge_keys(g: Any) -> list[int]:
-    return list(g.fixed) if g.fixed else [int(g.vertex_ids[0])]
+    return gauge_keys(g.vertex_ids, g.fixed)
 
 
 def _check_connected(g: Any) -> None:
@@ -131,7 +134,7 @@ def _build(g: Any, conv: Any) -> Any:
     key_index = {int(k): n for n, k in enumerate(g.vertex_ids.tolist())}
     prior_cov = np.eye(6) * PRIOR_SIGMA**2
     if conv.name == "gtsam":
-        graph, values = g.to_gtsam()
+        graph, values = g.to_gtsam(prior=None)  # the gauge prior is added below, in conv
         cg = ConventionGraph(conv, graph, values)
     else:
         cg = ConventionGraph(conv, values=to_values(g.poses, g.vertex_ids.tolist()))
@@ -221,7 +224,7 @@ def _run(args: argparse.Namespace) -> int:
         check_output_path(args.plot, "--plot", _PLOT_SUFFIXES, inputs=[args.file])
         plt = need_matplotlib()  # fail before the long part, not after
     if args.marginals is not None:
-        check_output_path(args.marginals, "--marginals", (".npy",), inputs=[args.file])
+        check_output_path(args.marginals, "--out-cov", (".npy",), inputs=[args.file])
     path = resolve_dataset(args.file)
 
     from ..io import g2o as g2o_io
@@ -293,7 +296,7 @@ def _run(args: argparse.Namespace) -> int:
             cov = cg.marginal_covariances(keys)
         except RuntimeError as exc:  # an ill-conditioned system at the optimum
             raise _gtsam_error(exc, "the marginal covariances") from None
-        save_npy(args.marginals, cov, "--marginals")
+        save_npy(args.marginals, cov, "--out-cov")
         sigma = position_sigma(cov, cg.poses(keys), conv)
         timings.append(f"marginals {time.perf_counter() - t0:.2f} s")
         print(
@@ -323,9 +326,10 @@ def add_parser(sub: Any) -> None:
         "initial and final error, the iterations and the timings. With --convention NAME the "
         "graph is built in NAME's convention (information converted from GTSAM's tangent at "
         "each measurement; native factors where exact, liebridge's custom factors otherwise) "
-        "and --marginals are written in NAME's tangent. A 2D file (VERTEX_SE2 / EDGE_SE2, TORO's "
-        "VERTEX2 / EDGE2) is detected and optimized as Pose2 factors; its --convention is an SE(2) "
-        "one (default gtsam_pose2) and its plot is planar. Progress goes to stderr.",
+        "and --out-cov marginals are written in NAME's tangent. A 2D file (VERTEX_SE2 / "
+        "EDGE_SE2, TORO's VERTEX2 / EDGE2) is detected and optimized as Pose2 factors; its "
+        "--convention is an SE(2) one (default gtsam_pose2) and its plot is planar. Progress "
+        "goes to stderr.",
     )
     p.add_argument(
         "file",
@@ -370,14 +374,16 @@ def add_parser(sub: Any) -> None:
         "--plot",
         metavar="OUT.png",
         help="write a 3D plot of the initial and optimized trajectories, axes in the file's "
-        "length unit (m); with --marginals the optimized poses are coloured by their position σ "
+        "length unit (m); with --out-cov the optimized poses are coloured by their position σ "
         '(needs matplotlib: pip install ".[plot]" from the checkout)',
     )
-    p.add_argument(
-        "--marginals",
+    cov = p.add_argument(
+        "--out-cov",
+        dest="marginals",
         metavar="OUT.npy",
         help="write the marginal covariances (N, 6, 6), in the convention's tangent, vertex order",
     )
+    deprecated_alias(p, cov, "--marginals")
     from ._common import positive_int
 
     p.add_argument(

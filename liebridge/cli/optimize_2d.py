@@ -7,10 +7,11 @@ when the conversion to GTSAM's tangent is exact (:func:`liebridge.is_exactly_lin
 Sophus, manif, jaxlie, Theseus), else liebridge's custom factors with the convention's own
 residual (``g2o_se2_edge``: g2o's ``(x, y, θ)`` of ``Z⁻¹Ti⁻¹Tj``; ``g2o_se2``, ``symforce_pose2``,
 ``ros_pose2``)
-and each edge's covariance converted to that convention at its measurement; a prior on the first
-vertex fixes the gauge. It is optimized by :func:`liebridge.gtsam.optimize`, and its marginals
-(``gtsam.Marginals``, over GTSAM's Pose2 tangent) are converted to the convention. The plot
-shows the initial and optimized trajectories with the 2σ position ellipses of the marginals.
+and each edge's covariance converted to that convention at its measurement; a prior on the
+``FIX`` vertices (else the first vertex) fixes the gauge. It is optimized by
+:func:`liebridge.gtsam.optimize`, and its marginals (``gtsam.Marginals``, over GTSAM's Pose2
+tangent) are converted to the convention. The plot shows the initial and optimized trajectories
+with the 2σ position ellipses of the marginals.
 """
 
 from __future__ import annotations
@@ -23,12 +24,14 @@ from typing import Any
 import numpy as np
 
 from .._validate import FloatArray
+from ..io.g2o import GAUGE_PRIOR_SIGMA, gauge_keys
 from ..lie import se2
 from ._common import CLIError, check_connected, need_matplotlib, save_figure, save_npy, say
 
-#: σ of the gauge prior on the first vertex, in each of (vx, vy, ω).
-PRIOR_SIGMA = 1e-4
-#: Above this many poses the plot shows no ellipses unless --marginals were computed anyway.
+#: σ of the gauge prior on the ``FIX`` vertices (else the first), in each of (vx, vy, ω): the
+#: default of ``G2OGraph2D.to_gtsam(prior="gauge")``.
+PRIOR_SIGMA = GAUGE_PRIOR_SIGMA
+#: Above this many poses the plot shows no ellipses unless --out-cov marginals were computed.
 PLOT_ELLIPSES_MAX = 3000
 
 
@@ -64,10 +67,11 @@ def factor_kind_2d(conv: Any) -> str:
 def build_2d(g: Any, conv: Any) -> tuple[Any, Any]:
     """GTSAM graph and values of the 2-D graph ``g`` with factors in ``conv``, plus the gauge prior.
 
-    Native ``BetweenFactorPose2`` (``g.to_gtsam()``) when the conversion to GTSAM's tangent is
-    exact, else :func:`liebridge.gtsam.between` custom factors in ``conv`` with each edge's
-    covariance (``Λ⁻¹`` over GTSAM's tangent) converted at its measurement. The gauge prior is
-    GTSAM's ``PriorFactorPose2`` on the first vertex, σ = :data:`PRIOR_SIGMA`.
+    Native ``BetweenFactorPose2`` (``g.to_gtsam(prior=None)``) when the conversion to GTSAM's
+    tangent is exact, else :func:`liebridge.gtsam.between` custom factors in ``conv`` with each
+    edge's covariance (``Λ⁻¹`` over GTSAM's tangent) converted at its measurement. The gauge
+    prior is GTSAM's ``PriorFactorPose2`` on the ``FIX`` vertices (else the first), σ =
+    :data:`PRIOR_SIGMA`: the prior ``g.to_gtsam()`` adds by default.
     """
     import gtsam
 
@@ -79,7 +83,7 @@ def build_2d(g: Any, conv: Any) -> tuple[Any, Any]:
 
     hub = gtsam_convention_of(se2.GROUP.name)
     if is_exactly_linear(conv, hub):
-        graph, values = g.to_gtsam()
+        graph, values = g.to_gtsam(prior=None)  # the gauge prior is added below
     else:
         values = to_values(g.poses, g.vertex_ids.tolist(), group="se2")
         graph = gtsam.NonlinearFactorGraph()
@@ -87,12 +91,12 @@ def build_2d(g: Any, conv: Any) -> tuple[Any, Any]:
         cov = convert_covariance(np.linalg.inv(g.information), Z, hub, conv)
         for (i, j), Zk, c in zip(g.edges.tolist(), Z, cov, strict=True):
             graph.add(between(int(i), int(j), Zk, c, conv, native=False))
-    first = int(g.vertex_ids[0])
-    graph.add(
-        gtsam.PriorFactorPose2(
-            first, values.atPose2(first), gtsam.noiseModel.Isotropic.Sigma(3, PRIOR_SIGMA)
+    for k in gauge_keys(g.vertex_ids, g.fixed):
+        graph.add(
+            gtsam.PriorFactorPose2(
+                k, values.atPose2(k), gtsam.noiseModel.Isotropic.Sigma(3, PRIOR_SIGMA)
+            )
         )
-    )
     return graph, values
 
 
@@ -175,8 +179,9 @@ def run(args: argparse.Namespace, path: Path, params: Any, plt: Any, t_start: fl
         f"readings (they agree to first order at zero error){order}"
     )
     print(f"convention: {conv.name} — {factor_kind_2d(conv)}; marginals in its tangent")
-    check_connected(g.vertex_ids.tolist(), g.edges.tolist(), [int(g.vertex_ids[0])])
-    print(f"gauge: prior on vertex {int(g.vertex_ids[0])} (σ = {PRIOR_SIGMA:g})")
+    check_connected(g.vertex_ids.tolist(), g.edges.tolist(), gauge_keys(g.vertex_ids, g.fixed))
+    gauge = ", ".join(str(k) for k in gauge_keys(g.vertex_ids, g.fixed))
+    print(f"gauge: prior on vertex {gauge} (σ = {PRIOR_SIGMA:g})")
     if args.dry_run:
         print("dry run: nothing optimized")
         return 0
@@ -207,7 +212,7 @@ def run(args: argparse.Namespace, path: Path, params: Any, plt: Any, t_start: fl
         cov = convert_covariance(cov_gtsam, X, "gtsam_pose2", conv)
         timings.append(f"marginals {time.perf_counter() - t0:.2f} s")
         if args.marginals is not None:
-            save_npy(args.marginals, cov, "--marginals")
+            save_npy(args.marginals, cov, "--out-cov")
             print(f"marginals: {args.marginals} (shape {cov.shape}, {conv.name}'s tangent)")
     if args.plot is not None:
         t0 = time.perf_counter()

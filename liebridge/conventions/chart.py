@@ -101,6 +101,25 @@ class Chart(ABC):
     def _engine(self) -> Engine:
         return engine_for(self.group)
 
+    @property
+    def _array_api(self) -> bool:
+        """Whether this chart runs on torch/JAX arrays (a Convention of an array-API group).
+
+        Bundles and navigation states run on numpy.
+        """
+        return False
+
+    def _inputs(self, *xs: Any) -> tuple[Any, ...]:
+        """Return the arguments in one array type.
+
+        The first torch/JAX array's where this chart runs on it, else host numpy copies
+        (``arrays.host``: a tensor that requires grad is refused).
+        """
+        xs = arrays.common(*xs)
+        if self._array_api or not arrays.any_foreign(*xs):
+            return xs
+        return tuple(arrays.host(x, self.name) for x in xs)
+
     def _pair(self, X: Any, Y: Any) -> tuple[FloatArray, FloatArray]:
         A, B = self.element(X), self.element(Y, "Y")
         validate.batch_shape(("X", A.shape[:-2]), ("Y", B.shape[:-2]))
@@ -121,7 +140,7 @@ class Chart(ABC):
         -------
         ndarray, same kind as ``X``
         """
-        X, d = arrays.common(X, d)
+        X, d = self._inputs(X, d)
         X = self.element(X)
         d = self._increment(d, tuple(X.shape[-2:]) == (3, 3))
         validate.batch_shape(("X", X.shape[:-2]), ("d", d.shape[:-1]))
@@ -129,7 +148,7 @@ class Chart(ABC):
 
     def local(self, X: Any, Y: Any) -> FloatArray:
         """Inverse of :meth:`retract`: the ``d`` with ``retract(X, d) == Y`` (principal branch)."""
-        X, Y = self._pair(*arrays.common(X, Y))
+        X, Y = self._pair(*self._inputs(X, Y))
         return validate.finite_output(self._local(X, Y), f"{self.name}.local")
 
     def local_jacobian(self, X: Any, Y: Any) -> FloatArray:
@@ -143,7 +162,7 @@ class Chart(ABC):
         to GTSAM's perturbation of ``Y`` instead, multiply by ``tangent_map(Y, "gtsam", self)``.
         False: ``J = I`` (true only at ``Y = X``: the textbook approximation that moves optima).
         """
-        X, Y = self._pair(*arrays.common(X, Y))
+        X, Y = self._pair(*self._inputs(X, Y))
         return validate.finite_output(self._local_jacobian(X, Y), f"{self.name}.local_jacobian")
 
     def to_canonical(self, X: Any) -> FloatArray:
@@ -153,10 +172,10 @@ class Chart(ABC):
         chart of the group: ``X·Exp(ξ)``).
         """
         return validate.finite_output(
-            self._to_canonical(self.element(X)), f"{self.name}.to_canonical"
+            self._to_canonical(self.element(*self._inputs(X))), f"{self.name}.to_canonical"
         )
 
     def from_canonical(self, X: Any) -> FloatArray:
         """Inverse of :meth:`to_canonical` (closed form, no matrix inversion)."""
-        out = self._from_canonical(self.element(X))
+        out = self._from_canonical(self.element(*self._inputs(X)))
         return validate.finite_output(out, f"{self.name}.from_canonical")

@@ -184,6 +184,10 @@ class Convention(Chart):
     def _engine(self) -> Engine:
         return self._eng
 
+    @property
+    def _array_api(self) -> bool:
+        return self.record.array_api
+
     def _run(self, *xs: Any) -> Engine:
         """Return the engine for these inputs.
 

@@ -184,6 +184,7 @@ def tangent_map(X: Any, src: ConventionLike, dst: ConventionLike) -> FloatArray:
             if _convert_ext.transform(0, plan, X, None, out) == -1:
                 return out
     a, b = get(src), get(dst)
+    (X,) = _inputs(a, b, X)
     return validate.finite_output(unchecked_map(_element(a, b, X), a, b), "tangent_map")
 
 
@@ -197,7 +198,7 @@ def convert_tangent(
     whenever :func:`is_exactly_linear` holds.
     """
     a, b = get(src), get(dst)
-    d, X = arrays.common(d, X)
+    d, X = _inputs(a, b, d, X)
     Xa = _element(a, b, X)
     d = a._increment(d, Xa.shape[-1] == 3)
     validate.batch_shape(("d", tuple(d.shape[:-1])), ("X", tuple(Xa.shape[:-2])))
@@ -206,6 +207,11 @@ def convert_tangent(
     else:
         out = arrays.matvec(unchecked_map(Xa, a, b), d)
     return validate.finite_output(_out(out), "convert_tangent")
+
+
+def _inputs(a: Chart, b: Chart, *xs: Any) -> tuple[Any, ...]:
+    """Return the arguments in one array type (torch/JAX where both charts run on it)."""
+    return a._inputs(*b._inputs(*xs))
 
 
 def _out(x: Any) -> Any:
@@ -268,7 +274,7 @@ def convert_covariance(
     if method != "linear" and method != "unscented":  # "Linear", " unscented": as all options
         method = validate.option(method, "method", ("linear", "unscented"))
     a, b = get(src), get(dst)
-    cov, X = arrays.common(cov, X)
+    cov, X = _inputs(a, b, cov, X)
     Xa = _element(a, b, X)
     so3 = Xa.shape[-1] == 3
     n = a.dim(Xa)
@@ -370,7 +376,7 @@ def convert_information(info: Any, X: Any, src: ConventionLike, dst: ConventionL
             if _convert_ext.transform(2, plan, X, info, out) == -1:
                 return out
     a, b = get(src), get(dst)
-    info, X = arrays.common(info, X)
+    info, X = _inputs(a, b, info, X)
     Xa = _element(a, b, X)
     n = a.dim(Xa)
     info = validate.covariance(info, "info", n)
@@ -444,7 +450,7 @@ def convert_jacobian(
         if out is not None:
             return out
     a, b = get(src), get(dst)
-    J, at_input, at_output = arrays.common(J, at_input, at_output)
+    J, at_input, at_output = _inputs(a, b, J, at_input, at_output)
     if arrays.is_foreign(J):
         Jm = _jacobian_input(J)
     else:

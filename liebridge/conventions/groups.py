@@ -18,7 +18,7 @@ implementation of the same formulas (:mod:`~liebridge.conventions.se3_engine`).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -98,7 +98,7 @@ def _block_diag(g: Group, blocks: dict[int, FloatArray | float], ref: FloatArray
         for sj in slots:
             ni, nj = si.stop - si.start, sj.stop - sj.start
             if si is sj:
-                b = blocks[si.start]
+                b: Any = blocks[si.start]
                 b = arrays.like(b, ref) if not arrays.is_foreign(b) else b
                 b = (
                     xp.broadcast_to(b, (*batch, ni, nj))
@@ -282,7 +282,10 @@ def _core_to(conv: Convention, X: FloatArray, inverse: bool) -> FloatArray:
 
 def to_canonical(conv: Convention, X: FloatArray) -> FloatArray:
     """Return ``M``, ``ξ_gtsam = M d``: the derivative of ``gtsam.local(X, conv.retract(X, d))``."""
-    return _out(_core_to(conv, X, False) @ _selection_like(conv, X))
+    K = _core_to(conv, X, False)
+    if conv.embed is None:  # K·S with S a permutation: its columns, gathered
+        return _out(K[..., :, [int(i) for i in _rec(conv).perm(conv.order)]])
+    return _out(K @ _selection_like(conv, X))
 
 
 def from_canonical(conv: Convention, X: FloatArray) -> FloatArray:
@@ -290,7 +293,22 @@ def from_canonical(conv: Convention, X: FloatArray) -> FloatArray:
 
     For an embedding it is a right inverse: the extra coordinates are 0.
     """
-    return _out(arrays.mT(_selection_like(conv, X)) @ _core_to(conv, X, True))
+    K = _core_to(conv, X, True)
+    if conv.embed is None:  # Sᵀ·K: its rows, gathered
+        return _out(K[..., [int(i) for i in _rec(conv).perm(conv.order)], :])
+    return _out(arrays.mT(_selection_like(conv, X)) @ K)
+
+
+def is_canonical(conv: Convention) -> bool:
+    """Whether ``conv``'s tangent is the canonical one (its maps to and from it are ``I``)."""
+    g = _rec(conv)
+    return (
+        is_coupled(conv)
+        and conv.side == "right"
+        and conv.embed is None
+        and conv.rotation_scale == 1.0
+        and [int(i) for i in g.perm(conv.order)] == list(range(g.dim))
+    )
 
 
 def _selection_like(conv: Convention, X: FloatArray) -> FloatArray:
@@ -327,6 +345,7 @@ def local_jacobian(conv: Convention, X: FloatArray, Y: FloatArray) -> FloatArray
             blocks[g.rot.start] = conv.rotation_scale * d_from_rotation(
                 dR, conv.rotation, conv.side
             )
+    blk: Any
     if _body(conv):
         blk = np.linalg.solve(AX, AY) if xp is np else xp.linalg.solve(AX, AY)
     else:

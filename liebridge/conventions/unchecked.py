@@ -23,6 +23,7 @@ from .. import arrays
 from .._validate import FloatArray
 from .chart import Chart
 from .convention import Convention
+from .groups import is_canonical
 from .tangent_maps import pair_tangent_map
 
 
@@ -61,8 +62,13 @@ def tangent_map(X: FloatArray, src: Chart, dst: Chart) -> FloatArray:
         and not arrays.is_foreign(X)
     ):
         return pair_tangent_map(src, dst, X.shape[-1] == 3)(X)
-    # the maps to and from the canonical tangent
-    M = dst._from_canonical(X) @ src._to_canonical(X)
+    # the maps to and from the canonical tangent (one of them I: skipped)
+    if isinstance(src, Convention) and is_canonical(src):
+        M = dst._from_canonical(X)
+    elif isinstance(dst, Convention) and is_canonical(dst):
+        M = src._to_canonical(X)
+    else:
+        M = dst._from_canonical(X) @ src._to_canonical(X)
     return M if arrays.is_foreign(M) else np.asarray(M, dtype=np.float64)
 
 

@@ -50,18 +50,26 @@ coordinates to camera n. The time offset goes to the systems that keep one, same
 their own key and unit (:data:`TIME_OFFSETS`): OpenVINS ``timeshift_cam_imu``, VINS-Fusion
 ``td``, Basalt ``cam_time_offset_ns``.
 
+Second cameras (``camera="cam1"``): Kalibr and OpenVINS ``cam1``, VINS-Fusion ``body_T_cam1``;
+ORB-SLAM3 ``Stereo.T_c1_c2`` = ``T_cam0_cam1`` (camera-2 coordinates to camera 1's: ORB_SLAM3
+``src/Settings.cc`` reads it into ``Tlr_`` and gives ``Tlr_.inverse()`` to ``cv::stereoRectify``
+as the first-to-second camera motion, :data:`ORBSLAM3_STEREO`); OKVIS and Basalt keep one list,
+entry N being camera N, so their snippet for camera N is the whole list up to it.
+
 YAML needs PyYAML (the ``calib`` extra), imported only when a file is read or written. Files in
-OpenCV's dialect (``%YAML:1.0`` and ``!!opencv-matrix`` nodes, as ORB-SLAM3, VINS-Fusion,
-OpenVINS and OKVIS use) are read too, and :func:`format_parameter` writes each system's
-parameter in that system's own syntax (checked by reading it back with OpenCV's
-``FileStorage`` in the tests).
+OpenCV's dialect (``%YAML:1.0``, ``!!opencv-matrix`` nodes, ``Key:value`` and ``data:[...]``
+without a space after the colon, as ORB-SLAM3, VINS-Fusion, OpenVINS and OKVIS use) are read as
+``cv2.FileStorage`` reads them, and :func:`format_parameter` writes each system's parameter in
+that system's own syntax (both checked against OpenCV's ``FileStorage`` in the tests). A key a
+system's file lacks is one ``ValueError`` naming the file and the key (:data:`REQUIRED_KEYS`).
 """
 
 from __future__ import annotations
 
 import json
 import re
-from collections.abc import Mapping
+import warnings
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -77,12 +85,15 @@ from .transform import Transform, frame_name
 from .tree import TransformTree
 
 __all__ = [
+    "ORBSLAM3_STEREO",
+    "REQUIRED_KEYS",
     "SYSTEMS",
     "TIME_OFFSETS",
     "CalibrationFile",
     "ExtrinsicFormat",
     "KalibrCamchain",
     "KalibrCamera",
+    "OrbSlam3PrecisionWarning",
     "SystemExtrinsic",
     "detect_file_system",
     "detect_system",
@@ -101,7 +112,7 @@ __all__ = [
 ]
 
 PathLike = str | Path
-Holds = Literal["T_cam_imu", "T_imu_cam"]
+Holds = Literal["T_cam_imu", "T_imu_cam", "T_cam0_cam1"]
 
 
 # ----------------------------------------------------------------------------- the systems
@@ -110,7 +121,9 @@ class ExtrinsicFormat:
     """How one system names, orients and stores the camera–IMU extrinsic.
 
     ``holds`` is the direction in liebridge's naming: ``"T_cam_imu"`` maps IMU coordinates to
-    camera coordinates, ``"T_imu_cam"`` camera coordinates to IMU coordinates.
+    camera coordinates, ``"T_imu_cam"`` camera coordinates to IMU coordinates,
+    ``"T_cam0_cam1"`` (ORB-SLAM3's ``Stereo.T_c1_c2``, :data:`ORBSLAM3_STEREO`) the second
+    camera's coordinates to the first's.
     """
 
     system: str
@@ -199,8 +212,22 @@ SYSTEMS: dict[str, ExtrinsicFormat] = {
 }
 
 
+#: ORB-SLAM3's second camera: ``Stereo.T_c1_c2`` (what :func:`export_extrinsic` gives for
+#: ``cam1``), its storage, its use and the source read.
+ORBSLAM3_STEREO = ExtrinsicFormat(
+    "orbslam3",
+    "Stereo.T_c1_c2",
+    "T_cam0_cam1",  # not a camera–IMU matrix: camera-2 coordinates to camera 1's
+    "!!opencv-matrix 4x4, dt: f, beside IMU.T_b_c1 (the first camera's)",
+    "Tlr = T_c1_c2 (p_c1 = Tlr p_c2); cv::stereoRectify gets R12, t12 = Tlr^-1 (first camera "
+    "to second); baseline b = |t_lr|; hence T_b_c2 = T_b_c1 * T_c1_c2",
+    "UZ-SLAMLab/ORB_SLAM3 src/Settings.cc (readCamera2, precomputeRectificationMaps)",
+    ("c2", "c1"),
+)
+
+
 def system_names() -> tuple[str, ...]:
-    """Names accepted by :func:`export_extrinsic` and the CLI's ``--to``/``--from``."""
+    """Names accepted by :func:`export_extrinsic` and ``--to-system``/``--from-system``."""
     return tuple(SYSTEMS)
 
 
@@ -223,18 +250,28 @@ def system_format(name: Any, what: str = "system") -> ExtrinsicFormat:
 
 @dataclass(frozen=True)
 class SystemExtrinsic:
-    """The camera–IMU extrinsic as one system stores it.
+    """The camera–IMU extrinsic of one camera as one system stores it.
 
     Attributes
     ----------
     system, parameter : str
-        The system and the name its configuration uses.
+        The system and the name its configuration uses for this camera's matrix
+        (``body_T_cam1`` for VINS-Fusion's second camera, ``Stereo.T_c1_c2`` for ORB-SLAM3's,
+        ``T_imu_cam[1]`` for Basalt's, ``cameras[1].T_SC`` for OKVIS's).
     transform : Transform
         The stored matrix with its frames: ``T`` maps ``source_frame`` to ``target_frame``.
     direction : str
         The direction in words.
     extra : dict
         System-specific forms (``rvec``/``tvec`` for OpenCV, the JSON pose for Basalt).
+    camera : str
+        Which camera of the rig (``"cam0"``, ``"cam1"``...); :func:`format_parameter` labels the
+        snippet with it.
+    rig : tuple of Transform
+        The earlier cameras' matrices as the system stores them, where the system's snippet for
+        this camera holds them too: OKVIS's ``cameras`` and Basalt's ``T_imu_cam`` lists
+        (``T_imu_cam0``...), ORB-SLAM3's ``IMU.T_b_c1`` beside ``Stereo.T_c1_c2``. Empty for
+        camera 0 and for the systems that keep one entry per camera.
     """
 
     system: str
@@ -242,6 +279,8 @@ class SystemExtrinsic:
     transform: Transform
     direction: str
     extra: Mapping[str, Any] = field(default_factory=dict)
+    camera: str = "cam0"
+    rig: tuple[Transform, ...] = ()
 
     def as_dict(self) -> dict[str, Any]:
         """Return a JSON-ready dict: ``system``, ``parameter``, ``T`` (rows), frames, direction."""
@@ -253,6 +292,7 @@ class SystemExtrinsic:
             "target_frame": tf.target_frame,
             "source_frame": tf.source_frame,
             "direction": self.direction,
+            "camera": self.camera,
             **{
                 k: (np.asarray(val).tolist() if isinstance(val, np.ndarray) else val)
                 for k, val in self.extra.items()
@@ -290,7 +330,12 @@ TIME_OFFSETS: dict[str, tuple[str, float, str]] = {
 
 
 def export_extrinsic(
-    T_cam_imu: Transform, system: str, *, timeshift_cam_imu: float | None = None
+    T_cam_imu: Transform,
+    system: str,
+    *,
+    timeshift_cam_imu: float | None = None,
+    camera: str | None = None,
+    earlier_cameras: Sequence[Transform] = (),
 ) -> SystemExtrinsic:
     """Express the camera–IMU extrinsic ``T_cam_imu`` in ``system``'s convention.
 
@@ -304,24 +349,80 @@ def export_extrinsic(
     timeshift_cam_imu : float, optional
         Kalibr's time offset (``t_imu = t_cam + timeshift_cam_imu``, seconds); exported under the
         system's own key and unit (:data:`TIME_OFFSETS`) in ``extra`` and the snippet.
+    camera : str, optional
+        Which camera of the rig this is, ``"cam0"``, ``"cam1"``...; by default
+        ``T_cam_imu.target_frame`` when it is such a name, else ``"cam0"``. It picks the
+        parameter: VINS-Fusion ``body_T_camN``; ORB-SLAM3 ``IMU.T_b_c1`` for ``cam0`` and, for
+        ``cam1``, ``Stereo.T_c1_c2`` = ``T_cam0_cam1`` (maps camera-2 coordinates to camera 1's:
+        ORB-SLAM3 ``src/Settings.cc`` reads it as ``Tlr`` and hands ``Tlr⁻¹`` to
+        ``cv::stereoRectify`` as the first-to-second camera motion); OKVIS ``cameras[N].T_SC``
+        and Basalt ``T_imu_cam[N]``, items of one list.
+    earlier_cameras : sequence of Transform
+        ``T_cam_imu`` of ``cam0`` … ``cam(N−1)``, in order (same IMU frame). Needed for camera
+        ``N ≥ 1`` where the system stores it relative to the first camera (ORB-SLAM3) or in a
+        list with the earlier ones (OKVIS, Basalt): a snippet with camera 1 alone would be read
+        as camera 0.
 
     Returns
     -------
     SystemExtrinsic
-        Its ``transform`` is ``T_cam_imu`` or its inverse, as the system stores it.
+        Its ``transform`` is ``T_cam_imu`` or its inverse, as the system stores it (for
+        ORB-SLAM3's second camera: ``T_cam0_cam1``).
+
+    Raises
+    ------
+    ValueError
+        An unknown system or camera name, a batch, ``earlier_cameras`` missing where the system
+        needs them (naming what it stores), of the wrong length or with another IMU frame, or a
+        third camera for ORB-SLAM3 (it keeps two).
     """
     fmt = system_format(system)
     if not isinstance(T_cam_imu, Transform):
         raise TypeError(f"T_cam_imu: expected a Transform, got {type(T_cam_imu).__name__}")
     if T_cam_imu.batch_shape:
         raise ValueError(f"T_cam_imu: expected one transform, got a batch {T_cam_imu.batch_shape}")
-    tf = T_cam_imu if fmt.holds == "T_cam_imu" else T_cam_imu.inverse()
+    if camera is None:
+        camera = T_cam_imu.target_frame
+        camera = camera if re.fullmatch(r"cam\d+", camera) else "cam0"
+    m = re.fullmatch(r"cam(\d+)", camera) if isinstance(camera, str) else None
+    if m is None:
+        raise ValueError(f"camera: expected cam0, cam1, ..., got {camera!r}")
+    idx = int(m.group(1))
+    earlier = _earlier_cameras(earlier_cameras, T_cam_imu, idx)
+    needs = idx > 0 and fmt.system in ("okvis", "orbslam3", "basalt")
+    if fmt.system == "orbslam3" and idx > 1:
+        raise ValueError(
+            f"camera: ORB-SLAM3 keeps two cameras (IMU.T_b_c1, Stereo.T_c1_c2); no {camera}"
+        )
+    if needs and len(earlier) != idx:
+        how = {
+            "orbslam3": "as Stereo.T_c1_c2, relative to the first camera",
+            "okvis": "as an item of its cameras list, after the earlier cameras",
+            "basalt": "as an entry of its T_imu_cam list, after the earlier cameras",
+        }[fmt.system]
+        raise ValueError(
+            f"earlier_cameras: {fmt.system} stores {camera} {how}; pass the T_cam_imu of "
+            f"cam0 … cam{idx - 1} ({idx} transform(s), got {len(earlier)})"
+        )
     cam_own, imu_own = fmt.own_frames
-    own: dict[str, str] = {}
-    own[T_cam_imu.target_frame] = cam_own
-    own[T_cam_imu.source_frame] = imu_own
+    own: dict[str, str] = {T_cam_imu.target_frame: cam_own, T_cam_imu.source_frame: imu_own}
+    parameter = fmt.parameter
+    rig: tuple[Transform, ...] = ()
+    if fmt.system == "orbslam3" and idx == 1:
+        tf = earlier[0] @ T_cam_imu.inverse()  # T_c1_c2 = T_cam0_imu · T_imu_cam1
+        parameter = "Stereo.T_c1_c2"
+        own = {earlier[0].target_frame: "c1", T_cam_imu.target_frame: "c2"}
+        rig = (earlier[0].inverse(),)
+    else:
+        tf = T_cam_imu if fmt.holds == "T_cam_imu" else T_cam_imu.inverse()
+        if fmt.system == "vins_fusion":
+            parameter = f"body_T_cam{idx}"
+            own[T_cam_imu.target_frame] = f"cam{idx}"
+        elif needs:  # okvis, basalt: the list up to this camera
+            parameter = f"cameras[{idx}].T_SC" if fmt.system == "okvis" else f"T_imu_cam[{idx}]"
+            rig = tuple(e.inverse() for e in earlier)
     direction = (
-        f"{fmt.parameter} maps {tf.source_frame} coordinates to {tf.target_frame} coordinates "
+        f"{parameter} maps {tf.source_frame} coordinates to {tf.target_frame} coordinates "
         f"(p_{tf.target_frame} = R p_{tf.source_frame} + t; {fmt.system} calls the frames "
         f"{own[tf.target_frame]} = {tf.target_frame}, {own[tf.source_frame]} = "
         f"{tf.source_frame}); it is the pose of {tf.source_frame} in {tf.target_frame}"
@@ -337,7 +438,33 @@ def export_extrinsic(
         if fmt.system in TIME_OFFSETS:
             key, scale, _ = TIME_OFFSETS[fmt.system]
             extra[key] = round(shift * scale) if scale != 1.0 else shift
-    return SystemExtrinsic(fmt.system, fmt.parameter, tf, direction, extra)
+    return SystemExtrinsic(fmt.system, parameter, tf, direction, extra, camera, rig)
+
+
+def _earlier_cameras(earlier_cameras: Any, T_cam_imu: Transform, idx: int) -> tuple[Transform, ...]:
+    """Check ``earlier_cameras``: single Transforms from the IMU frame of ``T_cam_imu``."""
+    if isinstance(earlier_cameras, Transform) or not isinstance(earlier_cameras, Sequence):
+        raise TypeError(
+            "earlier_cameras: expected a sequence of Transforms (T_cam_imu of cam0 … camN−1), "
+            f"got {type(earlier_cameras).__name__}"
+        )
+    out = tuple(earlier_cameras)
+    if out and len(out) != idx:
+        raise ValueError(
+            f"earlier_cameras: expected the T_cam_imu of cam0 … cam{idx - 1} ({idx} "
+            f"transform(s)) for cam{idx}, got {len(out)}"
+        )
+    for k, e in enumerate(out):
+        if not isinstance(e, Transform):
+            raise TypeError(f"earlier_cameras[{k}]: expected a Transform, got {type(e).__name__}")
+        if e.batch_shape:
+            raise ValueError(f"earlier_cameras[{k}]: expected one transform, got a batch")
+        if e.source_frame != T_cam_imu.source_frame:
+            raise ValueError(
+                f"earlier_cameras[{k}]: maps from {e.source_frame!r}, but T_cam_imu maps from "
+                f"{T_cam_imu.source_frame!r}: both must be T_cam_imu of the same IMU"
+            )
+    return out
 
 
 #: Largest camera–IMU time offset accepted, seconds: it must fit in int64 nanoseconds (Basalt's
@@ -549,6 +676,34 @@ def _check_yaml_shape(yaml: Any, text: str, path: PathLike, loader: Any) -> None
                 )
 
 
+#: OpenCV's YAML header: ``%YAML:1.0`` (what ``cv::FileStorage`` writes) or ``%YAML 1.0``.
+_OPENCV_HEADER = re.compile(r"\A(\s*)%YAML(:\s*|\s+)(\d+\.\d+)[^\n]*(\n|\Z)")
+#: A block-mapping key at the start of a line with its value right after the colon
+#: (``Viewer.PointSize:2``, ``data:[...]``): OpenCV's parser takes it, YAML needs a space.
+_OPENCV_TIGHT_KEY = re.compile(r"^([ \t]*(?:-[ \t]+)?[A-Za-z_][\w.\-]*):(?=[^\s:/])", re.M)
+
+
+def _opencv_dialect(text: str) -> str:
+    """Rewrite OpenCV's YAML dialect into YAML that PyYAML parses, keeping line numbers.
+
+    ``cv::FileStorage`` files (ORB-SLAM3's, VINS-Fusion's, OKVIS's and OpenVINS's configs)
+    start with ``%YAML:1.0`` — a directive PyYAML rejects, replaced here by a comment line — and
+    OpenCV's own parser also takes ``Key:value`` and ``data:[...]`` without the space after the
+    colon that YAML requires (ORB-SLAM3's ``Examples/Stereo-Inertial/EuRoC.yaml`` has
+    ``Viewer.PointSize:2`` and ``data:[...]``). In a file with OpenCV's header, a key at the
+    start of a line (letters, digits, ``_``, ``.``, ``-``) directly followed by its value gets
+    that space. ``!!opencv-matrix`` nodes are read by the loader (:func:`_loader`).
+    A file without the header is read as plain YAML.
+    """
+    m = _OPENCV_HEADER.match(text)
+    if m is None:
+        return text
+    text = f"{m.group(1)}# {text[len(m.group(1)) : m.end()]}" + text[m.end() :]
+    if m.group(3) == "1.0" or ":" in m.group(2):  # OpenCV's own header, not YAML 1.1/1.2
+        text = _OPENCV_TIGHT_KEY.sub(r"\1: ", text)
+    return text
+
+
 def _load_text(text: str, path: PathLike) -> Any:
     """YAML (plain or OpenCV's dialect) or JSON text → Python objects; errors name the file.
 
@@ -564,8 +719,7 @@ def _load_text(text: str, path: PathLike) -> Any:
         except RecursionError:
             raise ValueError(f"{path}: JSON nested too deep for a calibration file") from None
     yaml = _yaml()
-    # OpenCV writes "%YAML:1.0" (or "%YAML 1.2"): a directive PyYAML rejects; drop it
-    text = re.sub(r"\A\s*%YAML[: ]\s*\d+\.\d+[^\n]*\n", "", text)
+    text = _opencv_dialect(text)
     loader = _loader()
     try:
         _check_yaml_shape(yaml, text, path, loader)
@@ -623,10 +777,16 @@ class CalibrationFile:
 def _matrix(value: Any, where: str, shape: tuple[int, ...]) -> FloatArray:
     """Read a numeric matrix from a list of lists, a flat list or an ``!!opencv-matrix``."""
     if isinstance(value, _OpenCVMatrix):
-        try:
-            rows, cols, data = int(value["rows"]), int(value["cols"]), value["data"]
-        except (KeyError, TypeError, ValueError):
-            raise ValueError(f"{where}: an !!opencv-matrix needs rows, cols and data") from None
+        for key in ("rows", "cols", "dt", "data"):  # cv::FileStorage asserts each of them
+            if key not in value:
+                raise ValueError(
+                    f"{where}: missing key {key!r} in the !!opencv-matrix (OpenCV needs rows, "
+                    "cols, dt and data)"
+                )
+        rows, cols, data = value["rows"], value["cols"], value["data"]
+        for key, n in (("rows", rows), ("cols", cols)):
+            if isinstance(n, bool) or not isinstance(n, int) or n < 0:
+                raise ValueError(f"{where}: !!opencv-matrix {key}: expected a count, got {n!r}")
         if not isinstance(data, list) or len(data) != rows * cols:
             n = len(data) if isinstance(data, list) else "no list of"
             raise ValueError(f"{where}: !!opencv-matrix {rows}x{cols} with {n} data values")
@@ -860,9 +1020,9 @@ def detect_system(data: Any) -> str | None:
     if "T_imu_cam" in data and isinstance(data["T_imu_cam"], list) and data["T_imu_cam"]:
         if isinstance(data["T_imu_cam"][0], dict):
             return "basalt"
-    if "cameras" in data and isinstance(data["cameras"], list):
+    if ("cameras" in data and isinstance(data["cameras"], list)) or "T_SC" in data:
         return "okvis"
-    if "IMU.T_b_c1" in data or "Tbc" in data:
+    if "IMU.T_b_c1" in data or "Tbc" in data or "Stereo.T_c1_c2" in data:
         return "orbslam3"
     if any(re.fullmatch(r"body_T_cam\d+", str(k)) for k in data):
         return "vins_fusion"
@@ -882,6 +1042,27 @@ def detect_file_system(path: PathLike | CalibrationFile) -> str | None:
     return detect_system(_read(path))
 
 
+#: Where each system's file keeps camera N's extrinsic (what a missing-key error names).
+REQUIRED_KEYS: dict[str, str] = {
+    "kalibr": "camN.T_cam_imu",
+    "openvins": "camN.T_imu_cam (or camN.T_cam_imu, inverted)",
+    "okvis": "cameras[N].T_SC (camera 0: also a top-level T_SC)",
+    "orbslam3": "IMU.T_b_c1 (camera 0; also Tbc in older files), Stereo.T_c1_c2 (camera 1)",
+    "vins_fusion": "body_T_camN",
+    "basalt": "T_imu_cam[N] with px, py, pz, qx, qy, qz, qw (under value0)",
+    "opencv": "rvec, tvec",
+}
+
+
+def _missing(path: Any, key: str, system: str, note: str = "") -> ValueError:
+    """Return the one error for a missing key: the file, the key, where the system keeps it."""
+    more = f"; {note}" if note else ""
+    return ValueError(
+        f"{path}: missing key {key!r} (expected in a {system} file, which keeps camera N's "
+        f"extrinsic in {REQUIRED_KEYS[system]}{more})"
+    )
+
+
 def read_extrinsic(
     path: PathLike | CalibrationFile,
     *,
@@ -894,13 +1075,16 @@ def read_extrinsic(
     Parameters
     ----------
     path : str, Path or CalibrationFile
-        A Kalibr camchain-imucam.yaml, an OpenVINS kalibr_imucam_chain.yaml, an OKVIS config, an
-        ORB-SLAM3 or VINS-Fusion settings file, a Basalt calibration JSON, or a YAML/JSON with
-        ``rvec`` and ``tvec`` (OpenCV).
+        A Kalibr camchain-imucam.yaml, an OpenVINS kalibr_imucam_chain.yaml, an OKVIS config (or
+        a top-level ``T_SC``, as :func:`format_parameter` prints it), an ORB-SLAM3 or
+        VINS-Fusion settings file (OpenCV's YAML dialect), a Basalt calibration JSON, or a
+        YAML/JSON with ``rvec`` and ``tvec`` (OpenCV).
     system : str, optional
         The file's system (:func:`system_names`); by default detected from its keys.
     camera : str
-        ``"cam0"``, ``"cam1"``... (ORB-SLAM3's ``T_b_c1`` is the first camera only).
+        ``"cam0"``, ``"cam1"``... ORB-SLAM3 keeps two cameras: ``cam0`` is ``IMU.T_b_c1``,
+        ``cam1`` is ``IMU.T_b_c1 · Stereo.T_c1_c2`` (``Stereo.T_c1_c2`` maps camera-2
+        coordinates to camera 1's).
     imu_frame : str
         Name of the IMU frame in the result.
 
@@ -908,8 +1092,15 @@ def read_extrinsic(
     -------
     Transform
         ``T_{camera}_{imu_frame}``: maps IMU coordinates to camera coordinates.
+
+    Raises
+    ------
+    ValueError
+        A key the system's file needs is missing (one line naming the file and the key, see
+        :data:`REQUIRED_KEYS`), a matrix is not rigid, or the system cannot be told.
     """
     frame_name(camera, "camera")
+    frame_name(imu_frame, "imu_frame")
     m = re.fullmatch(r"cam(\d+)", camera)
     if m is None:
         raise ValueError(f"camera: expected cam0, cam1, ..., got {camera!r}")
@@ -921,63 +1112,78 @@ def read_extrinsic(
             f"{path}: cannot tell which system wrote it (no T_cam_imu, T_imu_cam, T_SC, "
             f"IMU.T_b_c1, body_T_camN, rvec/tvec found); give the system explicitly"
         )
-    fmt = SYSTEMS[name]
-    if name == "kalibr":  # the data parsed above, not the file again
-        parsed = path if isinstance(path, CalibrationFile) else CalibrationFile(Path(path), data)
-        chain = read_kalibr(parsed, imu_frame=imu_frame)
-        cam = chain.camera(camera)
-        if cam.T_cam_imu is None:
-            raise ValueError(f"{path}: {camera} has no T_cam_imu (a camchain without the IMU?)")
-        return cam.T_cam_imu
     if not isinstance(data, dict):
         raise ValueError(f"{path}: expected a mapping at the top level for {name}")
 
-    def need(mapping: Any, key: str, where: str) -> Any:
+    def need(mapping: Any, key: str, shown: str | None = None, note: str = "") -> Any:
         if not isinstance(mapping, dict) or key not in mapping:
-            raise ValueError(f"{path}: no {where} (expected in a {name} file)")
+            raise _missing(path, shown or key, name, note)
         return mapping[key]
 
+    cams_here = ", ".join(str(k) for k in data if re.fullmatch(r"cam\d+", str(k))) or "none"
+    no_camera = f"no camera {camera!r} here; cameras: {cams_here}"
+    if name == "kalibr":  # the data parsed above, not the file again
+        need(data, camera, note=no_camera)
+        need(data[camera], "T_cam_imu", f"{camera}.T_cam_imu", "a camchain without the IMU?")
+        parsed = path if isinstance(path, CalibrationFile) else CalibrationFile(Path(path), data)
+        T_ci = read_kalibr(parsed, imu_frame=imu_frame).camera(camera).T_cam_imu
+        assert T_ci is not None  # checked above
+        return T_ci
     if name == "opencv":
-        r = _matrix(need(data, "rvec", "rvec"), f"{path}: rvec", (3,))
-        t = _matrix(need(data, "tvec", "tvec"), f"{path}: tvec", (3,))
+        r = _matrix(need(data, "rvec"), f"{path}: rvec", (3,))
+        t = _matrix(need(data, "tvec"), f"{path}: tvec", (3,))
         return from_rvec_tvec(r, t, target_frame=camera, source_frame=imu_frame)
-    where = f"{path}: {fmt.parameter}"
     if name == "openvins":
-        entry = need(data, camera, camera)
+        entry = need(data, camera, note=no_camera)
         where = f"{path}: {camera}.T_imu_cam"
-        if "T_imu_cam" in entry:
-            T, tol = _pose(entry["T_imu_cam"], where)
-        else:  # OpenVINS falls back to an inverted T_cam_imu (opencv_yaml_parse.h)
-            T, tol = _pose(need(entry, "T_cam_imu", f"{camera}.T_imu_cam"), where)
+        if isinstance(entry, dict) and "T_imu_cam" not in entry and "T_cam_imu" in entry:
+            # OpenVINS falls back to an inverted T_cam_imu (opencv_yaml_parse.h)
+            T, tol = _pose(entry["T_cam_imu"], f"{path}: {camera}.T_cam_imu")
             T = U.se3_inverse(T)
+        else:
+            T, tol = _pose(need(entry, "T_imu_cam", f"{camera}.T_imu_cam"), where)
     elif name == "okvis":
-        cams = need(data, "cameras", "cameras")
-        if not isinstance(cams, list):
-            raise ValueError(f"{path}: cameras: expected a list of cameras")
-        if idx >= len(cams):
-            raise ValueError(f"{path}: no camera {idx} in cameras (it has {len(cams)})")
-        where = f"{path}: cameras[{idx}].T_SC"
-        T, tol = _pose(need(cams[idx], "T_SC", f"cameras[{idx}].T_SC"), where)
+        if "cameras" not in data and "T_SC" in data:  # a bare T_SC, as format_parameter prints
+            if idx != 0:
+                raise _missing(path, f"cameras[{idx}].T_SC", name, "its top-level T_SC is cam0's")
+            T, tol = _pose(data["T_SC"], f"{path}: T_SC")
+        else:
+            cams = need(data, "cameras", "cameras (or a top-level T_SC)")
+            if not isinstance(cams, list):
+                raise ValueError(f"{path}: cameras: expected a list of cameras")
+            if idx >= len(cams):
+                raise _missing(path, f"cameras[{idx}]", name, f"it has {len(cams)} camera(s)")
+            where = f"{path}: cameras[{idx}].T_SC"
+            T, tol = _pose(need(cams[idx], "T_SC", f"cameras[{idx}].T_SC"), where)
     elif name == "orbslam3":
-        if idx != 0:
-            raise ValueError(f"{path}: ORB-SLAM3 stores IMU.T_b_c1 for the first camera only")
-        key = "IMU.T_b_c1" if "IMU.T_b_c1" in data else "Tbc"
-        where = f"{path}: {key}"
-        T, tol = _pose(need(data, key, "IMU.T_b_c1"), where)
+        if idx > 1:
+            raise ValueError(
+                f"{path}: no {camera} in ORB-SLAM3 (it keeps two cameras: IMU.T_b_c1 for the "
+                "first, Stereo.T_c1_c2 from the first to the second)"
+            )
+        key = "IMU.T_b_c1" if "IMU.T_b_c1" in data or "Tbc" not in data else "Tbc"
+        T, tol = _pose(_orbslam3_float(need(data, key), path, key), f"{path}: {key}")
+        if idx == 1:  # T_b_c2 = T_b_c1 · T_c1_c2 (Settings.cc reads Stereo.T_c1_c2 as Tlr)
+            key = "Stereo.T_c1_c2"
+            T12, tol12 = _pose(_orbslam3_float(need(data, key), path, key), f"{path}: {key}")
+            T, tol = T @ T12, max(tol, tol12)
     elif name == "vins_fusion":
         key = f"body_T_cam{idx}"
-        where = f"{path}: {key}"
-        T, tol = _pose(need(data, key, key), where)
+        T, tol = _pose(need(data, key), f"{path}: {key}")
     else:  # basalt
-        root = data.get("value0", data)
-        poses = need(root, "T_imu_cam", "T_imu_cam")
-        if not isinstance(poses, list) or idx >= len(poses):
-            raise ValueError(f"{path}: no camera {idx} in T_imu_cam")
+        root = data["value0"] if isinstance(data.get("value0"), dict) else data
+        poses = need(root, "T_imu_cam")
+        if not isinstance(poses, list):
+            raise ValueError(f"{path}: T_imu_cam: expected a list of poses (one per camera)")
+        if idx >= len(poses):
+            raise _missing(path, f"T_imu_cam[{idx}]", name, f"it has {len(poses)} camera(s)")
         p = poses[idx]
         where = f"{path}: T_imu_cam[{idx}]"
         keys = ("px", "py", "pz", "qx", "qy", "qz", "qw")
-        if not isinstance(p, dict) or any(k not in p for k in keys):
-            raise ValueError(f"{where}: expected keys {', '.join(keys)}")
+        if not isinstance(p, dict):
+            raise ValueError(f"{where}: expected a mapping with keys {', '.join(keys)}")
+        for k in keys:
+            need(p, k, f"T_imu_cam[{idx}].{k}")
         x = _matrix([p[k] for k in keys], where, (7,))
         try:
             T = pose_io.to_matrix(x, layout="xyz_qxyzw")
@@ -985,6 +1191,28 @@ def read_extrinsic(
             raise ValueError(f"{where}: {exc}") from None
         tol = validate.ROTATION_TOL
     return Transform(T, imu_frame, camera, tol=tol).inverse()  # all of these hold T_imu_cam
+
+
+class OrbSlam3PrecisionWarning(UserWarning):
+    """An ORB-SLAM3 matrix that ORB-SLAM3 itself would misread (not ``dt: f``)."""
+
+
+def _orbslam3_float(value: Any, path: Any, key: str) -> Any:
+    """Warn when ORB-SLAM3 would misread ``key``: it takes every element with ``at<float>``.
+
+    ORB_SLAM3 ``src/Converter.cc`` ``toSophus`` reads the matrix with ``cv::Mat::at<float>``
+    whatever its type: a ``dt: d`` matrix is reinterpreted, not converted. liebridge reads the
+    numbers as written and says so once, naming the file and the key.
+    """
+    if isinstance(value, _OpenCVMatrix) and value.get("dt", "f") != "f":
+        warnings.warn(
+            f"{path}: {key} is dt: {value.get('dt')}, but ORB-SLAM3 reads it with "
+            "cv::Mat::at<float> (src/Converter.cc, toSophus) and would misread it; write it "
+            "as dt: f (read here as written)",
+            OrbSlam3PrecisionWarning,
+            stacklevel=3,
+        )
+    return value
 
 
 def read_timeshift(
@@ -1019,37 +1247,61 @@ def _num(x: float) -> str:
     return repr(float(x) + 0.0)  # + 0.0: no "-0.0" in a config file
 
 
-def format_parameter(ext: SystemExtrinsic, camera: str = "cam0") -> str:
+def format_parameter(ext: SystemExtrinsic, camera: str | None = None) -> str:
     """Write the parameter in its system's own configuration syntax (a snippet to paste).
 
-    Kalibr/OpenVINS: YAML rows under ``camN``; OKVIS: ``T_SC: [16 numbers]``; ORB-SLAM3 and
-    VINS-Fusion: OpenCV ``!!opencv-matrix`` (``dt: f`` for ORB-SLAM3, which reads floats;
-    ``dt: d`` for VINS-Fusion); Basalt: JSON; OpenCV: ``rvec``/``tvec`` YAML lists. Numbers are
-    written with ``repr`` (they read back bit-exact, except ORB-SLAM3's float32).
+    Kalibr/OpenVINS: YAML rows under ``camN``; OKVIS: ``T_SC: [16 numbers]`` for camera 0, the
+    ``cameras`` list (one ``{T_SC: [...]}`` item per camera, up to this one) for a later camera;
+    ORB-SLAM3 and VINS-Fusion: OpenCV ``!!opencv-matrix`` (``dt: f`` for ORB-SLAM3, which reads
+    floats; ``dt: d`` for VINS-Fusion) — ORB-SLAM3's second camera as ``IMU.T_b_c1`` and
+    ``Stereo.T_c1_c2``, VINS-Fusion's as ``body_T_cam1``; Basalt: JSON, the whole ``T_imu_cam``
+    list up to this camera (entry N is camera N); OpenCV: ``rvec``/``tvec`` YAML lists.
+    Numbers are written with ``repr`` (they read back bit-exact, except ORB-SLAM3's float32).
+    Every snippet, written to a file, is read back by :func:`read_extrinsic` with
+    ``camera=ext.camera``.
+
+    Parameters
+    ----------
+    ext : SystemExtrinsic
+        From :func:`export_extrinsic`.
+    camera : str, optional
+        ``ext.camera`` (the default); another camera name is a ``ValueError`` (export with
+        ``export_extrinsic(..., camera=...)``: the label and the matrix must agree).
     """
+    if not isinstance(ext, SystemExtrinsic):
+        raise TypeError(f"ext: expected a SystemExtrinsic, got {type(ext).__name__}")
+    if camera is not None and camera != ext.camera:
+        raise ValueError(
+            f"camera: {camera!r}, but ext holds {ext.camera}'s {ext.parameter}; export it with "
+            f"export_extrinsic(..., camera={camera!r})"
+        )
+    camera = ext.camera
     T = np.asarray(ext.transform.T)
-    rows = [", ".join(_num(x) for x in row) for row in T]
     m = re.fullmatch(r"cam(\d+)", camera)
     idx = int(m.group(1)) if m else 0
     if ext.system in ("kalibr", "openvins"):
         head = "%YAML:1.0\n" if ext.system == "openvins" else ""
-        body = "".join(f"    - [{r}]\n" for r in rows)  # indented: cv::FileStorage needs it
+        body = "".join(f"    - [{r}]\n" for r in _rows_text(T))  # indented: cv::FileStorage
         if "timeshift_cam_imu" in ext.extra:
             body += f"  timeshift_cam_imu: {_num(ext.extra['timeshift_cam_imu'])}\n"
         return f"{head}{camera}:\n  {ext.parameter}:\n{body}"
     if ext.system == "okvis":
-        return f"T_SC: [{', '.join(rows)}]\n"
-    if ext.system in ("orbslam3", "vins_fusion"):
-        key = ext.parameter if ext.system == "orbslam3" else f"body_T_cam{idx}"
-        dt = "f" if ext.system == "orbslam3" else "d"
-        data = ",\n          ".join(rows)
-        td = f"td: {_num(ext.extra['td'])}\n" if "td" in ext.extra else ""
-        return (
-            f"%YAML:1.0\n{key}: !!opencv-matrix\n   rows: 4\n   cols: 4\n   dt: {dt}\n"
-            f"   data: [{data}]\n{td}"
+        if idx == 0:
+            return f"T_SC: [{', '.join(_rows_text(T))}]\n"
+        items = "".join(
+            f"    - {{T_SC: [{', '.join(_rows_text(np.asarray(M)))}]}}\n"
+            for M in (*(r.T for r in ext.rig), T)
         )
+        return f"%YAML:1.0\ncameras:\n{items}"
+    if ext.system in ("orbslam3", "vins_fusion"):
+        dt = "f" if ext.system == "orbslam3" else "d"
+        mats = [(r_key, r.T) for r_key, r in zip(("IMU.T_b_c1",), ext.rig, strict=False)]
+        mats.append((ext.parameter, T))
+        td = f"td: {_num(ext.extra['td'])}\n" if "td" in ext.extra else ""
+        return "%YAML:1.0\n" + "".join(_opencv_matrix(k, M, dt) for k, M in mats) + td
     if ext.system == "basalt":
-        value0: dict[str, Any] = {"T_imu_cam": [_basalt_pose(T)]}
+        poses = [_basalt_pose(np.asarray(r.T)) for r in ext.rig] + [_basalt_pose(T)]
+        value0: dict[str, Any] = {"T_imu_cam": poses}
         if "cam_time_offset_ns" in ext.extra:
             value0["cam_time_offset_ns"] = ext.extra["cam_time_offset_ns"]
         return json.dumps({"value0": value0}, indent=4) + "\n"
@@ -1057,3 +1309,12 @@ def format_parameter(ext: SystemExtrinsic, camera: str = "cam0") -> str:
     return (
         f"rvec: [{', '.join(_num(x) for x in rvec)}]\ntvec: [{', '.join(_num(x) for x in tvec)}]\n"
     )
+
+
+def _rows_text(T: Any) -> list[str]:
+    return [", ".join(_num(x) for x in row) for row in np.asarray(T)]
+
+
+def _opencv_matrix(key: str, T: Any, dt: str) -> str:
+    data = ",\n          ".join(_rows_text(T))
+    return f"{key}: !!opencv-matrix\n   rows: 4\n   cols: 4\n   dt: {dt}\n   data: [{data}]\n"

@@ -7,9 +7,12 @@ Layer above :mod:`liebridge.conventions`, :mod:`liebridge.check` and :mod:`liebr
 convention, whose residual maths lives once in ``factor_math``; ``optimize`` runs
 Levenberg–Marquardt from Python and evaluates liebridge's factors batched; ``graph`` is
 :class:`ConventionGraph`, a factor graph whose measurements carry their convention; ``isam2``
-is :class:`ISAM2`, GTSAM's iSAM2 with liebridge's factors linearized batched.
+is :class:`ISAM2`, GTSAM's iSAM2 with liebridge's factors linearized batched; ``autodiff`` is
+:func:`autodiff_factor`, a factor from a residual written in JAX or torch (Jacobians by automatic
+differentiation, batched by the optimizer; the framework is imported only when used).
 """
 
+from .autodiff import autodiff_factor
 from .build import gtsam_convention, gtsam_convention_of
 from .glue import from_pose3, from_values, to_pose3, to_values
 from .graph import ConventionGraph
@@ -27,6 +30,7 @@ __all__ = [
     "ConventionGraph",
     "GtsamGroup",
     "OptimizeResult",
+    "autodiff_factor",
     "between",
     "from_pose3",
     "from_values",

@@ -29,7 +29,7 @@ from ..conventions.convert import is_exactly_linear
 from .build import gtsam_convention_of
 from .glue import from_values, to_gtsam
 from .groups import gtsam_group
-from .marginals import marginals
+from .marginals import gtsam_marginals, marginals
 
 __all__ = ["ConventionGraph"]
 
@@ -130,7 +130,7 @@ class ConventionGraph:
     def marginal_covariances(self, keys: Sequence[int]) -> FloatArray:
         """Marginal covariances ``(N, n, n)`` in the wrapper's convention at the current values."""
         if self._marginals is None:
-            self._marginals = gtsam.Marginals(self.graph, self.values)
+            self._marginals = gtsam_marginals(self.graph, self.values)
         return marginals(
             self.graph, self.values, keys, self.convention, marginals_object=self._marginals
         )

@@ -29,7 +29,41 @@ from ..conventions.convert import convert_covariance
 from .build import gtsam_convention_of
 from .glue import from_values
 
-__all__ = ["marginals"]
+__all__ = ["gtsam_marginals", "marginals"]
+
+
+def indeterminate_message(exc: BaseException) -> str | None:
+    """One line for GTSAM's multi-line "Indeterminate linear system" error (None if it is not)."""
+    text = " ".join(str(exc).split())
+    if "ndetermina" not in text:  # GTSAM 4.2 spells it "Indeterminant", 4.3 "Indeterminate"
+        return None
+    near = ""
+    marker = "near variable "
+    if marker in text:
+        word = text.split(marker, 1)[1].split(" ", 1)[0].rstrip(".")
+        near = f" near variable {word}" if word else ""
+    return (
+        f"the linear system is not fully determined (GTSAM stopped{near}): some direction of "
+        "some variable is constrained by no factor. A pose graph of relative measurements alone "
+        "has a free gauge: add a prior (G2OGraph.to_gtsam() adds one unless prior=None; "
+        "lb.gtsam.prior(key, pose, cov, convention) or gtsam.PriorFactorPose3 by hand)"
+    )
+
+
+def gtsam_marginals(graph: Any, values: Any) -> Any:
+    """``gtsam.Marginals(graph, values)``, with a one-line ``ValueError`` on a gauge-free graph.
+
+    GTSAM raises a multi-line ``RuntimeError`` ("Indeterminate linear system") when a variable
+    is not fully constrained, most often because no prior fixes the gauge; this says so in one
+    line and names the remedy.
+    """
+    try:
+        return gtsam.Marginals(graph, values)
+    except RuntimeError as exc:
+        msg = indeterminate_message(exc)
+        if msg is None:
+            raise
+        raise ValueError(f"graph: {msg}") from None
 
 
 def marginals(
@@ -66,6 +100,13 @@ def marginals(
     ndarray, shape (N, n, n)
         n is the convention's tangent size (6 for SE(3), 3 for SE(2), 6 for ``ros_pose2``,
         7 for Sim(3), 9 for SE₂(3)).
+
+    Raises
+    ------
+    ValueError
+        A key not in ``values`` or used by no factor; a graph whose linear system is not fully
+        determined (typically: no prior fixes the gauge), in one line instead of GTSAM's
+        multi-line "Indeterminate linear system".
     """
     conv = get(convention)
     hub = gtsam_convention_of(conv.group)
@@ -79,7 +120,7 @@ def marginals(
             raise ValueError(
                 f"keys[{n}]: key {k} is used by no factor of graph: it has no marginal"
             )
-    m = marginals_object if marginals_object is not None else gtsam.Marginals(graph, values)
+    m = marginals_object if marginals_object is not None else gtsam_marginals(graph, values)
     cov_g = np.stack([np.asarray(m.marginalCovariance(k), dtype=np.float64) for k in keys])
     cov_g = 0.5 * (cov_g + np.swapaxes(cov_g, -1, -2))
     T = from_values(values, keys, group=conv.group)

@@ -35,6 +35,7 @@ from __future__ import annotations
 import math
 import sys
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -42,10 +43,12 @@ from typing import Any
 import gtsam
 import numpy as np
 
+from .autodiff import AutodiffBatch, AutodiffSpec
 from .batch import BatchEvaluation, PoseFactorBatch, PoseFactorSpec, group_specs
 from .custom import identify, query_values
+from .marginals import indeterminate_message
 
-__all__ = ["OptimizeResult", "optimize"]
+__all__ = ["IndeterminateSystemWarning", "OptimizeResult", "optimize"]
 
 _MIN_MODEL_FIDELITY = 1e-3
 #: Most damped solves tried within one iteration (bounds the run time whatever λ's factor).
@@ -54,9 +57,23 @@ _MAX_TRIES = 1000
 AUTO_PROGRESS_AFTER = 2.0
 
 
+class IndeterminateSystemWarning(UserWarning):
+    """:func:`optimize` ran on a graph whose linear system is not fully determined.
+
+    Levenberg–Marquardt's damping lets it run, and the error may well stop decreasing
+    (``converged``), but the optimum is one of a family (a pose graph without a prior: any
+    rigid motion of it), and GTSAM's marginals of it fail.
+    """
+
+
 @dataclass
 class OptimizeResult:
-    """Outcome of :func:`optimize`."""
+    """Outcome of :func:`optimize`.
+
+    ``converged`` says the error stopped decreasing; ``determined`` says whether the undamped
+    linear system at the result has a unique solution (``False``: e.g. no prior fixes the gauge,
+    the optimum is not unique and GTSAM's marginals fail; ``indeterminate`` holds GTSAM's word).
+    """
 
     values: Any
     initial_error: float
@@ -65,12 +82,17 @@ class OptimizeResult:
     seconds: float
     converged: bool
     final_lambda: float
+    determined: bool = True
+    indeterminate: str = ""
 
     def __repr__(self) -> str:
         """One line: the figures, and the size of ``values`` rather than every pose in it."""
+        conv = f"converged={self.converged}"
+        if not self.determined:
+            conv += " but NOT fully determined (no gauge prior?)"
         return (
             f"OptimizeResult(error {self.initial_error:.6g} -> {self.final_error:.6g}, "
-            f"{self.iterations} iterations, converged={self.converged}, "
+            f"{self.iterations} iterations, {conv}, "
             f"{self.seconds:.3g} s, final_lambda={self.final_lambda:.3g}, "
             f"values=<gtsam.Values, {self.values.size()} variables>)"
         )
@@ -145,6 +167,14 @@ class _Damping:
         return out
 
 
+@dataclass(frozen=True)
+class _State:
+    """What :meth:`_SplitGraph.evaluate` computed at one ``Values``, kept for linearizing there."""
+
+    poses: BatchEvaluation | None  # liebridge's between/prior factors
+    autodiff: list[Any] | None  # the autodiff factors' stacked poses
+
+
 class _LinearModel:
     """One linearization: the ``GaussianFactorGraph`` GTSAM eliminates and its error in numpy.
 
@@ -153,23 +183,32 @@ class _LinearModel:
     arrays (one pybind call instead of one per factor).
     """
 
-    def __init__(self, split: _SplitGraph, graph: Any, rest: Any, system: Any) -> None:
+    def __init__(
+        self, split: _SplitGraph, graph: Any, rest: Any, system: Any, ad_system: Any = None
+    ) -> None:
         self.split, self.graph, self.rest, self.system = split, graph, rest, system
+        self.ad_system = ad_system  # the autodiff factors' stacked (A, b, at), or None
 
     def error(self, delta: Any) -> float:
         err = float(self.rest.error(delta))
-        if self.system is None:
+        if self.system is None and self.ad_system is None:
             return err
-        assert self.split.batch is not None
         # blocks in the order of the graph's sorted keys, whatever the map's iteration order
         vec = np.asarray(delta.vector(self.split.keys), dtype=np.float64).reshape(-1)
-        return err + self.split.batch.linear_error(self.system, vec)
+        if self.system is not None:
+            assert self.split.batch is not None
+            err += self.split.batch.linear_error(self.system, vec)
+        if self.ad_system is not None:
+            err += AutodiffBatch.linear_error(self.ad_system, vec)
+        return err
 
     def error_at_zero(self, delta: Any) -> float:
         """``L(0) = ½ Σ ‖b‖²``: the same for every λ of an iteration."""
         err = float(self.rest.error(gtsam.VectorValues.Zero(delta))) if self.rest.size() else 0.0
         if self.system is not None:
             err += sum(0.5 * float(np.einsum("ki,ki->", b, b)) for _, _, b in self.system.values())
+        if self.ad_system is not None:
+            err += AutodiffBatch.error_at_zero(self.ad_system)
         return err
 
 
@@ -177,13 +216,16 @@ class _SplitGraph:
     """A graph split into GTSAM-evaluated factors and batched liebridge factors.
 
     The batched factors are bound once to the graph's keys and elimination ordering
-    (:class:`~liebridge.gtsam.batch.PoseFactorBatch`); ``evaluate`` returns the residuals it
-    computed with the error, and ``linear_model`` linearizes from them.
+    (:class:`~liebridge.gtsam.batch.PoseFactorBatch`; autodiff factors:
+    :class:`~liebridge.gtsam.autodiff.AutodiffBatch`, one vectorised call per residual
+    function); ``evaluate`` returns the residuals it computed with the error, and
+    ``linear_model`` linearizes from them.
     """
 
     def __init__(self, graph: Any, values: Any, batch: bool, ordering: Any = None) -> None:
         self.rest = gtsam.NonlinearFactorGraph()
         self.batch: PoseFactorBatch | None = None
+        self.autodiff: AutodiffBatch | None = None
         self.n_batched = 0
         self.keys: list[int] = []  # the graph's keys, sorted: the layout of linear_error's delta
         if not batch:
@@ -191,6 +233,7 @@ class _SplitGraph:
             return
         query = query_values()
         specs: list[PoseFactorSpec] = []
+        ad_specs: list[AutodiffSpec] = []
         for k in range(graph.size()):
             f = graph.at(k)
             if f is None:
@@ -199,9 +242,12 @@ class _SplitGraph:
             if isinstance(spec, PoseFactorSpec):
                 specs.append(spec)
                 continue
+            if isinstance(spec, AutodiffSpec):
+                ad_specs.append(spec)
+                continue
             self.rest.add(f)
-        self.n_batched = len(specs)
-        if not specs:
+        self.n_batched = len(specs) + len(ad_specs)
+        if not specs and not ad_specs:
             return
         if ordering is None:
             ordering = gtsam.Ordering.ColamdNonlinearFactorGraph(graph)
@@ -214,34 +260,47 @@ class _SplitGraph:
         for k in self.keys:
             offset[k] = total
             total += int(zero.at(k).shape[0])
-        self.batch = PoseFactorBatch(group_specs(specs), values, position, offset)
+        if specs:
+            self.batch = PoseFactorBatch(group_specs(specs), values, position, offset)
+        if ad_specs:
+            self.autodiff = AutodiffBatch(ad_specs, values, offset)
 
     def damping_groups(self) -> list[tuple[int, ...]]:
         """Key tuples whose damping can share a factor (see :class:`_Damping`)."""
         return [] if self.batch is None else self.batch.damping_groups()
 
-    def evaluate(self, values: Any) -> tuple[float, BatchEvaluation | None]:
+    def evaluate(self, values: Any) -> tuple[float, _State]:
         """Return the graph's error at ``values`` and the batched residuals computed for it."""
         err = float(self.rest.error(values))
-        if self.batch is None:
-            return err, None
-        ev = self.batch.evaluate(values)
-        return err + ev.error, ev
+        ev, ad = None, None
+        if self.batch is not None:
+            ev = self.batch.evaluate(values)
+            err += ev.error
+        if self.autodiff is not None:
+            ad_err, ad = self.autodiff.evaluate(values)
+            err += ad_err
+        return err, _State(ev, ad)
 
     def error(self, values: Any) -> float:
         return self.evaluate(values)[0]
 
-    def linear_model(self, values: Any, ev: BatchEvaluation | None) -> _LinearModel:
-        """Linearize at ``values``; ``ev``: :meth:`evaluate`'s residuals there (or None)."""
+    def linear_model(self, values: Any, state: _State | None) -> _LinearModel:
+        """Linearize at ``values``; ``state``: :meth:`evaluate`'s residuals there (or None)."""
         rest = self.rest.linearize(values)
-        if self.batch is None:
+        if self.batch is None and self.autodiff is None:
             return _LinearModel(self, rest, rest, None)
-        if ev is None:
-            ev = self.batch.evaluate(values)
+        if state is None:
+            state = self.evaluate(values)[1]
         linear = gtsam.GaussianFactorGraph()
         linear.push_back(rest)
-        system = self.batch.linearize(ev, linear)
-        return _LinearModel(self, linear, rest, system)
+        system, ad_system = None, None
+        if self.batch is not None:
+            assert state.poses is not None
+            system = self.batch.linearize(state.poses, linear)
+        if self.autodiff is not None:
+            assert state.autodiff is not None
+            ad_system = self.autodiff.linearize(state.autodiff, linear)
+        return _LinearModel(self, linear, rest, system, ad_system)
 
     def linearize(self, values: Any) -> Any:
         """Return the whole linear system at ``values`` as one ``GaussianFactorGraph``."""
@@ -349,6 +408,25 @@ def _check_keys(graph: Any, values: Any) -> list[int]:
     return keys
 
 
+def _has_unary_factor(graph: Any) -> bool:
+    n = graph.size()
+    # priors are usually added first or last: look there before scanning the rest
+    for k in (0, n - 1, *range(1, n - 1)) if n > 1 else range(n):
+        f = graph.at(k)
+        if f is not None and len(f.keys()) == 1:
+            return True
+    return False
+
+
+def _indeterminate(linear_graph: Any, ordering: Any) -> str | None:
+    """GTSAM's one-line reason if the undamped ``linear_graph`` has no unique solution."""
+    try:
+        linear_graph.optimize(ordering)
+    except RuntimeError as exc:
+        return indeterminate_message(exc)
+    return None
+
+
 def optimize(
     graph: Any,
     values: Any,
@@ -384,6 +462,10 @@ def optimize(
     Returns
     -------
     OptimizeResult
+        ``determined=False`` (and an :class:`IndeterminateSystemWarning`) when the graph has no
+        single-key factor (no prior) and its undamped linear system at the result is
+        indeterminate: a gauge-free pose graph. The check eliminates the last linear system once
+        more without damping; graphs with a single-key factor skip it (their cost is unchanged).
 
     Raises
     ------
@@ -418,6 +500,7 @@ def optimize(
         raise ValueError(f"values: the initial error is not finite ({err})")
     it = 0
     converged = err <= errtol
+    linear: _LinearModel | None = None
     while not converged and it < max_it:
         linear = split.linear_model(current, state)
         new_err = err
@@ -464,6 +547,18 @@ def optimize(
         err = new_err
         if not np.isfinite(err):
             break
+    why = None
+    if np.isfinite(err) and not _has_unary_factor(graph):
+        # the rank is the same at every linearization point: reuse the last one if any
+        system = linear.graph if linear is not None else split.linearize(current)
+        why = _indeterminate(system, ordering)
+        if why is not None:
+            warnings.warn(
+                f"liebridge.optimize: {why}; the result is one optimum of many "
+                "(OptimizeResult.determined is False)",
+                IndeterminateSystemWarning,
+                stacklevel=2,
+            )
     return OptimizeResult(
         values=current,
         initial_error=initial,
@@ -472,4 +567,6 @@ def optimize(
         seconds=time.perf_counter() - t0,
         converged=converged,
         final_lambda=lam,
+        determined=why is None,
+        indeterminate=why or "",
     )

@@ -5,7 +5,9 @@ named (``xyz_qxyzw``...); ``trajectory`` holds the one TUM reader and writer and
 ``euroc`` EuRoC's, ``trajfile`` reads any of them by format (``read_trajectory``), each returning
 a :class:`Trajectory` (``stamps``, ``T``, ``cov``, ``frame_id``, ``child_frame_id``,
 ``source``); ``g2o`` reads and writes 3-D g2o pose graphs and ``g2o2d`` 2-D ones, with their
-information semantics explicit; ``sanity`` checks quaternions; ``atomic`` is the one safe-write
+information semantics explicit; ``sanity`` checks quaternions (their storage order, judged by
+the direction of travel) and holds the one policy for imperfect real files (repeated stamps,
+quaternions off unit: ``repeated_stamps``, ``unit_quaternions``); ``atomic`` is the one safe-write
 helper every writer uses (``atomic_write``, ``atomic_path``, ``refuse_same_file``).
 Nothing here imports liebridge's GTSAM layer (``G2OGraph.to_gtsam`` imports the ``gtsam``
 package itself, lazily).

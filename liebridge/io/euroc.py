@@ -31,7 +31,7 @@ import numpy as np
 from .._validate import FloatArray
 from . import poses as _layouts
 from .atomic import atomic_write
-from .sanity import check_quaternions
+from .sanity import QUAT_TOLERANCE, check_quaternions, repeated_stamps, unit_quaternions
 from .trajectory import Trajectory, read_text_bytes, tum_quaternions
 
 __all__ = ["HEADER", "read_euroc", "write_euroc"]
@@ -52,8 +52,27 @@ def _seconds(ns: np.ndarray[Any, np.dtype[np.int64]]) -> FloatArray:
 _INT64_MAX = 2**63 - 1
 
 
-def read_euroc(path: PathLike | int, *, check: bool = True) -> Trajectory:
+def read_euroc(
+    path: PathLike | int,
+    *,
+    check: bool = True,
+    duplicates: str = "first",
+    quat_tolerance: float = QUAT_TOLERANCE,
+) -> Trajectory:
     """Read a EuRoC ground-truth CSV.
+
+    Parameters
+    ----------
+    path : str, os.PathLike or int
+    check : bool
+        Run :func:`liebridge.io.sanity.check_quaternions` with the positions (a warning).
+    duplicates : {"first", "last", "error"}
+        Repeated nanosecond stamps: keep the first of each run (warning with the count), the
+        last, or raise (:func:`liebridge.io.sanity.repeated_stamps`).
+    quat_tolerance : float
+        Quaternions off unit by at most this (default ``1e-3``; EuRoC ground truth is off by up
+        to ~1.5e-4) are normalised, with a warning naming the worst deviation; beyond it an
+        error naming the file, line and deviation (:func:`liebridge.io.sanity.unit_quaternions`).
 
     Returns
     -------
@@ -66,8 +85,8 @@ def read_euroc(path: PathLike | int, *, check: bool = True) -> Trajectory:
     ------
     ValueError
         Fewer than 8 columns, a field that is not a number, a stamp that is not an integer or
-        lies beyond int64 nanoseconds, a quaternion norm off by more than ``1e-3``, naming the
-        file and line.
+        lies beyond int64 nanoseconds, a quaternion norm off by more than ``quat_tolerance``,
+        a repeated stamp under ``duplicates="error"``, naming the file and line.
     """
     raw = read_text_bytes(path)
     lines = raw.split(b"\n")
@@ -95,15 +114,22 @@ def read_euroc(path: PathLike | int, *, check: bool = True) -> Trajectory:
     if not np.isfinite(data).all():
         r = int(np.argwhere(~np.isfinite(data))[0, 0])
         raise ValueError(f"{path}:{body[r][0]}: NaN or Inf")
-    q = data[:, 4:8]
-    err = np.abs(np.linalg.norm(q, axis=-1) - 1.0)
-    if (err > 1e-3).any():
-        r = int(np.argmax(err > 1e-3))
-        raise ValueError(f"{path}:{body[r][0]}: quaternion norm off by {err[r]:.3g}")
+    line_numbers = np.array([k for k, _ in body], dtype=np.intp)
+
+    def explained(r: int) -> float:
+        fields = [f.decode().strip() for f in body[r][1].split(b",")[4:8]]
+        return _layouts.text_quaternion_tol(fields)
+
+    q = unit_quaternions(
+        data[:, 4:8], quat_tolerance, source=str(path), lines=line_numbers, explained=explained
+    )
+    keep = repeated_stamps(ns, duplicates, source=str(path), lines=line_numbers)
+    if keep.size != data.shape[0]:
+        ns, data, q = ns[keep], data[keep], q[keep]
     t = _seconds(ns)
     if check:
-        check_quaternions(q, "wxyz", t, source=str(path))
-    x = np.concatenate([data[:, 1:4], q / np.linalg.norm(q, axis=-1, keepdims=True)], axis=-1)
+        check_quaternions(q, "wxyz", t, source=str(path), positions=data[:, 1:4])
+    x = np.concatenate([data[:, 1:4], q], axis=-1)
     T = _layouts.to_matrix(x, layout="xyz_qwxyz")
     return Trajectory(t, T, source=str(path), extra=np.ascontiguousarray(data[:, 8:]))
 

@@ -2,7 +2,9 @@
 
 Old path: also reachable as ``lb.g2o`` (earlier releases); new code writes ``lb.io.g2o``.
 
-Read with :func:`read`, write with :func:`write`, hand to GTSAM with :meth:`G2OGraph.to_gtsam`.
+Read with :func:`read`, write with :func:`write`, hand to GTSAM with :meth:`G2OGraph.to_gtsam`
+(with ``liebridge optimize``'s gauge prior unless ``prior=None``: a graph of relative
+measurements alone fixes no pose, and GTSAM's marginals fail on it).
 Inside, every information matrix is over **GTSAM's tangent** of the edge error,
 ``ξ = (ω, v) = Log(Z⁻¹·Ti⁻¹·Tj)`` (rotation first; what ``gtsam.BetweenFactorPose3`` whitens),
 whatever the file held. Supported lines::
@@ -100,7 +102,7 @@ from ..lie import quaternion as quat
 from . import poses as _layouts
 from .trajectory import field_numbers, open_text, text_lines
 
-__all__ = ["G2OGraph", "read", "write"]
+__all__ = ["GAUGE_PRIOR_SIGMA", "G2OGraph", "GaugePriorNotice", "read", "write"]
 
 PathLike = str | os.PathLike[str]
 KeyArray = npt.NDArray[np.uint64]  # vertex ids are GTSAM keys: uint64, 2**63 and above included
@@ -110,6 +112,9 @@ Edge3Numbers = Literal["sqrt_information", "information"]
 _2D_TAGS = frozenset(
     {"VERTEX_SE2", "EDGE_SE2", "VERTEX2", "EDGE2", "VERTEX", "EDGE", "VERTEX_XY", "EDGE_SE2_XY"}
 )
+#: σ of the default gauge prior of :meth:`G2OGraph.to_gtsam` (and of ``liebridge optimize``), in
+#: every direction of GTSAM's tangent (radians and metres alike).
+GAUGE_PRIOR_SIGMA = 1e-4
 _TRIU = np.triu_indices(6)
 _TRIU_NAMES = [f"[{r}, {c}]" for r, c in zip(*_TRIU, strict=True)]
 #: A quaternion whose norm is this close to 1 is taken as already normalised (dividing again
@@ -281,6 +286,89 @@ def _readonly(a: npt.NDArray[Any], copy: bool = True) -> npt.NDArray[Any]:
     return a
 
 
+class GaugePriorNotice(UserWarning):
+    """Shown (once per calling line) when ``to_gtsam()`` adds its default gauge prior.
+
+    Pass ``prior=None`` (no prior), a σ or a covariance to choose, and the notice is not shown;
+    or silence it with ``warnings.filterwarnings("ignore", category=GaugePriorNotice)``.
+    """
+
+
+def prior_covariance(prior: Any, dim: int) -> FloatArray | None:
+    """Return the ``(dim, dim)`` covariance a ``to_gtsam(prior=...)`` argument stands for, or None.
+
+    ``"gauge"``: ``GAUGE_PRIOR_SIGMA² I``; ``None``: no prior; a number σ: ``σ² I``; ``dim``
+    numbers: the σ of each tangent direction; a ``(dim, dim)`` symmetric positive definite
+    matrix: that covariance. Anything else is a ``TypeError``/``ValueError`` naming ``prior``.
+    """
+    if prior is None:
+        return None
+    if isinstance(prior, str):
+        if prior == "gauge":
+            return np.eye(dim) * GAUGE_PRIOR_SIGMA**2
+        raise ValueError(
+            f"prior: expected 'gauge', None, a standard deviation, {dim} standard deviations or "
+            f"a ({dim}, {dim}) covariance, got {prior!r}"
+        )
+    if isinstance(prior, bool | np.bool_):
+        raise TypeError(f"prior: expected 'gauge', None, a number or an array, got {prior!r}")
+    try:
+        a = np.array(prior, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise TypeError(
+            f"prior: expected 'gauge', None, a number or an array, got {type(prior).__name__}"
+        ) from None
+    if a.ndim == 0 or a.shape == (dim,):
+        sig = np.broadcast_to(a, (dim,))
+        bad = np.flatnonzero(~(np.isfinite(sig) & (sig > 0)))
+        if bad.size:
+            where = "" if a.ndim == 0 else f"[{bad[0]}]"
+            got = float(sig[bad[0]])
+            raise ValueError(f"prior{where}: a standard deviation must be finite, > 0, got {got!r}")
+        return np.diag(sig**2)
+    if a.shape != (dim, dim):
+        raise ValueError(
+            f"prior: expected a standard deviation, {dim} of them or a ({dim}, {dim}) covariance, "
+            f"got shape {a.shape}"
+        )
+    if not np.isfinite(a).all():
+        r, c = np.argwhere(~np.isfinite(a))[0]
+        raise ValueError(f"prior[{r}, {c}]: the covariance is not finite ({float(a[r, c])!r})")
+    asym = float(np.abs(a - a.T).max())
+    if asym > 1e-9 * max(float(np.abs(a).max()), np.finfo(float).tiny):
+        raise ValueError(f"prior: the covariance is not symmetric (|C - Cᵀ| up to {asym:.3g})")
+    a = 0.5 * (a + a.T)
+    low = float(np.linalg.eigvalsh(a)[0])
+    if low <= 0:
+        raise ValueError(
+            f"prior: the covariance is not positive definite (smallest eigenvalue {low:.3g})"
+        )
+    return a
+
+
+def gauge_keys(vertex_ids: Any, fixed: Sequence[int]) -> list[int]:
+    """Return the vertices the gauge prior holds: the ``FIX`` ones, else the first vertex."""
+    if fixed:
+        known = {int(k) for k in np.asarray(vertex_ids).tolist()}
+        for n, k in enumerate(fixed):
+            if int(k) not in known:
+                raise ValueError(f"fixed[{n}]: FIX id {int(k)} is not a vertex of the graph")
+        return [int(k) for k in fixed]
+    return [int(vertex_ids[0])] if len(vertex_ids) else []
+
+
+def gauge_notice(where: str, keys: list[int], sigma_words: str, stacklevel: int = 3) -> None:
+    """Tell the user (once per calling line) which gauge prior ``to_gtsam()`` added."""
+    shown = ", ".join(str(k) for k in keys[:5]) + (", ..." if len(keys) > 5 else "")
+    warnings.warn(
+        f"{where}: added a gauge prior on vertex {shown} at its initial pose "
+        f"(σ = {GAUGE_PRIOR_SIGMA:g} {sigma_words}), as `liebridge optimize` does; "
+        "prior=None adds none, prior=σ or a covariance another",
+        GaugePriorNotice,
+        stacklevel=stacklevel,
+    )
+
+
 @dataclass(frozen=True, eq=False)
 class G2OGraph:
     """A 3D pose graph as read from (or to be written to) a g2o file.
@@ -302,7 +390,8 @@ class G2OGraph:
     information_reading : {"g2o", "gtsam"}
         How the file's numbers were turned into :attr:`information`; :func:`write` inverts it.
     fixed : tuple of int
-        Ids from ``FIX`` lines (kept and written back; :meth:`to_gtsam` adds no prior for them).
+        Ids from ``FIX`` lines (kept and written back; :meth:`to_gtsam`'s gauge prior holds
+        them, or the first vertex when there are none).
     vertices_from_odometry : bool
         True if the file had no vertices and :attr:`poses` were chained from odometry edges.
     """
@@ -417,20 +506,38 @@ class G2OGraph:
             fixed=tuple(fixed),
         )
 
-    def to_gtsam(self) -> tuple[Any, Any]:
-        """GTSAM factor graph and initial values.
+    def to_gtsam(self, prior: Any = "gauge") -> tuple[Any, Any]:
+        """GTSAM factor graph and initial values, with a gauge prior unless ``prior=None``.
+
+        A graph of relative measurements alone fixes no pose: its linear system is
+        indeterminate (GTSAM's marginals fail on it, and an optimizer drifts in the free
+        directions). The default adds the same gauge prior ``liebridge optimize`` adds, and says
+        so once (:class:`GaugePriorNotice`).
+
+        Parameters
+        ----------
+        prior : "gauge", None, float, array of shape (6,) or (6, 6)
+            ``"gauge"`` (default): one ``gtsam.PriorFactorPose3`` at the initial pose of each
+            ``FIX`` vertex, or of the first vertex when there are none, σ =
+            :data:`GAUGE_PRIOR_SIGMA` in each direction. ``None``: no prior (the graph is then
+            gauge-free unless you add one). A number σ, six σ's or a ``(6, 6)`` covariance: that
+            prior on the same vertices instead, over **GTSAM's tangent** ``(ω, v)`` of
+            ``X̂·Exp(δ)`` (rotation first, right perturbation; not ROS's or Sophus's
+            translation-first order). An explicit prior is added silently.
 
         Returns
         -------
         graph : gtsam.NonlinearFactorGraph
             One ``BetweenFactorPose3(i, j, Z, noiseModel.Gaussian.Information(Λ))`` per edge, in
             file order (``Λ`` = :attr:`information`; GTSAM's "smart" constructor returns a
-            ``Diagonal`` or ``Isotropic`` model when ``Λ`` is one, as ``gtsam.readG2o`` does).
+            ``Diagonal`` or ``Isotropic`` model when ``Λ`` is one, as ``gtsam.readG2o`` does),
+            then the prior factors (``gtsam.readG2o``'s graph plus the prior).
         values : gtsam.Values
             :attr:`poses` under their vertex ids.
         """
         import gtsam  # the library itself: io stays below liebridge's gtsam layer
 
+        cov = prior_covariance(prior, 6)
         graph = gtsam.NonlinearFactorGraph()
         for (i, j), Zk, info in zip(
             self.edges.tolist(), self.measured.reshape(-1, 4, 4), self.information, strict=True
@@ -440,6 +547,13 @@ class G2OGraph:
         values = gtsam.Values()
         for k, T in zip(self.vertex_ids.tolist(), self.poses.reshape(-1, 4, 4), strict=True):
             values.insert(k, gtsam.Pose3(T))
+        if cov is not None:
+            keys = gauge_keys(self.vertex_ids, self.fixed)
+            noise = gtsam.noiseModel.Gaussian.Covariance(cov)
+            for k in keys:
+                graph.add(gtsam.PriorFactorPose3(k, values.atPose3(k), noise))
+            if isinstance(prior, str) and keys:
+                gauge_notice("G2OGraph.to_gtsam", keys, "in each of GTSAM's (ω, v) directions")
         return graph, values
 
 

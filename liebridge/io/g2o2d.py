@@ -61,8 +61,11 @@ from .g2o import (
     _Parser,
     _readonly,
     _symmetrised_copy,
+    gauge_keys,
+    gauge_notice,
     has_duplicates,
     in_file_order,
+    prior_covariance,
     read_tagged,
     vertices,
 )
@@ -221,13 +224,27 @@ class G2OGraph2D:
         """Measurements ``T_i_j`` as ``(M, 3, 3)`` SE(2) matrices."""
         return pose2_matrix(self.measured_xytheta)
 
-    def to_gtsam(self) -> tuple[Any, Any]:
+    def to_gtsam(self, prior: Any = "gauge") -> tuple[Any, Any]:
         """GTSAM factor graph (``BetweenFactorPose2`` with ``Gaussian.Information``) and values.
 
-        Equal to ``gtsam.readG2o(path, is3D=False)`` for files it reads (g2o-order numbers).
+        The between factors equal ``gtsam.readG2o(path, is3D=False)``'s for files it reads
+        (g2o-order numbers); the prior factors follow them.
+
+        Parameters
+        ----------
+        prior : "gauge", None, float, array of shape (3,) or (3, 3)
+            ``"gauge"`` (default): one ``gtsam.PriorFactorPose2`` at the initial pose of each
+            ``FIX`` vertex, or of the first vertex when there are none, σ =
+            :data:`liebridge.io.g2o.GAUGE_PRIOR_SIGMA` in each direction, as
+            ``liebridge optimize`` adds for a 2-D file; said once
+            (:class:`liebridge.io.g2o.GaugePriorNotice`). ``None``: no prior (gauge-free:
+            GTSAM's marginals fail on it). A number σ, three σ's or a ``(3, 3)`` covariance: that
+            prior instead, over **GTSAM's Pose2 tangent** ``(vx, vy, ω)`` of ``X̂·Exp(δ)``
+            (translation first here, unlike Pose3), added silently.
         """
         import gtsam  # the library itself: io stays below liebridge's gtsam layer
 
+        cov = prior_covariance(prior, 3)
         graph = gtsam.NonlinearFactorGraph()
         for (i, j), z, info in zip(
             self.edges.tolist(), self.measured_xytheta.tolist(), self.information, strict=True
@@ -237,6 +254,15 @@ class G2OGraph2D:
         values = gtsam.Values()
         for k, p in zip(self.vertex_ids.tolist(), self.vertex_xytheta.tolist(), strict=True):
             values.insert(k, gtsam.Pose2(*p))
+        if cov is not None:
+            keys = gauge_keys(self.vertex_ids, self.fixed)
+            noise = gtsam.noiseModel.Gaussian.Covariance(cov)
+            for k in keys:
+                graph.add(gtsam.PriorFactorPose2(k, values.atPose2(k), noise))
+            if isinstance(prior, str) and keys:
+                gauge_notice(
+                    "G2OGraph2D.to_gtsam", keys, "in each of GTSAM's (vx, vy, ω) directions"
+                )
         return graph, values
 
 

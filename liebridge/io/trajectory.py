@@ -20,11 +20,16 @@ Every reader returns a :class:`Trajectory` (``stamps``, ``T``, ``cov``, ``frame_
 ``child_frame_id``, ``source``), which unpacks as ``stamps, T = read_tum(path)``.
 
 Reading validates every line: a wrong number of fields, a field that is not a number, NaN/Inf,
-a quaternion whose norm is off, or a rotation block that is not orthonormal raises ``ValueError``
-naming the file and the 1-based line number. The tolerances follow the precision the numbers were
-printed with (:func:`liebridge.io.poses.text_quaternion_tol`,
-:func:`~liebridge.io.poses.text_rotation_tol`): a 4-decimal TUM ground truth loads, a
-``repr``-precision file is held to ``1e-6``. Quaternions are normalised; KITTI rotation blocks are
+a quaternion off unit by more than ``quat_tolerance`` (default ``1e-3``), or a rotation block that
+is not orthonormal raises ``ValueError`` naming the file and the 1-based line number. Real files
+are read as they are (:mod:`liebridge.io.sanity`, one policy for every reader): quaternions off
+unit within the tolerance are normalised, with an ``ImperfectFileWarning`` naming the worst
+deviation when the precision the numbers were printed with
+(:func:`liebridge.io.poses.text_quaternion_tol`) does not explain it (a 4-decimal TUM ground truth
+reads silently; evo's ``%.18e`` prints of 5-decimal numbers, off by 8e-6, with the warning);
+repeated timestamps keep the first of each run with a warning (``duplicates=``). KITTI rotation
+blocks are held to :func:`~liebridge.io.poses.text_rotation_tol`. Quaternions are normalised;
+KITTI rotation blocks are
 returned exactly as printed (project with :func:`liebridge.lie.so3.project` if you need them
 orthonormal to machine precision). A well-formed file is parsed in one ``numpy.loadtxt`` pass; a
 second, per-line pass runs only to name a fault.
@@ -32,7 +37,7 @@ second, per-line pass runs only to name a fault.
 Writing uses ``repr`` of every float (the shortest text that reads back to the same double), so
 KITTI files and TUM timestamps and translations round-trip bit for bit. **The one quaternion sign
 rule** of every TUM writer (:func:`write_tum`, ``io.write_trajectory``, ``ros.write_tum``, ``bag
-export --to tum``): the first quaternion has ``w ≥ 0`` and each next one the sign that makes
+export --format tum``): the first quaternion has ``w ≥ 0`` and each next one the sign that makes
 ``q_i·q_{i−1} ≥ 0`` (hemisphere continuity), so component-wise interpolation and plots of the file
 behave; it is a function of the rotations alone (never of the sign a source happened to store).
 Tempting and false: "``w ≥ 0`` on every line" — that flips the sign wherever a trajectory turns
@@ -58,13 +63,21 @@ from .. import _validate as validate
 from .._validate import FloatArray
 from . import poses as _layouts
 from .atomic import atomic_write
-from .sanity import check_quaternions, hemisphere_continuous
+from .sanity import (
+    QUAT_TOLERANCE,
+    QuaternionOrderConflictError,
+    check_quaternions,
+    hemisphere_continuous,
+    repeated_stamps,
+    unit_quaternions,
+)
 
 __all__ = [
     "Trajectory",
     "read_kitti",
     "read_tum",
     "stamp_text",
+    "tum_header_order",
     "write_kitti",
     "write_tum",
     "write_tum_text",
@@ -271,6 +284,36 @@ def _header_order(fields: Sequence[str]) -> str | None:
     return "wxyz" if iw < ix else "xyzw"
 
 
+def tum_header_order(path: PathLike) -> str | None:
+    """Return the quaternion order a TUM file's header names (``"xyzw"``/``"wxyz"``), else None.
+
+    The header is any line of column names before the first data line (``#`` comment lines, as
+    the TUM RGB-D ground truths start ``# ground truth trajectory``, ``# file: ...``,
+    ``# timestamp tx ty tz qx qy qz qw``; or a first line of names without ``#``) that names
+    the quaternion columns; ``qw`` before ``qx`` is ``wxyz``. :func:`read_tum` reads in this
+    order unless told another (then it raises), else ``"xyzw"``.
+    """
+    with open(path, "rb") as fh:
+        head = fh.read(1 << 16)
+    if head.startswith(b"\xef\xbb\xbf"):
+        head = head[3:]
+    for line in head.replace(b"\r\n", b"\n").replace(b"\r", b"\n").split(b"\n")[:-1]:
+        s = line.strip()
+        if not s:
+            continue
+        try:
+            fields = _fields(s.lstrip(b"#"))
+        except UnicodeDecodeError:
+            return None
+        names = _is_names(fields)
+        order = _header_order(fields) if names else None
+        if order is not None:
+            return order
+        if not s.startswith(b"#") and not names:
+            return None  # the first data line: no header above it names the order
+    return None
+
+
 def read_text_bytes(path: PathLike | int) -> bytes:
     r"""Read a UTF-8 text file as bytes with ``\n`` line ends (``\r\n`` and ``\r`` converted).
 
@@ -317,7 +360,12 @@ def _fields(line: bytes) -> list[str]:
 
 
 def read_tum(
-    path: PathLike | int, *, quat_order: str | None = None, check: bool = True
+    path: PathLike | int,
+    *,
+    quat_order: str | None = None,
+    check: bool = True,
+    duplicates: str = "first",
+    quat_tolerance: float = QUAT_TOLERANCE,
 ) -> Trajectory:
     """Read a TUM trajectory file.
 
@@ -329,9 +377,21 @@ def read_tum(
         and left open.
     quat_order : {"xyzw", "wxyz"}, optional
         Storage order of the quaternion columns; default: from the header if it names them, else
-        ``"xyzw"`` (TUM's).
+        ``"xyzw"`` (TUM's). A header that names the other order wins:
+        :class:`~liebridge.io.sanity.QuaternionOrderConflictError`, never a silent misreading.
     check : bool
-        Run :func:`liebridge.io.sanity.check_quaternions` (a warning, never an error).
+        Run :func:`liebridge.io.sanity.check_quaternions` with the positions (a
+        :class:`~liebridge.io.sanity.QuaternionOrderWarning` saying how sure it is, never an
+        error): the order check weighs ``xyzw`` against ``wxyz`` by the direction of travel.
+    duplicates : {"first", "last", "error"}
+        Repeated timestamps (equal consecutive stamps, as TUM ``fr2/desk`` ground truth has):
+        keep the first of each run and warn with the count
+        (:class:`~liebridge.io.sanity.ImperfectFileWarning`), keep the last, or raise
+        :class:`~liebridge.io.sanity.RepeatedStampError`.
+    quat_tolerance : float
+        Quaternions off unit by at most this (default ``1e-3``) are normalised, with a warning
+        naming the worst deviation when the printed precision does not explain it; beyond it
+        :class:`~liebridge.io.sanity.QuaternionNormError` names the file, line and deviation.
 
     Returns
     -------
@@ -344,7 +404,8 @@ def read_tum(
     ValueError
         On a malformed line, naming the file and line number: wrong number of fields, a field
         that is not a number (a first line mixing names and numbers included), NaN/Inf, a
-        quaternion norm off beyond the precision it was printed with; not UTF-8.
+        quaternion norm off by more than ``quat_tolerance``; not UTF-8; a header order
+        contradicting ``quat_order``; a repeated stamp under ``duplicates="error"``.
     """
     if quat_order is not None and quat_order not in ("xyzw", "wxyz"):
         raise ValueError(f"quat_order: expected 'xyzw' or 'wxyz', got {quat_order!r}")
@@ -367,23 +428,41 @@ def read_tum(
         if data is None:
             _tum_locate(path, raw)
     assert data is not None
+    if header_order is None and not isinstance(path, int) and len(data):
+        header_order = tum_header_order(path)  # a names line below other comment lines
+    if quat_order is not None and header_order is not None and quat_order != header_order:
+        names = "qw qx qy qz" if header_order == "wxyz" else "qx qy qz qw"
+        raise QuaternionOrderConflictError(
+            f"{path}: the header names the quaternion columns {names} ({header_order}), "
+            f"contradicting the order asked for, {quat_order}",
+            "the header wins: drop quat_order (or fix the header)",
+        )
     order = quat_order or header_order or "xyzw"
-    q = data[:, 4:8]
-    err = np.abs(np.linalg.norm(q, axis=-1) - 1.0)
-    suspect = np.flatnonzero(err > _layouts.QUATERNION_TOL).tolist()
-    if suspect and raw is None:
-        raw = read_text_bytes(path).replace(b",", b" ").replace(b"\t", b" ")
-    for r, (lineno, fields) in sorted(_rows_text(raw or b"", suspect).items()):
-        tol = _layouts.text_quaternion_tol(fields[4:8])
-        if err[r] > tol:
-            raise ValueError(
-                f"{path}:{lineno}: quaternion norm off by {err[r]:.3g} (tolerance {tol:g} for "
-                f"numbers printed with this precision)"
-            )
+    text: list[bytes | None] = [raw]
+
+    def rows(rs: list[int]) -> dict[int, tuple[int, list[str]]]:
+        if text[0] is None:
+            text[0] = read_text_bytes(path).replace(b",", b" ").replace(b"\t", b" ")
+        return _rows_text(text[0] or b"", rs)
+
+    def line_of(r: int) -> int:
+        return rows([r])[r][0]
+
+    def explained(r: int) -> float:
+        return _layouts.text_quaternion_tol(rows([r])[r][1][4:8])
+
+    q = unit_quaternions(
+        data[:, 4:8], quat_tolerance, source=str(path), lines=line_of, explained=explained
+    )
+    keep = repeated_stamps(data[:, 0], duplicates, source=str(path), lines=line_of)
     del raw
+    text[0] = None  # the bytes are not needed past here
+    if keep.size != data.shape[0]:
+        data, q = data[keep], q[keep]
+    data[:, 4:8] = q
     t = np.ascontiguousarray(data[:, 0])
     if check and len(t):
-        check_quaternions(q, order, t, source=str(path))
+        check_quaternions(q, order, t, source=str(path), positions=data[:, 1:4])
     return Trajectory(t, _tum_poses(data, order), source=str(path))
 
 

@@ -14,7 +14,9 @@
 
 A file without data lines is an error here (a trajectory to evaluate must have poses). Every
 reader checks the quaternions with :func:`liebridge.io.sanity.check_quaternions` (a
-:class:`~liebridge.io.sanity.QuaternionOrderWarning`, never an error) unless ``check=False``.
+:class:`~liebridge.io.sanity.QuaternionOrderWarning`, never an error; the order judged by the
+direction of travel, saying how sure it is) unless ``check=False``, and applies one policy to
+imperfect real files (``duplicates=``, ``quat_tolerance=``; :mod:`liebridge.io.sanity`).
 :func:`write_trajectory` writes TUM (:func:`~liebridge.io.trajectory.write_tum`: ``repr``
 precision and the one quaternion sign rule), EuRoC or KITTI, every one through
 :func:`liebridge.io.atomic.atomic_write`.
@@ -27,6 +29,7 @@ import re
 from typing import Any, Literal
 
 from .euroc import read_euroc, write_euroc
+from .sanity import QUAT_TOLERANCE, QuaternionOrderConflictError
 from .trajectory import Trajectory, read_kitti, read_tum, write_kitti, write_tum
 
 __all__ = [
@@ -99,11 +102,18 @@ def read_trajectory(
     *,
     quat_order: str | None = None,
     check: bool = True,
+    duplicates: str = "first",
+    quat_tolerance: float = QUAT_TOLERANCE,
 ) -> Trajectory:
     """Read a trajectory file into a :class:`~liebridge.io.trajectory.Trajectory`.
 
-    See the module docstring for the formats. ``quat_order`` applies to TUM files only (EuRoC
-    is ``wxyz``, KITTI has rotation matrices). Raises ``ValueError`` for a missing file, an
+    See the module docstring for the formats. ``quat_order`` applies to TUM files (a header that
+    names the other order wins: :class:`~liebridge.io.sanity.QuaternionOrderConflictError`);
+    EuRoC is ``wxyz`` by its header, so ``"xyzw"`` there is the same error; KITTI has rotation
+    matrices and ignores it. ``duplicates`` and ``quat_tolerance`` are the imperfect-file policy
+    of :mod:`liebridge.io.sanity` (repeated stamps: keep the first and warn; quaternions off
+    unit by ≤ 1e-3: normalise and warn with the worst deviation), the same for TUM and EuRoC
+    (KITTI has neither stamps nor quaternions). Raises ``ValueError`` for a missing file, an
     unknown format, a malformed line (naming file and line) and a file without data lines.
     """
     if not os.path.isfile(path):
@@ -111,10 +121,17 @@ def read_trajectory(
     if format not in ("auto", *FORMATS):
         raise ValueError(f"format: expected 'auto' or one of {', '.join(FORMATS)}, got {format!r}")
     fmt = detect_format(path) if format == "auto" else format
+    policy: dict[str, Any] = {"duplicates": duplicates, "quat_tolerance": quat_tolerance}
     if fmt == "tum":
-        traj = read_tum(path, quat_order=quat_order, check=check)
+        traj = read_tum(path, quat_order=quat_order, check=check, **policy)
     elif fmt == "euroc":
-        traj = read_euroc(path, check=check)
+        if quat_order not in (None, "wxyz"):
+            raise QuaternionOrderConflictError(
+                f"{path}: a EuRoC file stores its quaternion w x y z (header q_RS_w, q_RS_x, "
+                f"...), contradicting the order asked for, {quat_order}",
+                "the header wins: drop quat_order",
+            )
+        traj = read_euroc(path, check=check, **policy)
     else:
         traj = read_kitti(path)
     if len(traj) == 0:

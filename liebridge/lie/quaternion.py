@@ -25,6 +25,7 @@ from typing import Any, Literal, cast
 import numpy as np
 
 from .. import _validate as validate
+from .. import arrays
 from .._validate import FloatArray
 
 QuatOrder = Literal["wxyz", "xyzw", "jpl"]
@@ -57,6 +58,7 @@ def _from_wxyz(q: FloatArray, order: str) -> FloatArray:
     return q if order == "wxyz" else np.roll(q, -1, axis=-1)
 
 
+@arrays.numpy_only
 def to_matrix(q: Any, *, order: QuatOrder) -> FloatArray:
     """Convert a unit quaternion ``(..., 4)`` in ``order`` to a rotation ``(..., 3, 3)``.
 
@@ -81,6 +83,7 @@ def to_matrix(q: Any, *, order: QuatOrder) -> FloatArray:
     return np.ascontiguousarray(np.swapaxes(R, -1, -2)) if order == "jpl" else R
 
 
+@arrays.numpy_only
 def from_matrix(R: Any, *, order: QuatOrder) -> FloatArray:
     """Rotation ``(..., 3, 3)`` → unit quaternion ``(..., 4)`` with ``w ≥ 0``, in ``order``.
 
@@ -99,6 +102,7 @@ def from_matrix(R: Any, *, order: QuatOrder) -> FloatArray:
     return _from_wxyz(np.roll(q, 1, axis=-1), order)
 
 
+@arrays.numpy_only
 def multiply(q1: Any, q2: Any, *, order: QuatOrder) -> FloatArray:
     """Quaternion product ``q1 ⊗ q2`` of unit quaternions (broadcast).
 
@@ -126,6 +130,7 @@ def multiply(q1: Any, q2: Any, *, order: QuatOrder) -> FloatArray:
     return _from_wxyz(out, order)
 
 
+@arrays.numpy_only
 def conjugate(q: Any, *, order: QuatOrder) -> FloatArray:
     """Conjugate ``(w, −u)``: the inverse of a unit quaternion (the norm is checked)."""
     order = _check_order(order)
@@ -133,6 +138,7 @@ def conjugate(q: Any, *, order: QuatOrder) -> FloatArray:
     return _from_wxyz(q, order)
 
 
+@arrays.numpy_only
 def canonical(q: Any, *, order: QuatOrder) -> FloatArray:
     """Choose the sign with ``w ≥ 0`` (``q`` and ``−q`` are the same unit-quaternion rotation)."""
     order = _check_order(order)
@@ -141,6 +147,7 @@ def canonical(q: Any, *, order: QuatOrder) -> FloatArray:
     return np.where((w < 0)[..., None], -q, q)
 
 
+@arrays.numpy_only
 def slerp(q0: Any, q1: Any, tau: Any, *, order: QuatOrder) -> FloatArray:
     """Spherical linear interpolation along the **short** arc.
 
@@ -169,6 +176,7 @@ def slerp(q0: Any, q1: Any, tau: Any, *, order: QuatOrder) -> FloatArray:
     return validate.finite_output(np.asarray(out, dtype=np.float64), "quaternion.slerp")
 
 
+@arrays.numpy_only
 def jpl_to_hamilton(q_jpl: Any, *, order: HamiltonOrder) -> FloatArray:
     """JPL quaternion → Hamilton quaternion of the same rotation matrix, same storage order.
 
@@ -182,6 +190,7 @@ def jpl_to_hamilton(q_jpl: Any, *, order: HamiltonOrder) -> FloatArray:
     return conjugate(q_jpl, order=order)
 
 
+@arrays.numpy_only
 def hamilton_to_jpl(q: Any, *, order: HamiltonOrder) -> FloatArray:
     """Inverse of :func:`jpl_to_hamilton` (also a conjugation)."""
     validate.option(order, "order", ("wxyz", "xyzw"))

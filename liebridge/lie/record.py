@@ -37,6 +37,7 @@ from typing import Any, Literal
 import numpy as np
 
 from .. import _validate as validate
+from .. import arrays
 from .._validate import FloatArray
 
 Unary = Callable[[FloatArray], FloatArray]
@@ -84,8 +85,13 @@ class Kernels:
     scale: Unary | None = None
 
 
+def _inv(A: Any) -> Any:
+    xp = arrays.namespace(A)
+    return np.linalg.inv(A) if xp is np else xp.linalg.inv(A)
+
+
 def _mv(A: FloatArray, x: FloatArray) -> FloatArray:
-    return np.einsum("...ij,...j->...i", A, x)
+    return arrays.matvec(A, x)
 
 
 @dataclass(frozen=True, eq=False)
@@ -127,6 +133,11 @@ class Group:
         One line for tables (``"extended pose / navigation state"``).
     chart_aliases : dict
         Other spellings of chart names (SE(3)'s ``split_body`` is ``so3xr3_body``).
+    array_api : bool
+        Whether the kernels are written against the array API (:mod:`liebridge.arrays`), so that
+        they, and the conventions of the group, run on torch and JAX arrays. ``False``: torch/JAX
+        inputs are copied to the host and the results are numpy (a traced array or a tensor that
+        requires grad is refused with ``TypeError``).
     """
 
     name: str
@@ -144,6 +155,7 @@ class Group:
     tangent_doc: str = ""
     note: str = ""
     chart_aliases: dict[str, str] = field(default_factory=dict)
+    array_api: bool = False
 
     def __post_init__(self) -> None:
         if not (isinstance(self.name, str) and self.name.isidentifier()):
@@ -234,24 +246,40 @@ class Group:
         return validate.tangent(xi, name, self.dim, self.rot)
 
     def _out(self, out: FloatArray, op: str) -> FloatArray:
-        return validate.finite_output(np.asarray(out, dtype=np.float64), f"{self.name}.{op}")
+        out = out if arrays.is_foreign(out) else np.asarray(out, dtype=np.float64)
+        return validate.finite_output(out, f"{self.name}.{op}")
+
+    def _inputs(self, *xs: Any) -> tuple[Any, ...]:
+        """Return the arguments in one array type.
+
+        The first torch/JAX array's where the kernels are array-generic (:attr:`array_api`), else
+        host numpy copies (see ``arrays.host``).
+        """
+        xs = arrays.common(*xs)
+        if self.array_api or not arrays.any_foreign(*xs):
+            return xs
+        return tuple(arrays.host(x, self.name) for x in xs)
 
     def exp(self, xi: Any) -> FloatArray:
         """Exponential: canonical tangent ``(..., dim)`` → element ``(..., matrix, matrix)``."""
+        (xi,) = self._inputs(xi)
         return self._out(self.kernels.exp(self.tangent(xi)), "exp")
 
     def log(self, X: Any) -> FloatArray:
         """Principal logarithm: element → canonical tangent ``(..., dim)``."""
+        (X,) = self._inputs(X)
         return self._out(self.kernels.log(self.element(X, "X")), "log")
 
     def inverse(self, X: Any) -> FloatArray:
         """``X⁻¹``: ``inverse(T_a_b) = T_b_a``."""
+        (X,) = self._inputs(X)
         return self._out(self.kernels.inverse(self.element(X, "X")), "inverse")
 
     def compose(self, X1: Any, X2: Any) -> FloatArray:
         """``X1·X2`` (broadcast): ``compose(T_a_b, T_b_c) = T_a_c``."""
+        X1, X2 = self._inputs(X1, X2)
         A, B = self.element(X1, "X1"), self.element(X2, "X2")
-        validate.batch_shape(("X1", A.shape[:-2]), ("X2", B.shape[:-2]))
+        validate.batch_shape(("X1", tuple(A.shape[:-2])), ("X2", tuple(B.shape[:-2])))
         f = self.kernels.compose
         return self._out(f(A, B) if f is not None else A @ B, "compose")
 
@@ -262,10 +290,11 @@ class Group:
         position, not the velocity); a rotation group acts as ``R x``. The group's own ``act``
         kernel may say otherwise.
         """
+        X, x = self._inputs(X, x)
         Xa = self.element(X, "X")
         n = self.matrix - len(self.cols)
         xa = validate.vector(x, "x", n)
-        validate.batch_shape(("X", Xa.shape[:-2]), ("x", xa.shape[:-1]))
+        validate.batch_shape(("X", tuple(Xa.shape[:-2])), ("x", tuple(xa.shape[:-1])))
         f = self.kernels.act
         if f is not None:
             return self._out(f(Xa, xa), "act")
@@ -276,36 +305,44 @@ class Group:
 
     def adjoint(self, X: Any) -> FloatArray:
         """``Ad_X``, ``(..., dim, dim)``: ``X·Exp(ξ)·X⁻¹ = Exp(Ad_X ξ)``."""
+        (X,) = self._inputs(X)
         return self._out(self.kernels.adjoint(self.element(X, "X")), "adjoint")
 
     def jr(self, xi: Any) -> FloatArray:
         """Right Jacobian: ``Exp(ξ + δ) ≈ Exp(ξ)·Exp(jr(ξ) δ)``."""
+        (xi,) = self._inputs(xi)
         x = self.tangent(xi)
         f = self.kernels.jr
-        out = f(x) if f is not None else np.linalg.inv(self.kernels.jr_inv(x))
-        return self._out(np.asarray(out, dtype=np.float64), "jr")
+        out: Any = f(x) if f is not None else _inv(self.kernels.jr_inv(x))
+        return self._out(out, "jr")
 
     def jl(self, xi: Any) -> FloatArray:
         """Left Jacobian: ``Exp(ξ + δ) ≈ Exp(jl(ξ) δ)·Exp(ξ)``."""
+        (xi,) = self._inputs(xi)
         x = self.tangent(xi)
         f = self.kernels.jl
-        out = f(x) if f is not None else np.linalg.inv(self.kernels.jl_inv(x))
-        return self._out(np.asarray(out, dtype=np.float64), "jl")
+        out: Any = f(x) if f is not None else _inv(self.kernels.jl_inv(x))
+        return self._out(out, "jl")
 
     def jr_inv(self, xi: Any) -> FloatArray:
         """Inverse right Jacobian: the derivative of ``Log(Exp(ξ)·Exp(δ))`` at ``δ = 0``."""
+        (xi,) = self._inputs(xi)
         return self._out(self.kernels.jr_inv(self.tangent(xi)), "jr_inv")
 
     def jl_inv(self, xi: Any) -> FloatArray:
         """Inverse left Jacobian: the derivative of ``Log(Exp(δ)·Exp(ξ))`` at ``δ = 0``."""
+        (xi,) = self._inputs(xi)
         return self._out(self.kernels.jl_inv(self.tangent(xi)), "jl_inv")
 
     def interpolate(self, X0: Any, X1: Any, tau: Any) -> FloatArray:
         """Geodesic ``X0·Exp(τ·Log(X0⁻¹X1))``; ``τ`` broadcasts against the batch."""
+        X0, X1, tau = self._inputs(X0, X1, tau)
         A, B = self.element(X0, "X0"), self.element(X1, "X1")
-        t = validate.as_float_array(tau, "tau")
+        t = tau if arrays.is_foreign(tau) else validate.as_float_array(tau, "tau")
         validate.check_finite(t, "tau", core_ndim=0)
-        validate.batch_shape(("X0", A.shape[:-2]), ("X1", B.shape[:-2]), ("tau", t.shape))
+        validate.batch_shape(
+            ("X0", tuple(A.shape[:-2])), ("X1", tuple(B.shape[:-2])), ("tau", tuple(t.shape))
+        )
         f = self.kernels.interpolate
         if f is not None:
             return self._out(f(A, B, t), "interpolate")

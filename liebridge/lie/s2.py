@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from .. import _validate as validate
+from .. import arrays
 from .._validate import FloatArray
 
 __all__ = ["dlog", "exp", "log", "mtk_basis", "unit3_basis", "unit_vector"]
@@ -38,6 +39,7 @@ MTK_TOLERANCE = 1e-11
 _SMALL = 1e-3
 
 
+@arrays.numpy_only
 def unit_vector(n: Any, name: str = "n", tol: float = validate.ROTATION_TOL) -> FloatArray:
     """Validate ``(..., 3)`` unit vectors (``| ‖n‖ − 1 | ≤ tol``), naming the batch index."""
     arr = validate.vector(n, name, 3)
@@ -56,6 +58,7 @@ def _dot(a: FloatArray, b: FloatArray) -> FloatArray:
     return np.asarray(np.einsum("...i,...i->...", a, b), dtype=np.float64)
 
 
+@arrays.numpy_only
 def exp(n: Any, w: Any) -> FloatArray:
     """Geodesic exponential at ``n`` of the tangent vector ``w`` (``(..., 3)``, ``w ⟂ n``)."""
     n = unit_vector(n)
@@ -90,6 +93,7 @@ def _check_not_antipodal(theta: FloatArray, name: str) -> None:
         )
 
 
+@arrays.numpy_only
 def log(n: Any, m: Any) -> FloatArray:
     """Inverse of :func:`exp`: the ``w ⟂ n``, ``‖w‖ < π``, with ``exp(n, w) = m``."""
     n, m = unit_vector(n), unit_vector(m, "m")
@@ -101,6 +105,7 @@ def log(n: Any, m: Any) -> FloatArray:
     return np.asarray(k[..., None] * (m - c[..., None] * n), dtype=np.float64)
 
 
+@arrays.numpy_only
 def dlog(n: Any, m: Any) -> FloatArray:
     """``∂ log(n, m)/∂m`` (``(..., 3, 3)``), to be applied to tangent directions at ``m``.
 
@@ -123,6 +128,7 @@ def dlog(n: Any, m: Any) -> FloatArray:
     )
 
 
+@arrays.numpy_only
 def unit3_basis(n: Any) -> FloatArray:
     """GTSAM's ``Unit3::basis()`` at unit ``n``: ``(..., 3, 2)``, columns ``(b1, b2)``."""
     n = unit_vector(n)
@@ -140,6 +146,7 @@ def unit3_basis(n: Any) -> FloatArray:
     return np.asarray(np.stack([b1, b2], axis=-1), dtype=np.float64)
 
 
+@arrays.numpy_only
 def mtk_basis(n: Any, axis: int, length: float = 1.0) -> FloatArray:
     """MTK's ``S2::S2_Bx`` for ``S2_typ = axis`` (1, 2, 3) at the stored vector ``length · n``.
 

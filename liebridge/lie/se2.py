@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from .. import _validate as validate
+from .. import arrays
 from .._validate import FloatArray
 from . import _matrix_group as _mg
 from .record import Group, Kernels, register_shipped
@@ -156,6 +157,7 @@ def _tangent(xi: Any, name: str = "xi") -> FloatArray:
     return validate.tangent(xi, name, 3, _ROT)
 
 
+@arrays.numpy_only
 def hat(xi: Any) -> FloatArray:
     """``(vx, vy, ω)`` → ``[[0, −ω, vx], [ω, 0, vy], [0, 0, 0]]``, ``(..., 3, 3)``."""
     xi = validate.vector(xi, "xi", 3)
@@ -165,62 +167,74 @@ def hat(xi: Any) -> FloatArray:
     return out
 
 
+@arrays.numpy_only
 def vee(X: Any) -> FloatArray:
     """Inverse of :func:`hat`: ``(..., 3, 3)`` → ``(vx, vy, ω)``."""
     X = validate.square(X, "X", 3)
     return np.stack([X[..., 0, 2], X[..., 1, 2], 0.5 * (X[..., 1, 0] - X[..., 0, 1])], axis=-1)
 
 
+@arrays.numpy_only
 def exp(xi: Any) -> FloatArray:
     """SE(2) exponential of ``(vx, vy, ω)`` → ``(..., 3, 3)``. GTSAM ``Pose2.Expmap``."""
     return validate.finite_output(_exp(_tangent(xi)), "se2.exp")
 
 
+@arrays.numpy_only
 def log(T: Any) -> FloatArray:
     """SE(2) logarithm → ``(vx, vy, ω)``, ``ω ∈ (−π, π]``. GTSAM ``Pose2.Logmap``."""
     return validate.finite_output(_log(validate.pose2(T, "T")), "se2.log")
 
 
+@arrays.numpy_only
 def jr(xi: Any) -> FloatArray:
     """Right Jacobian ``Exp(ξ + δ) ≈ Exp(ξ)·Exp(jr δ)``, ``(..., 3, 3)``."""
     return validate.finite_output(_jr(_tangent(xi)), "se2.jr")
 
 
+@arrays.numpy_only
 def jl(xi: Any) -> FloatArray:
     """Left Jacobian ``Exp(ξ + δ) ≈ Exp(jl δ)·Exp(ξ)``, ``(..., 3, 3)``."""
     return validate.finite_output(_jl(_tangent(xi)), "se2.jl")
 
 
+@arrays.numpy_only
 def jr_inv(xi: Any) -> FloatArray:
     """Inverse right Jacobian (closed-form block inverse); GTSAM ``Pose2.LogmapDerivative``."""
     return validate.finite_output(_jr_inv(_tangent(xi)), "se2.jr_inv")
 
 
+@arrays.numpy_only
 def jl_inv(xi: Any) -> FloatArray:
     """Inverse left Jacobian (closed-form block inverse), ``(..., 3, 3)``."""
     return validate.finite_output(_jl_inv(_tangent(xi)), "se2.jl_inv")
 
 
+@arrays.numpy_only
 def adjoint(T: Any) -> FloatArray:
     """``Ad_T = [[R, (t_y, −t_x)ᵀ], [0, 1]]`` in ``(vx, vy, ω)``: ``T·Exp(ξ)·T⁻¹ = Exp(Ad_T ξ)``."""
     return _adjoint(validate.pose2(T, "T"))
 
 
+@arrays.numpy_only
 def inverse(T: Any) -> FloatArray:
     """``[[Rᵀ, −Rᵀt], [0, 1]]``: ``inverse(T_world_body) = T_body_world``."""
     return _inverse(validate.pose2(T, "T"))
 
 
+@arrays.numpy_only
 def compose(T1: Any, T2: Any) -> FloatArray:
     """``T1·T2`` (broadcast): ``compose(T_a_b, T_b_c) = T_a_c``."""
     return _mg.compose(T1, T2, validate.pose2, ("T1", "T2"), "se2.compose")
 
 
+@arrays.numpy_only
 def act(T: Any, p: Any) -> FloatArray:
     """``R p + t`` for 2-D points ``(..., 2)``: ``act(T_world_body, p_body) = p_world``."""
     return _mg.act(T, p, validate.pose2, 2, ("T", "p"), "se2.act")
 
 
+@arrays.numpy_only
 def interpolate(T0: Any, T1: Any, tau: Any) -> FloatArray:
     """Geodesic ``T0·Exp(τ·Log(T0⁻¹T1))``; ``τ`` broadcasts against the batch."""
     ops = (_log, _exp, _inverse)

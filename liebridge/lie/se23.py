@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from .. import _validate as validate
+from .. import arrays
 from .._validate import FloatArray
 from . import _matrix_group as _mg
 from . import se3, so3
@@ -123,6 +124,7 @@ def _tangent(xi: Any, name: str = "xi") -> FloatArray:
     return validate.tangent(xi, name, 9, slice(0, 3))
 
 
+@arrays.numpy_only
 def hat(xi: Any) -> FloatArray:
     """``(ω, ρ_p, ρ_v)`` → ``[[hat(ω), ρ_p, ρ_v], [0, 0, 0], [0, 0, 0]]``, ``(..., 5, 5)``."""
     xi = validate.vector(xi, "xi", 9)
@@ -133,62 +135,74 @@ def hat(xi: Any) -> FloatArray:
     return out
 
 
+@arrays.numpy_only
 def vee(X: Any) -> FloatArray:
     """Inverse of :func:`hat`: ``(..., 5, 5)`` → ``(ω, ρ_p, ρ_v)``."""
     X = validate.square(X, "X", 5)
     return np.concatenate([so3.vee(X[..., :3, :3]), X[..., :3, 3], X[..., :3, 4]], axis=-1)
 
 
+@arrays.numpy_only
 def exp(xi: Any) -> FloatArray:
     """SE₂(3) exponential ``(..., 9)`` → ``(..., 5, 5)``. GTSAM ``NavState.Expmap``."""
     return validate.finite_output(_exp(_tangent(xi)), "se23.exp")
 
 
+@arrays.numpy_only
 def log(X: Any) -> FloatArray:
     """SE₂(3) logarithm → ``(ω, ρ_p, ρ_v)``, ``‖ω‖ ∈ [0, π]``. GTSAM ``NavState.Logmap``."""
     return validate.finite_output(_log(validate.extended_pose(X, "X")), "se23.log")
 
 
+@arrays.numpy_only
 def jr(xi: Any) -> FloatArray:
     """Right Jacobian ``Exp(ξ + δ) ≈ Exp(ξ)·Exp(jr δ)``, ``(..., 9, 9)``."""
     return validate.finite_output(_jr(_tangent(xi)), "se23.jr")
 
 
+@arrays.numpy_only
 def jl(xi: Any) -> FloatArray:
     """Left Jacobian ``Exp(ξ + δ) ≈ Exp(jl δ)·Exp(ξ)``, ``(..., 9, 9)``."""
     return validate.finite_output(_jl(_tangent(xi)), "se23.jl")
 
 
+@arrays.numpy_only
 def jr_inv(xi: Any) -> FloatArray:
     """Inverse right Jacobian (closed-form block inverse), ``(..., 9, 9)``."""
     return validate.finite_output(_jr_inv(_tangent(xi)), "se23.jr_inv")
 
 
+@arrays.numpy_only
 def jl_inv(xi: Any) -> FloatArray:
     """Inverse left Jacobian (closed-form block inverse), ``(..., 9, 9)``."""
     return validate.finite_output(_jl_inv(_tangent(xi)), "se23.jl_inv")
 
 
+@arrays.numpy_only
 def adjoint(X: Any) -> FloatArray:
     """``Ad_X`` in ``(ω, ρ_p, ρ_v)``: ``X·Exp(ξ)·X⁻¹ = Exp(Ad_X ξ)``. GTSAM ``AdjointMap``."""
     return validate.finite_output(_adjoint(validate.extended_pose(X, "X")), "se23.adjoint")
 
 
+@arrays.numpy_only
 def inverse(X: Any) -> FloatArray:
     """``[[Rᵀ, −Rᵀp, −Rᵀv], [0, I₂]]``."""
     return validate.finite_output(_inverse(validate.extended_pose(X, "X")), "se23.inverse")
 
 
+@arrays.numpy_only
 def compose(X1: Any, X2: Any) -> FloatArray:
     """``X1·X2`` (broadcast): ``(R1R2, p1 + R1p2, v1 + R1v2)``."""
     return _mg.compose(X1, X2, validate.extended_pose, ("X1", "X2"), "se23.compose")
 
 
+@arrays.numpy_only
 def act(X: Any, x: Any) -> FloatArray:
     """Apply the pose part to points: ``R x + p``, ``(..., 3)``."""
     return _mg.act(X, x, validate.extended_pose, 3, ("X", "x"), "se23.act")
 
 
+@arrays.numpy_only
 def interpolate(X0: Any, X1: Any, tau: Any) -> FloatArray:
     """Geodesic ``X0·Exp(τ·Log(X0⁻¹X1))``; ``τ`` broadcasts against the batch."""
     ops = (_log, _exp, _inverse)

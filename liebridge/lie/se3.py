@@ -231,6 +231,7 @@ def _jl_inv(xi: FloatArray) -> FloatArray:
     return _blocks(Ji, 0.0 * Ji, -Ji @ _q(w, xi[..., 3:]) @ Ji, Ji)
 
 
+@arrays.numpy_only
 def hat(xi: Any) -> FloatArray:
     """Map a twist ``(ω, v)`` ``(..., 6)`` to ``[[hat(ω), v], [0, 0]]``, ``(..., 4, 4)``."""
     xi = validate.vector(xi, "xi", 6)
@@ -240,6 +241,7 @@ def hat(xi: Any) -> FloatArray:
     return out
 
 
+@arrays.numpy_only
 def vee(X: Any) -> FloatArray:
     """Inverse of :func:`hat`: ``(..., 4, 4)`` → ``(ω, v)`` ``(..., 6)``."""
     X = validate.square(X, "X", 4)
@@ -302,6 +304,7 @@ def adjoint(T: Any) -> FloatArray:
     return validate.finite_output(_adjoint(validate.pose(T, "T")), "se3.adjoint")
 
 
+@arrays.numpy_only
 def ad(xi: Any) -> FloatArray:
     """Small adjoint ``ad_ξ = [[hat(ω), 0], [hat(v), hat(ω)]]`` in (ω, v), ``(..., 6, 6)``.
 
@@ -338,14 +341,14 @@ def interpolate(T0: Any, T1: Any, tau: Any) -> FloatArray:
     ``tau`` broadcasts against the batch shape of ``T0``/``T1``; values outside [0, 1]
     extrapolate along the same screw.
     """
-    T0 = validate.pose(T0, "T0")
-    T1 = validate.pose(T1, "T1")
-    tau_ = validate.as_float_array(tau, "tau")
-    validate.check_finite(tau_, "tau", core_ndim=0)
-    validate.batch_shape(("T0", T0.shape[:-2]), ("T1", T1.shape[:-2]), ("tau", tau_.shape))
-    xi = validate.tangent(tau_[..., None] * _log(_inverse(T0) @ T1), "tau·Log(T0⁻¹T1)", 6)
-    out = np.asarray(T0 @ _exp(xi), dtype=np.float64)
-    return validate.finite_output(out, "se3.interpolate")
+    ops = (_log, _exp, _inverse)
+
+    def tangent(xi: Any, name: str) -> FloatArray:
+        return validate.tangent(xi, name, 6)
+
+    return _mg.interpolate(
+        T0, T1, tau, validate.pose, tangent, ops, ("T0", "T1"), "se3.interpolate"
+    )
 
 
 # ----------------------------------------------------------------------------- the record
@@ -370,5 +373,6 @@ GROUP = register_shipped(
         probe=_exp(np.array([0.4, -0.7, 0.5, 1.5, -2.0, 0.8])), label="SE(3)",
         note="and SO(3): a 3×3 rotation given to these",
         tangent_doc="(ω, v)",
+        array_api=True,
     )
 )  # fmt: skip

@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from .. import _validate as validate
+from .. import arrays
 from .._validate import FloatArray
 from . import _matrix_group as _mg
 from . import so3
@@ -159,6 +160,7 @@ def _tangent(xi: Any, name: str = "xi") -> FloatArray:
     return validate.tangent(xi, name, 7, slice(0, 3))
 
 
+@arrays.numpy_only
 def hat(xi: Any) -> FloatArray:
     """``(ω, u, λ)`` → ``[[hat(ω) + λI, u], [0, 0]]``, ``(..., 4, 4)``."""
     xi = validate.vector(xi, "xi", 7)
@@ -168,6 +170,7 @@ def hat(xi: Any) -> FloatArray:
     return out
 
 
+@arrays.numpy_only
 def vee(X: Any) -> FloatArray:
     """Inverse of :func:`hat`: ω from the skew part, ``λ = tr/3`` of the top-left block, ``u``."""
     X = validate.square(X, "X", 4)
@@ -175,6 +178,7 @@ def vee(X: Any) -> FloatArray:
     return np.concatenate([so3.vee(X[..., :3, :3]), X[..., :3, 3], lam[..., None]], axis=-1)
 
 
+@arrays.numpy_only
 def exp(xi: Any) -> FloatArray:
     """Sim(3) exponential ``(ω, u, λ)`` → ``[[e^λ Exp(ω), W u], [0, 1]]``, ``(..., 4, 4)``.
 
@@ -193,51 +197,61 @@ def exp(xi: Any) -> FloatArray:
     return validate.finite_output(_exp(x), "sim3.exp")
 
 
+@arrays.numpy_only
 def log(X: Any) -> FloatArray:
     """Sim(3) logarithm → ``(ω, u, λ)``, ``‖ω‖ ∈ [0, π]``. GTSAM ``Similarity3.Logmap``."""
     return validate.finite_output(_log(validate.similarity(X, "X")), "sim3.log")
 
 
+@arrays.numpy_only
 def jr(xi: Any) -> FloatArray:
     """Right Jacobian ``Exp(ξ + δ) ≈ Exp(ξ)·Exp(jr δ)``, ``(..., 7, 7)``."""
     return validate.finite_output(_jr(_tangent(xi)), "sim3.jr")
 
 
+@arrays.numpy_only
 def jl(xi: Any) -> FloatArray:
     """Left Jacobian ``Exp(ξ + δ) ≈ Exp(jl δ)·Exp(ξ)``, ``(..., 7, 7)``."""
     return validate.finite_output(_jl(_tangent(xi)), "sim3.jl")
 
 
+@arrays.numpy_only
 def jr_inv(xi: Any) -> FloatArray:
     """Inverse right Jacobian, ``(..., 7, 7)``."""
     return validate.finite_output(_jr_inv(_tangent(xi)), "sim3.jr_inv")
 
 
+@arrays.numpy_only
 def jl_inv(xi: Any) -> FloatArray:
     """Inverse left Jacobian, ``(..., 7, 7)``."""
     return validate.finite_output(_jl_inv(_tangent(xi)), "sim3.jl_inv")
 
 
+@arrays.numpy_only
 def adjoint(X: Any) -> FloatArray:
     """``Ad_X = [[R, 0, 0], [hat(t)R, sR, −t], [0, 0, 1]]`` in ``(ω, u, λ)``, ``(..., 7, 7)``."""
     return validate.finite_output(_adjoint(validate.similarity(X, "X")), "sim3.adjoint")
 
 
+@arrays.numpy_only
 def inverse(X: Any) -> FloatArray:
     """``[[Rᵀ/s, −Rᵀt/s], [0, 1]]``."""
     return validate.finite_output(_inverse(validate.similarity(X, "X")), "sim3.inverse")
 
 
+@arrays.numpy_only
 def compose(X1: Any, X2: Any) -> FloatArray:
     """``X1·X2`` (broadcast)."""
     return _mg.compose(X1, X2, validate.similarity, ("X1", "X2"), "sim3.compose")
 
 
+@arrays.numpy_only
 def act(X: Any, p: Any) -> FloatArray:
     """``sRp + t`` for points ``(..., 3)`` (GTSAM ``transformFrom``)."""
     return _mg.act(X, p, validate.similarity, 3, ("X", "p"), "sim3.act")
 
 
+@arrays.numpy_only
 def interpolate(X0: Any, X1: Any, tau: Any) -> FloatArray:
     """Geodesic ``X0·Exp(τ·Log(X0⁻¹X1))``; ``τ`` broadcasts against the batch."""
     ops = (_log, _exp, _inverse)

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from .. import _validate as validate
+from .. import arrays
 from .._validate import FloatArray
 from .record import Group, Kernels, register_shipped
 
@@ -67,6 +68,7 @@ def _tangent(w: Any) -> FloatArray:
     return validate.tangent(w, "w", 1, slice(0, 1))
 
 
+@arrays.numpy_only
 def hat(w: Any) -> FloatArray:
     """``(θ,)`` → ``[[0, −θ], [θ, 0]]``, ``(..., 2, 2)``."""
     w = validate.vector(w, "w", 1)
@@ -75,52 +77,62 @@ def hat(w: Any) -> FloatArray:
     return out
 
 
+@arrays.numpy_only
 def vee(W: Any) -> FloatArray:
     """Inverse of :func:`hat` (from the skew part), ``(..., 1)``."""
     W = validate.square(W, "W", 2)
     return np.asarray(0.5 * (W[..., 1, 0] - W[..., 0, 1]))[..., None]
 
 
+@arrays.numpy_only
 def exp(w: Any) -> FloatArray:
     """``Exp(θ)``, ``(..., 1)`` → ``(..., 2, 2)``. GTSAM ``Rot2.Expmap``."""
     return validate.finite_output(_exp(_tangent(w)), "so2.exp")
 
 
+@arrays.numpy_only
 def log(R: Any) -> FloatArray:
     """``Log(R) = atan2(R₁₀, R₀₀) ∈ (−π, π]``, ``(..., 1)``. GTSAM ``Rot2.Logmap``."""
     return _log(validate.rotation2(R, "R"))
 
 
+@arrays.numpy_only
 def jr(w: Any) -> FloatArray:
     """Right Jacobian, ``[[1]]`` (commutative group), ``(..., 1, 1)``."""
     return _ones(_tangent(w))
 
 
+@arrays.numpy_only
 def jl(w: Any) -> FloatArray:
     """Left Jacobian, ``[[1]]``, ``(..., 1, 1)``."""
     return _ones(_tangent(w))
 
 
+@arrays.numpy_only
 def jr_inv(w: Any) -> FloatArray:
     """Inverse right Jacobian, ``[[1]]``."""
     return _ones(_tangent(w))
 
 
+@arrays.numpy_only
 def jl_inv(w: Any) -> FloatArray:
     """Inverse left Jacobian, ``[[1]]``."""
     return _ones(_tangent(w))
 
 
+@arrays.numpy_only
 def adjoint(R: Any) -> FloatArray:
     """``Ad_R = [[1]]``: ``R·Exp(θ)·R⁻¹ = Exp(θ)``, ``(..., 1, 1)``."""
     return _adjoint(validate.rotation2(R, "R"))
 
 
+@arrays.numpy_only
 def inverse(R: Any) -> FloatArray:
     """``R⁻¹ = Rᵀ``."""
     return _inverse(validate.rotation2(R, "R"))
 
 
+@arrays.numpy_only
 def compose(R1: Any, R2: Any) -> FloatArray:
     """``R1·R2`` (broadcast)."""
     A, B = validate.rotation2(R1, "R1"), validate.rotation2(R2, "R2")
@@ -128,6 +140,7 @@ def compose(R1: Any, R2: Any) -> FloatArray:
     return np.asarray(A @ B, dtype=np.float64)
 
 
+@arrays.numpy_only
 def act(R: Any, p: Any) -> FloatArray:
     """``R p`` for 2-D points ``(..., 2)``."""
     R = validate.rotation2(R, "R")
@@ -136,6 +149,7 @@ def act(R: Any, p: Any) -> FloatArray:
     return validate.finite_output(np.einsum("...ij,...j->...i", R, p), "so2.act")
 
 
+@arrays.numpy_only
 def interpolate(R0: Any, R1: Any, tau: Any) -> FloatArray:
     """``R0·Exp(τ·Log(R0⁻¹R1))`` (the shorter arc; τ broadcasts)."""
     R0, R1 = validate.rotation2(R0, "R0"), validate.rotation2(R1, "R1")

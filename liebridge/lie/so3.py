@@ -108,6 +108,7 @@ def _jl_inv(w: FloatArray) -> FloatArray:
     return _poly(w, -0.5, jinv_coeff(th, t2))
 
 
+@arrays.numpy_only
 def hat(w: Any) -> FloatArray:
     """Skew matrix of a 3-vector.
 
@@ -123,6 +124,7 @@ def hat(w: Any) -> FloatArray:
     return _hat(validate.vector(w, "w", 3))
 
 
+@arrays.numpy_only
 def vee(W: Any) -> FloatArray:
     """Inverse of :func:`hat`: the 3-vector of the skew part of ``W``, shape ``(..., 3)``.
 
@@ -248,6 +250,7 @@ def adjoint(R: Any) -> FloatArray:
     return _adjoint_k(validate.rotation(R, "R"))
 
 
+@arrays.numpy_only
 def project(M: Any) -> FloatArray:
     """Closest rotation to ``M`` in Frobenius norm (SVD, ``U diag(1, 1, det(UVᵀ)) Vᵀ``).
 
@@ -321,5 +324,6 @@ GROUP = register_shipped(
         charts=("se3", "so3xr3_body", "so3xr3_world"),
         chart_aliases={"so3": "se3", "split_body": "so3xr3_body", "split_world": "so3xr3_world"},
         probe=_exp(np.array([0.4, -0.7, 0.5])), label="SO(3)", tangent_doc="(ω,)",
+        array_api=True,
     )
 )  # fmt: skip

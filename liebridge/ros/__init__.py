@@ -38,8 +38,10 @@ from .frames import (
     twist_from_parent_frame,
 )
 from .graph import (
+    INCREMENTS,
     DroppedCrossCovariance,
     increment_covariances,
+    increment_information,
     messages_from_gtsam,
     odometry_factors,
     odometry_from_gtsam,
@@ -49,6 +51,7 @@ from .messages import MESSAGE_TYPES, RosMessages, from_poses, normalize_msgtype
 from .trajectory import read_trajectory, to_trajectory
 
 __all__ = [
+    "INCREMENTS",
     "MESSAGE_TYPES",
     "STORAGES",
     "BagError",
@@ -61,6 +64,7 @@ __all__ = [
     "check_topic",
     "from_poses",
     "increment_covariances",
+    "increment_information",
     "iter_messages",
     "messages_from_gtsam",
     "normalize_msgtype",

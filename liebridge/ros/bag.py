@@ -52,6 +52,7 @@ Progress = Callable[[int, int], None]
 STORAGES: tuple[str, ...] = ("rosbag1", "sqlite3", "mcap")
 
 _PROGRESS_EVERY = 2000
+_PATH = "nav_msgs/msg/Path"
 
 
 class BagError(ValueError):
@@ -206,7 +207,17 @@ class _Rows:
 
     def message(self, mt: str, msg: Any, k: int, log_ns: int) -> None:
         w = self.where(k)
-        if mt == "geometry_msgs/msg/PoseWithCovariance":
+        if mt == "geometry_msgs/msg/PoseStamped":
+            self.header(msg.header, k)
+            self.pose(msg.pose)
+        elif mt == "nav_msgs/msg/Path":
+            parent = str(msg.header.frame_id)
+            for ps in msg.poses:
+                self.header(ps.header, k)
+                if not self.cols["frame_id"][-1]:
+                    self.cols["frame_id"][-1] = self.name(parent)
+                self.pose(ps.pose)
+        elif mt == "geometry_msgs/msg/PoseWithCovariance":
             self.add(
                 stamp_sec=log_ns // 1_000_000_000,
                 stamp_nanosec=log_ns % 1_000_000_000,
@@ -279,6 +290,7 @@ def read_messages(
     convention: ConventionLike = "ros",
     quaternion_tol: float | None = None,
     progress: Progress | None = None,
+    path_message: int | None = None,
 ) -> RosMessages:
     """All messages of ``topic`` in ``bag`` as one :class:`RosMessages` batch.
 
@@ -301,11 +313,18 @@ def read_messages(
         :data:`liebridge._validate.QUATERNION_TOL`, 1e-6).
     progress : callable(done, total), optional
         Called every 2000 messages and at the end (the command line prints it on stderr).
+    path_message : int, optional
+        ``nav_msgs/Path`` topics only, where each message is a whole trajectory: the index of
+        the message to read (Python's: ``-1``, the default, is the last — the final, most
+        refined trajectory a SLAM system published; ``0`` the first). Only that message is
+        deserialized. Its poses become the rows (stamps and frames from each
+        ``poses[i].header``, the path's ``frame_id`` where a pose's is empty).
 
     Returns
     -------
     RosMessages
-        Messages in the bag's order (receive time).
+        Messages in the bag's order (receive time); for a ``Path``, the chosen message's poses
+        in their order in the message.
 
     Raises
     ------
@@ -318,7 +337,8 @@ def read_messages(
         topic and message index.
     """
     single_group(get(convention))  # a bad convention is refused before the bag is read
-    batches = list(_column_batches(bag, topic, progress))
+    pm = _check_path_message(path_message)
+    batches = list(_column_batches(bag, topic, progress, None, pm))
     mt, storage = batches[0][0], batches[0][1]
     if len(batches) == 1:
         cols, log_times = batches[0][2], batches[0][3]
@@ -350,19 +370,23 @@ def iter_messages(
     quaternion_tol: float | None = None,
     progress: Progress | None = None,
     batch: int | None = None,
+    path_message: int | None = None,
 ) -> Iterator[RosMessages]:
     """Stream the messages of ``topic`` as :class:`RosMessages` batches of ``batch`` messages.
 
     ``batch`` defaults to :data:`BATCH_MESSAGES`. Memory stays one batch whatever the bag's
     size, where :func:`read_messages` holds every message's arrays. Each batch is
     what :func:`read_messages` would return for its messages, with ``message_index`` counted
-    from the batch's first message; errors name the message's index in the topic.
+    from the batch's first message; errors name the message's index in the topic. A
+    ``nav_msgs/Path`` topic gives one batch: the poses of message ``path_message`` (default
+    ``-1``, the last; see :func:`read_messages`).
     """
     batch = BATCH_MESSAGES if batch is None else batch
     if isinstance(batch, bool) or not isinstance(batch, int) or batch < 1:
         raise ValueError(f"batch: expected a positive int, got {batch!r}")
     single_group(get(convention))  # refused at the call, not at the first batch
-    return _iter_messages(Path(bag), topic, convention, quaternion_tol, progress, batch)
+    pm = _check_path_message(path_message)
+    return _iter_messages(Path(bag), topic, convention, quaternion_tol, progress, batch, pm)
 
 
 def _iter_messages(
@@ -372,8 +396,10 @@ def _iter_messages(
     quaternion_tol: float | None,
     progress: Progress | None,
     batch: int,
+    path_message: int | None,
 ) -> Iterator[RosMessages]:
-    for mt, storage, cols, log_times, first in _column_batches(path, topic, progress, batch):
+    batches = _column_batches(path, topic, progress, batch, path_message)
+    for mt, storage, cols, log_times, first in batches:
         try:
             yield _messages(path, topic, mt, storage, cols, log_times, convention, quaternion_tol)
         except ValueError as exc:  # "message j" of the batch → of the topic
@@ -384,13 +410,43 @@ def _shift_message_index(text: str, first: int) -> str:
     return re.sub(r"message (\d+)", lambda m: f"message {int(m.group(1)) + first}", text)
 
 
+def _path_index(path: Path, topic: str, path_message: int | None, total: int) -> int:
+    """Return the index of the ``nav_msgs/Path`` message to read (negative: from the end)."""
+    k = -1 if path_message is None else path_message
+    if total == 0:
+        raise BagError(f"{path}: topic {topic} (nav_msgs/msg/Path) has no messages")
+    if not -total <= k < total:
+        raise BagError(
+            f"{path}: topic {topic}: path_message {k} does not exist; the topic has {total} "
+            f"nav_msgs/Path messages (index 0..{total - 1}, or -1 for the last)"
+        )
+    return k % total
+
+
+def _check_path_message(path_message: Any) -> int | None:
+    if path_message is None:
+        return None
+    if isinstance(path_message, bool) or not isinstance(path_message, int | np.integer):
+        raise TypeError(
+            f"path_message: expected an int (a message index, -1 the last), "
+            f"got {type(path_message).__name__}"
+        )
+    return int(path_message)
+
+
 def _column_batches(
-    bag: PathLike, topic: str, progress: Progress | None, batch: int | None = None
+    bag: PathLike,
+    topic: str,
+    progress: Progress | None,
+    batch: int | None = None,
+    path_message: int | None = None,
 ) -> Iterator[tuple[str, str, dict[str, Any], npt.NDArray[np.int64], int]]:
     """``(msgtype, storage, columns, log_times, first message)`` per batch of messages.
 
     Columns are arrays (numbers) or tuples (frame ids, interned); ``message_index`` counts from
-    the batch's first message. At least one (possibly empty) batch is yielded.
+    the batch's first message. At least one (possibly empty) batch is yielded. For a
+    ``nav_msgs/Path`` topic, one batch: the rows of message ``path_message`` (only that message
+    is deserialized; the others are skipped as raw bytes).
     """
     path = Path(bag)
     batch = BATCH_MESSAGES if batch is None else batch
@@ -414,8 +470,14 @@ def _column_batches(
         rows = _Rows(lambda k: f"{path}: topic {topic}, message {k}", names)
         log_times: list[int] = []
         k = first = 0
+        want = _path_index(path, topic, path_message, total) if mt == _PATH else None
         try:
             for con, log_ns, raw in r.messages(connections=conns):
+                if want is not None:  # a Path topic: one message is the trajectory
+                    if k != want:
+                        k += 1
+                        continue
+                    first = k
                 if k - first == batch:
                     yield mt, storage, rows.arrays(first), np.array(log_times), first
                     rows = _Rows(lambda k: f"{path}: topic {topic}, message {k}", names)
@@ -429,6 +491,14 @@ def _column_batches(
                     ) from None
                 rows.message(mt, msg, k, int(log_ns))
                 log_times.append(int(log_ns))
+                if want is not None:
+                    if not msg.poses:
+                        raise BagError(
+                            f"{path}: topic {topic}, message {k}: the nav_msgs/Path holds no "
+                            "poses (choose another message with path_message)"
+                        )
+                    k += 1
+                    break
                 k += 1
                 if progress is not None and k % _PROGRESS_EVERY == 0:
                     progress(k, total)
@@ -587,6 +657,12 @@ class _Builder:
         m, t = self.m, self.t
         i = rows[0] if len(rows) else -1
         mt = m.msgtype
+        if mt == "geometry_msgs/msg/PoseStamped":
+            pose = t["geometry_msgs/msg/Pose"](
+                position=self.vec3("geometry_msgs/msg/Point", m.position[i]),
+                orientation=self.quat(m.orientation_xyzw[i]),
+            )
+            return t[mt](header=self.header(i), pose=pose)
         if mt == "geometry_msgs/msg/PoseWithCovariance":
             return self.pose_cov(i)
         if mt == "geometry_msgs/msg/PoseWithCovarianceStamped":
@@ -697,6 +773,11 @@ def write_messages(
     if not isinstance(msgs, RosMessages):
         raise TypeError(f"msgs: expected RosMessages, got {type(msgs).__name__}")
     check_topic(topic)
+    if msgs.msgtype == _PATH:
+        raise ValueError(
+            "msgs: nav_msgs/Path is read, not written (one message would have to invent the "
+            "path's own header); write the poses as geometry_msgs/msg/PoseStamped"
+        )
     rb = require_rosbags()
     path = Path(bag)
     kind = _storage_for(path, storage, msgs)

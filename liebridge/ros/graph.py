@@ -12,7 +12,18 @@ rotation) are first converted to GTSAM's body-frame tangent at each pose with
   T_k·Exp(ξ_k)·Z·Exp(ξ_Z)`` to first order), so ``Σ_Z = Σ_{k+1} − Ad(Z⁻¹) Σ_k Ad(Z⁻¹)ᵀ``,
   required positive semi-definite (else the error names the message);
 * ``increment="twist"`` (``Odometry`` only): the child-frame twist is GTSAM's body twist, so
-  ``Σ_Z = Δt² · Σ_twist`` reordered to ``(ω, v)`` (a first-order model of the increment).
+  ``Σ_Z = Δt² · Σ_twist`` reordered to ``(ω, v)`` (a first-order model of the increment);
+* ``increment="independent"`` (absolute estimates, e.g. nav2/amcl's ``/amcl_pose``
+  ``PoseWithCovarianceStamped`` or a GNSS fix, whose covariance does not grow): the assumption
+  is that the **absolute** errors ``ξ_k`` of consecutive poses are independent; to first order
+  ``ξ_Z = ξ_{k+1} − Ad(Z⁻¹) ξ_k``, so ``Σ_Z = Σ_{k+1} + Ad(Z⁻¹) Σ_k Ad(Z⁻¹)ᵀ`` in GTSAM's
+  tangent. Consecutive estimates of a filter are in truth correlated (positively, mostly), so
+  this over-states the increment's uncertainty: a conservative edge, never an over-confident
+  one.
+
+A planar covariance (zero in z, roll and pitch, as amcl publishes) gives a rank-3 ``Σ_Z``: its
+information is singular, and :func:`increment_information` returns the pseudo-inverse with the
+rank — zero information in the directions the messages do not constrain.
 
 Out of GTSAM (:func:`messages_from_gtsam`): poses from ``gtsam.Values`` and marginals from
 :func:`liebridge.gtsam.marginals` converted to ``ros`` — the message covariance rviz,
@@ -32,17 +43,20 @@ from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
+import numpy.typing as npt
 
 from .. import _validate as validate
-from .._validate import FloatArray
+from .._validate import SINGULAR_ATOL, FloatArray
 from ..conventions import convert_covariance, tangent_map
 from ..gtsam import between, from_values, marginals, prior
 from ..lie import se3, so3
 from .messages import RosMessages, from_poses
 
 __all__ = [
+    "INCREMENTS",
     "DroppedCrossCovariance",
     "increment_covariances",
+    "increment_information",
     "messages_from_gtsam",
     "odometry_factors",
     "odometry_from_gtsam",
@@ -55,25 +69,56 @@ def _swap(cov: FloatArray) -> FloatArray:
     return np.asarray(cov[..., p, :][..., :, p], dtype=np.float64)
 
 
+Increment = Literal["difference", "twist", "independent"]
+INCREMENTS: tuple[str, ...] = ("difference", "twist", "independent")
+
+#: Eigenvalues of an increment covariance below ``RANK_RTOL · λ_max`` count as zero in
+#: :func:`increment_information` (directions the messages do not constrain).
+RANK_RTOL = 1e-12
+
+
 def increment_covariances(
-    msgs: RosMessages, increment: Literal["difference", "twist"] = "difference"
+    msgs: RosMessages, increment: Increment = "difference"
 ) -> tuple[FloatArray, FloatArray]:
     """Relative poses ``Z_k = T_k⁻¹T_{k+1}`` and their covariances in GTSAM's tangent.
+
+    Parameters
+    ----------
+    msgs : RosMessages
+        One trajectory (one pair of frames), at least two poses.
+    increment : {"difference", "twist", "independent"}
+        How the increment covariance follows from the messages (module docstring): growing
+        dead-reckoning covariances, the ``Odometry`` twist covariance × Δt², or independent
+        absolute covariances propagated to first order.
 
     Returns
     -------
     Z : ndarray, shape (N-1, 4, 4)
     cov_Z : ndarray, shape (N-1, 6, 6)
-        Over ``(ω, v)`` of ``Z·Exp(ξ)``; see the module docstring for ``increment``.
+        Over ``(ω, v)`` of ``Z·Exp(ξ)`` (GTSAM's right perturbation); possibly singular (a
+        planar or all-zero message covariance): see :func:`increment_information`.
     """
-    if msgs.cov is None and increment == "difference":
-        raise ValueError(f"msgs: {msgs.msgtype} carries no pose covariance")
+    if increment not in INCREMENTS:
+        raise ValueError(
+            f"increment: expected one of {', '.join(map(repr, INCREMENTS))}, got {increment!r}"
+        )
+    if msgs.cov is None and increment != "twist":
+        raise ValueError(
+            f"msgs: {msgs.msgtype} carries no pose covariance (topic {msgs.topic or '?'}); "
+            "an odometry chain needs PoseWithCovariance(Stamped) or Odometry messages"
+        )
     msgs.trajectory_frames()  # a chain of one trajectory: one pair of frames
     n = len(msgs)
     if n < 2:
         raise ValueError("msgs: need at least two poses for an odometry chain")
     T = msgs.T
     Z = se3.inverse(T[:-1]) @ T[1:]
+    if increment == "independent":
+        cov = msgs.with_convention("gtsam").cov
+        assert cov is not None
+        A = se3.adjoint(se3.inverse(Z))
+        cz = cov[1:] + A @ cov[:-1] @ np.swapaxes(A, -1, -2)
+        return Z, 0.5 * (cz + np.swapaxes(cz, -1, -2))
     if increment == "difference":
         cov = msgs.with_convention("gtsam").cov
         assert cov is not None
@@ -89,13 +134,15 @@ def increment_covariances(
                 f"{msgs._where(k + 1)}: pose covariance does not grow from message "
                 f"{int(msgs.message_index[k]) if msgs.message_index is not None else k} as "
                 f"independent odometry increments would (increment covariance has eigenvalue "
-                f"{lam[k]:.3g}); use increment='twist' or give the covariances yourself"
+                f"{lam[k]:.3g}); absolute estimates (e.g. amcl) need increment 'independent', "
+                "Odometry may use increment 'twist'"
             )
         return Z, cz
-    if increment != "twist":
-        raise ValueError(f"increment: expected 'difference' or 'twist', got {increment!r}")
     if msgs.twist_covariance is None:
-        raise ValueError(f"msgs: increment='twist' needs nav_msgs/Odometry, got {msgs.msgtype}")
+        raise ValueError(
+            f"msgs: increment 'twist' needs nav_msgs/Odometry, got {msgs.msgtype} "
+            "(absolute poses with covariances: increment 'independent')"
+        )
     dt = np.diff(msgs.stamps)
     if not (dt > 0).all():
         k = int(np.argmax(~(dt > 0)))
@@ -105,11 +152,49 @@ def increment_covariances(
     return Z, cz
 
 
+def increment_information(
+    cov: FloatArray, rtol: float = RANK_RTOL
+) -> tuple[FloatArray, npt.NDArray[np.int64]]:
+    """Information matrices of increment covariances: the (pseudo-)inverse, with its rank.
+
+    Parameters
+    ----------
+    cov : array_like, shape (M, 6, 6)
+        Symmetric PSD covariances, e.g. :func:`increment_covariances`' (any tangent: the
+        information is over the same one).
+    rtol : float
+        Eigenvalues ``λ ≤ rtol · λ_max`` (or ``λ_max`` itself below
+        :data:`liebridge._validate.SINGULAR_ATOL`) count as zero.
+
+    Returns
+    -------
+    information : ndarray, shape (M, 6, 6)
+        ``Σ⁻¹`` where ``Σ`` has full rank; else the Moore–Penrose pseudo-inverse
+        ``V diag(1/λ_i) Vᵀ`` over the non-zero eigenvalues — zero information along the
+        directions the covariance has no variance in (a planar ``/amcl_pose`` covariance: z,
+        roll, pitch), which a least-squares edge then leaves unconstrained. The tempting false
+        reading, "zero variance = exactly known = infinite information", is not what ROS
+        publishers mean by a zero block; it is why the pseudo-inverse is right here.
+    rank : ndarray of int, shape (M,)
+        Number of non-zero eigenvalues (6: full rank; 0: an all-zero covariance, whose
+        information is all zero).
+    """
+    c = validate.covariance(cov, "cov", 6)
+    c = 0.5 * (c + np.swapaxes(c, -1, -2))
+    lam, V = np.linalg.eigh(c)
+    top = lam[..., -1:]
+    keep = (lam > rtol * top) & (top >= SINGULAR_ATOL)
+    inv = np.where(keep, 1.0 / np.where(keep, lam, 1.0), 0.0)
+    info = (V * inv[..., None, :]) @ np.swapaxes(V, -1, -2)
+    info = 0.5 * (info + np.swapaxes(info, -1, -2))
+    return info, keep.sum(axis=-1).astype(np.int64)
+
+
 def odometry_factors(
     msgs: RosMessages,
     keys: Sequence[int] | None = None,
     *,
-    increment: Literal["difference", "twist"] = "difference",
+    increment: Increment = "difference",
     prior_on_first: bool = True,
     native: bool = True,
 ) -> list[Any]:
@@ -121,7 +206,7 @@ def odometry_factors(
         ``PoseWithCovariance(Stamped)`` or ``Odometry`` (one pose per message).
     keys : sequence of int, optional
         GTSAM keys of the poses (default ``0..N-1``).
-    increment : {"difference", "twist"}
+    increment : {"difference", "twist", "independent"}
         How the increment covariance is obtained (module docstring).
     prior_on_first : bool
         Add ``PriorFactorPose3`` at the first pose with its own covariance (converted to GTSAM's

@@ -38,6 +38,7 @@ noetic ``common_msgs``, ROS 2 ``common_interfaces``), as shipped in the ``rosbag
 from __future__ import annotations
 
 from dataclasses import MISSING, dataclass, field, fields, replace
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -58,15 +59,24 @@ __all__ = [
 
 IntArray = npt.NDArray[np.int64]
 
-#: The message types liebridge reads and writes (ROS 2 spelling; ``pkg/Type`` is accepted too).
+#: The message types liebridge reads (ROS 2 spelling; ``pkg/Type`` is accepted too); all but
+#: ``nav_msgs/Path`` are written too. A ``nav_msgs/Path`` message is a whole trajectory (one row
+#: per ``poses[i]``, each with its own header); :func:`liebridge.ros.read_messages` reads one
+#: message of such a topic (default: the last, the final trajectory; ``path_message``).
 MESSAGE_TYPES: tuple[str, ...] = (
+    "geometry_msgs/msg/PoseStamped",
     "geometry_msgs/msg/PoseWithCovariance",
     "geometry_msgs/msg/PoseWithCovarianceStamped",
     "geometry_msgs/msg/TransformStamped",
     "tf2_msgs/msg/TFMessage",
     "nav_msgs/msg/Odometry",
     "sensor_msgs/msg/Imu",
+    "nav_msgs/msg/Path",
 )
+
+#: Types with several rows (poses) per message.
+_MULTI_ROW = {"tf2_msgs/msg/TFMessage", "nav_msgs/msg/Path"}
+_PATH = "nav_msgs/msg/Path"
 
 _WITH_POSE_COV = {
     "geometry_msgs/msg/PoseWithCovariance",
@@ -125,9 +135,12 @@ class RosMessages:
         One of :data:`MESSAGE_TYPES` (ROS 2 spelling).
     stamp_sec, stamp_nanosec : ndarray of int64, shape (N,)
         ``header.stamp`` as stored. For the header-less ``PoseWithCovariance``: the bag's receive
-        time.
+        time. For ``nav_msgs/Path``: each ``poses[i].header.stamp`` (the path's own header
+        stamp is not kept).
     frame_id : tuple of str, length N
         ``header.frame_id``: the parent frame the pose is expressed in ("" without a header).
+        For ``nav_msgs/Path``: ``poses[i].header.frame_id``, or the path's ``header.frame_id``
+        where that is empty (as nav2 and most publishers leave it).
     position : ndarray, shape (N, 3)
         ``pose.position`` / ``transform.translation`` (zeros for ``Imu``).
     orientation_xyzw : ndarray, shape (N, 4)
@@ -161,8 +174,10 @@ class RosMessages:
         message); within it ``T`` uses the normalised quaternion.
 
     Derived (read-only arrays): ``stamps`` (N,) seconds as float64 (``sec + 1e-9·nanosec``);
-    ``T`` (N, 4, 4) ``T_parent_child``; ``cov`` (N, 6, 6) or None; ``twist`` (N, 6) or None;
-    ``twist_cov`` (N, 6, 6) or None; ``orientation_known`` (N,) bool (``Imu``; else all True).
+    ``T`` (N, 4, 4) ``T_parent_child`` (built at first use and kept: 128 B a message that a
+    caller who only writes the fields back never pays); ``cov`` (N, 6, 6) or None; ``twist``
+    (N, 6) or None; ``twist_cov`` (N, 6, 6) or None; ``orientation_known`` (N,) bool (``Imu``;
+    else all True).
     """
 
     msgtype: str
@@ -189,7 +204,6 @@ class RosMessages:
     quaternion_tol: float = QUATERNION_TOL
 
     stamps: FloatArray = field(init=False, repr=False)
-    T: FloatArray = field(init=False, repr=False)
     cov: FloatArray | None = field(init=False, repr=False)
     twist: FloatArray | None = field(init=False, repr=False)
     twist_cov: FloatArray | None = field(init=False, repr=False)
@@ -317,7 +331,7 @@ class RosMessages:
         assert self.message_index is not None
         if n and (self.message_index[0] != 0 or (np.diff(self.message_index) < 0).any()):
             raise ValueError("message_index: expected non-decreasing indices starting at 0")
-        if n and mt != "tf2_msgs/msg/TFMessage" and (np.diff(self.message_index) != 1).any():
+        if n and mt not in _MULTI_ROW and (np.diff(self.message_index) != 1).any():
             raise ValueError(f"message_index: {mt} holds one pose per message")
         m = int(self.message_index[-1]) + 1 if n else 0
         if self.log_time_ns is None:
@@ -346,14 +360,8 @@ class RosMessages:
             k = int(np.argmax(bad))
             raise ValueError(
                 f"{self._where(k)}: orientation quaternion norm {norm[k]!r} is off by "
-                f"{abs(norm[k] - 1.0):.3g} (tolerance quaternion_tol={self.quaternion_tol:g})"
+                f"{abs(norm[k] - 1.0):.3g} (tolerance {self.quaternion_tol:g})"
             )
-        qn = np.where(known[:, None], q / np.where(known, norm, 1.0)[:, None], [0, 0, 0, 1.0])
-        T = np.zeros((n, 4, 4))
-        T[:, :3, :3] = quat.to_matrix(qn, order="xyzw") if n else np.zeros((0, 3, 3))
-        T[:, :3, 3] = self.position
-        T[:, 3, 3] = 1.0
-        self._set("T", _readonly(T))
         conv = self.convention
         rot_first = conv.order == "rot_first"
         cov = None
@@ -363,7 +371,7 @@ class RosMessages:
                 cov = cov_ros
             elif n:
                 try:  # batched; only a failure goes row by row to name the message
-                    cov = convert_covariance(cov_ros, T, "ros", conv)
+                    cov = convert_covariance(cov_ros, self.T, "ros", conv)
                 except ValueError:
                     self._check_cov(cov_ros, "pose.covariance")
                     raise
@@ -381,6 +389,24 @@ class RosMessages:
                 tw, twc = _readonly(_swap_halves(tw)), _readonly(_swap_halves(twc))
         self._set("twist", tw)
         self._set("twist_cov", twc)
+
+    @cached_property
+    def T(self) -> FloatArray:
+        """``(N, 4, 4)`` ``T_parent_child`` from ``position`` and the normalised quaternion.
+
+        Read-only; built at first access (the quaternions were checked at construction) and
+        kept. Rows of an ``Imu`` with unknown orientation hold the identity rotation.
+        """
+        q = self.orientation_xyzw
+        n = len(self)
+        known = self.orientation_known
+        norm = np.linalg.norm(np.where(known[:, None], q, 0.0), axis=-1)
+        qn = np.where(known[:, None], q / np.where(known, norm, 1.0)[:, None], [0, 0, 0, 1.0])
+        T = np.zeros((n, 4, 4))
+        T[:, :3, :3] = quat.to_matrix(qn, order="xyzw") if n else np.zeros((0, 3, 3))
+        T[:, :3, 3] = self.position
+        T[:, 3, 3] = 1.0
+        return _readonly(T)
 
     def _check_cov(self, cov: FloatArray, field_name: str) -> None:
         for k in range(cov.shape[0]):
@@ -513,7 +539,7 @@ def from_poses(
     frame_id, child_frame_id : str or sequence of str
         Parent frame; child frame (``Odometry`` / transforms, default ``"base_link"``).
     msgtype : str
-        One of :data:`MESSAGE_TYPES` except ``Imu``.
+        One of :data:`MESSAGE_TYPES` except ``Imu`` and ``Path``.
     twist, twist_cov : array_like, shape (N, 6) / (N, 6, 6), optional
         ``Odometry``: the body (child-frame) twist and its covariance in ``convention``'s order.
 
@@ -526,6 +552,11 @@ def from_poses(
     mt = normalize_msgtype(msgtype)
     if mt == _IMU:
         raise ValueError("msgtype: from_poses does not build sensor_msgs/Imu messages")
+    if mt == _PATH:
+        raise ValueError(
+            "msgtype: from_poses does not build nav_msgs/Path messages (read only); "
+            "use geometry_msgs/msg/PoseStamped for one pose per message"
+        )
     Tm = validate.pose(T, "T")
     if Tm.ndim != 3:
         raise ValueError(f"T: expected shape (N, 4, 4), got {Tm.shape}")

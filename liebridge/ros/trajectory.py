@@ -73,11 +73,15 @@ def read_trajectory(
     *,
     convention: ConventionLike = "ros",
     progress: Progress | None = None,
+    path_message: int | None = None,
 ) -> Trajectory:
     """Read one topic of ``bag`` as a :class:`~liebridge.io.Trajectory` (``source`` ``BAG:TOPIC``).
 
     Parameters and errors as :func:`liebridge.ros.read_messages` (``convention`` is the one of
-    the returned ``cov``) and :func:`to_trajectory`.
+    the returned ``cov``; ``path_message`` picks the message of a ``nav_msgs/Path`` topic,
+    default the last) and :func:`to_trajectory`.
     """
-    msgs = read_messages(bag, topic, convention=convention, progress=progress)
+    msgs = read_messages(
+        bag, topic, convention=convention, progress=progress, path_message=path_message
+    )
     return to_trajectory(msgs, source=f"{os.fspath(bag)}:{topic}")
