@@ -408,6 +408,7 @@ def test_jax_jit_and_vmap_of_compose_and_fuse(x64: None) -> None:
         np.testing.assert_allclose(host(g), r, atol=1e-10)
     vm = jax.vmap(f)(jnp.asarray(x["TA"]), jnp.asarray(x["TB"]), jnp.asarray(j))
     np.testing.assert_allclose(host(vm[0]), ref[0], atol=1e-12)
+    np.testing.assert_allclose(host(vm[1]), ref[1], atol=1e-10)
 
 
 # ------------------------------------------------------------------ check on tensors
@@ -487,3 +488,18 @@ def test_tensor_pose_is_not_an_alias_of_the_callers_tensor() -> None:
     A = u.UncertainPose(T, cov, "gtsam")
     cov[0, 0] = 5.0
     assert float(A.cov[0, 0]) == 1.0
+
+
+def test_docs_section_runs() -> None:
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "tensors.md").read_text("utf-8")
+    start = text.index("## Uncertain poses and checks on tensors")
+    end = text.find("\n## ", start + 1)
+    section = text[start : None if end < 0 else end]
+    blocks = re.findall(r"^```python\n(.*?)^```", section, re.M | re.S)
+    assert blocks
+    namespace: dict[str, Any] = {"__name__": "docs_tensors_uncertain"}
+    for n, code in enumerate(blocks):
+        exec(compile(code, f"tensors.md[uncertain block {n}]", "exec"), namespace)
