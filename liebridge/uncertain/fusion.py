@@ -13,6 +13,11 @@ covariances (a direction known exactly) are allowed for all but one estimate: th
 in covariance (Kalman) form with a positive definite estimate as the prior, so nothing singular
 is inverted. False: the fused mean is the weighted average of the matrices or of their
 logarithms at the identity (neither is the MAP, and the first is not a pose).
+
+On torch tensors and JAX arrays the same iteration runs with the array API (differentiable
+through its steps); one estimate, positive definite at every batch index, is then the prior for
+the whole batch, and under tracing a fixed :data:`TRACED_ITERATIONS` steps are taken
+(docs/tensors.md).
 """
 
 from __future__ import annotations

@@ -19,6 +19,11 @@ Jacobian becomes ``J_c = M_{g→c}(C) · J_g · M_{c→g}(X)`` with the closed-f
 joint covariance of the inputs, ``[[Σ_A, cross], [crossᵀ, Σ_B]]`` (``cross = E[δA δBᵀ]``,
 zero for independent inputs).
 
+On torch tensors and JAX arrays ``method="linear"`` runs the same Jacobians with the
+array-generic tangent maps, built without in-place writes: the result keeps the caller's array
+type, device, dtype and autograd graph (numpy keeps its own code). ``method="unscented"`` runs
+on numpy only and raises ``TypeError`` on a tensor.
+
 ``method="unscented"``: the joint covariance is factored, ``S Sᵀ = Σ_joint``, and the points of
 Stroud's fifth-degree Gaussian cubature (rule En^r² 5-2, ``2N² + 1`` points for ``N`` input
 dimensions, exact for polynomials of degree ≤ 5; the same rule as

@@ -131,8 +131,11 @@ class UncertainPose:
 
     Attributes
     ----------
-    T, cov : ndarray
-        Read-only copies, broadcast to one batch shape.
+    T, cov : ndarray, or the caller's torch/JAX array type
+        Read-only copies, broadcast to one batch shape. torch tensors and JAX arrays stay
+        arrays of their library, device and dtype (float32 or float64, the same for both; a
+        numpy argument beside a tensor is moved to it), with their autograd graph: new arrays,
+        never aliases of the caller's, but not read-only (docs/tensors.md).
     convention : Convention
 
     Notes
@@ -208,8 +211,9 @@ class UncertainPose:
 
         ``cov_dst = M cov Mᵀ``, ``M = tangent_map(T, self.convention, convention)``
         (``method="linear"``, exact when :func:`~liebridge.conventions.is_exactly_linear`), or
-        the unscented transform of :func:`~liebridge.conventions.convert_covariance`. ``T`` is
-        unchanged (the mean shift of a nonlinear change of chart is second order and dropped).
+        the unscented transform of :func:`~liebridge.conventions.convert_covariance` (numpy
+        only: ``TypeError`` on tensors). ``T`` is unchanged (the mean shift of a nonlinear change
+        of chart is second order and dropped).
         """
         dst = get(convention)
         pose_convention(dst, "convention", self.T)
