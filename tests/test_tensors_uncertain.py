@@ -456,6 +456,7 @@ def test_unscented_and_monte_carlo_refuse_tensors() -> None:
         lambda: u.relative(A, A, method="unscented"),
         lambda: u.transform(A, T, method="unscented"),
         lambda: u.act(A, torch.zeros(3, dtype=torch.float64), method="unscented"),
+        lambda: A.to("ros", method="unscented"),
     ]:
         with pytest.raises(TypeError, match="method='unscented' runs on numpy arrays only"):
             call()

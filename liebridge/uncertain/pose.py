@@ -215,8 +215,12 @@ class UncertainPose:
         only: ``TypeError`` on tensors). ``T`` is unchanged (the mean shift of a nonlinear change
         of chart is second order and dropped).
         """
-        dst = get(convention)
-        pose_convention(dst, "convention", self.T)
+        dst = pose_convention(get(convention), "convention", self.T)
+        if method != "linear" and arrays.is_foreign(self.T):
+            raise TypeError(
+                f"UncertainPose.to: method={method!r} runs on numpy arrays only; torch and JAX "
+                "arrays take method='linear'"
+            )
         if self.is_rotation and arrays.is_foreign(self.T) and method == "linear":
             M = _map(self.T, self.convention, dst)  # the generic engine maps poses only
             return UncertainPose(self.T, M @ self.cov @ arrays.mT(M), dst)
