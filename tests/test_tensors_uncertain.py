@@ -504,3 +504,22 @@ def test_docs_section_runs() -> None:
     namespace: dict[str, Any] = {"__name__": "docs_tensors_uncertain"}
     for n, code in enumerate(blocks):
         exec(compile(code, f"tensors.md[uncertain block {n}]", "exec"), namespace)
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA device")
+def test_results_stay_on_the_callers_cuda_device() -> None:
+    x = _inputs((4,), None, seed=12)
+    dev = torch.device("cuda")
+    t = {k: torch.tensor(v, device=dev) for k, v in x.items()}
+    A = u.UncertainPose(t["TA"], t["joint"][..., :6, :6], "ros")
+    B = u.UncertainPose(t["TB"], t["joint"][..., 6:, 6:], "ros")
+    near = u.UncertainPose(t["TA"] @ se3.exp(0.05 * t["p"].new_ones(6)), A.cov, "ros")
+    for r in [u.compose(A, B), u.relative(A, B), u.inverse(A), u.act(A, t["p"]), u.fuse(A, near)]:
+        assert r.cov.device.type == "cuda"
+    J = numerical_jacobian(lambda X: X @ t["TB"], t["TA"], in_convention="ros")
+    assert J.device.type == "cuda"
+    ref = u.compose(
+        u.UncertainPose(x["TA"], x["joint"][..., :6, :6], "ros"),
+        u.UncertainPose(x["TB"], x["joint"][..., 6:, 6:], "ros"),
+    )
+    np.testing.assert_allclose(host(u.compose(A, B).cov), ref.cov, atol=1e-12)
