@@ -523,3 +523,30 @@ def test_results_stay_on_the_callers_cuda_device() -> None:
         u.UncertainPose(x["TB"], x["joint"][..., 6:, 6:], "ros"),
     )
     np.testing.assert_allclose(host(u.compose(A, B).cov), ref.cov, atol=1e-12)
+
+
+def test_plots_read_a_host_copy_of_tensors() -> None:
+    """position() keeps the tensor type; the drawing reads a detached copy (equal to numpy's)."""
+    matplotlib = pytest.importorskip("matplotlib")
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from liebridge.uncertain import plot as uplot
+
+    x = _inputs((2,), None, seed=14)
+    d = torch.zeros(6, dtype=torch.float64, requires_grad=True)
+    A = u.UncertainPose(
+        torch.tensor(x["TA"]) @ se3.exp(d), torch.tensor(x["joint"][..., :6, :6]), "ros"
+    )
+    An = u.UncertainPose(x["TA"], x["joint"][..., :6, :6], "ros")
+    pos = uplot.position(A)
+    assert isinstance(pos.cov, torch.Tensor) and pos.cov.requires_grad
+    np.testing.assert_allclose(host(pos.cov), uplot.position(An).cov, atol=1e-12)
+    fig, ax = plt.subplots()
+    lines = uplot.plot_position_ellipse(ax, A)
+    ref = uplot.plot_position_ellipse(ax, An)
+    for a, b in zip(lines, ref, strict=True):
+        np.testing.assert_allclose(a.get_xydata(), b.get_xydata(), atol=1e-12)
+    plt.close(fig)
+    e = uplot.ellipse_points(pos.p[0, :2], pos.cov[0, :2, :2])
+    assert isinstance(e, np.ndarray) and e.shape == (100, 2)
