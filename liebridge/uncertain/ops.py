@@ -65,6 +65,7 @@ from .pose import (
     element_input,
     moved,
     same_dtype,
+    trusted,
 )
 
 __all__ = ["act", "compose", "inverse", "relative", "sigma_points", "transform"]
@@ -113,14 +114,45 @@ def _align(A: UncertainPose, B: UncertainPose, nb: str) -> tuple[UncertainPose, 
     return A, B
 
 
-def _to_g(X: FloatArray, c: Convention) -> FloatArray:
-    """``M`` with ``ξ_gtsam = M δ_c`` at ``X``."""
+def _to_g(X: FloatArray, c: Convention) -> Any:
+    """``M`` with ``ξ_gtsam = M δ_c`` at ``X`` (torch/JAX in GTSAM's own tangent: ``None``, I)."""
+    if arrays.is_foreign(X) and c.fields == CANONICAL.fields:
+        return None
     return _map(X, c, CANONICAL)
 
 
-def _from_g(X: FloatArray, c: Convention) -> FloatArray:
-    """``M`` with ``δ_c = M ξ_gtsam`` at ``X``."""
+def _from_g(X: FloatArray, c: Convention) -> Any:
+    """``M`` with ``δ_c = M ξ_gtsam`` at ``X`` (torch/JAX in GTSAM's own tangent: ``None``, I)."""
+    if arrays.is_foreign(X) and c.fields == CANONICAL.fields:
+        return None
     return _map(X, CANONICAL, c)
+
+
+def _mul(*Ms: Any) -> Any:
+    """Return the product of ``Ms``, ``None`` standing for the identity (``None`` if all are)."""
+    out = None
+    for M in Ms:
+        if M is not None:
+            out = M if out is None else out @ M
+    return out
+
+
+def _full(M: Any, ref: Any, n: int) -> Any:
+    """Return ``M``, or for ``None`` the ``n × n`` identity over ``ref``'s batch (an array)."""
+    return arrays.eye(n, ref, tuple(ref.shape[:-2])) if M is None else M
+
+
+def _sw(J: Any, S: Any) -> Any:
+    """Return ``J S Jᵀ`` (``S`` for ``J = None``)."""
+    return S if J is None else J @ S @ arrays.mT(J)
+
+
+def _result(TC: Any, cov: Any, c: Convention) -> UncertainPose:
+    """Return the operation's result; torch/JAX results are valid by construction."""
+    TC, cov = validate.finite_output(TC, "T"), validate.finite_output(cov, "cov")
+    if arrays.is_foreign(TC):
+        return trusted(TC, cov, c)
+    return UncertainPose(TC, cov, c)
 
 
 def _kind(A: UncertainPose) -> str:
@@ -177,12 +209,14 @@ def _joint(
 
 def _joint_generic(
     A: UncertainPose, B: UncertainPose, cross: Any, shape: tuple[int, ...]
-) -> tuple[FloatArray, tuple[int, ...]]:
-    """:func:`_joint` on torch/JAX arrays: built from blocks (no in-place write)."""
+) -> tuple[Any, tuple[int, ...]]:
+    """Return :func:`_joint` on torch/JAX arrays: blocks, no in-place write.
+
+    ``None`` for independent inputs (the operations then sum two sandwiches instead).
+    """
     n = A.dim
-    if cross is None:
-        Z = arrays.zeros((n, n), A.cov)
-        return arrays.blocks([[A.cov, Z], [Z, B.cov]]), shape
+    if cross is None:  # not needed: independent inputs take two n×n sandwiches
+        return None, shape
     (X,) = arrays.common(A.T, cross)[1:]
     X = validate.square(X, "cross", n)
     same_dtype(A.T, X, "cross", "A.T")
@@ -348,8 +382,11 @@ def compose(
     n = A.dim
     if method == "linear":
         Mo = _from_g(TC, c)
-        J = _cat([Mo @ _ad(_inv(TB)) @ _to_g(TA, c), Mo @ _to_g(TB, c)])
-        cov = _sandwich(J, joint)
+        JA, JB = _mul(Mo, _ad(_inv(TB)), _to_g(TA, c)), _mul(Mo, _to_g(TB, c))
+        if cross is None and arrays.is_foreign(TC):  # independent: two n×n sandwiches
+            cov = _sym(_sw(JA, _bshape(A.cov, shape)) + _sw(JB, _bshape(B.cov, shape)))
+        else:
+            cov = _sandwich(_cat([_full(JA, TC, n), _full(JB, TC, n)]), joint)
     else:
         cov = _unscented(
             joint,
@@ -360,7 +397,7 @@ def compose(
             TB,
             TC,
         )
-    return UncertainPose(validate.finite_output(TC, "T"), validate.finite_output(cov, "cov"), c)
+    return _result(TC, cov, c)
 
 
 @_finite_result("inverse")
@@ -381,11 +418,11 @@ def inverse(A: UncertainPose, method: Method = "linear") -> UncertainPose:
     TC = _inv(TA)
     TC = TC if arrays.is_foreign(TC) else TC.copy()
     if method == "linear":
-        J = -_from_g(TC, c) @ _ad(TA) @ _to_g(TA, c)
-        cov = _sandwich(J, A.cov)
+        J = _mul(_from_g(TC, c), _ad(TA), _to_g(TA, c))  # the sign cancels in J Σ Jᵀ
+        cov = _sym(_sw(J, A.cov))
     else:
         cov = _unscented(A.cov, lambda d, TA, TC: _read(c, TC, _inv(_sample(c, TA, d))), TA, TC)
-    return UncertainPose(validate.finite_output(TC, "T"), validate.finite_output(cov, "cov"), c)
+    return _result(TC, cov, c)
 
 
 @_finite_result("relative")
@@ -411,9 +448,12 @@ def relative(
     n = A.dim
     if method == "linear":
         Mo = _from_g(TC, c)
-        JA = -Mo @ _ad(_inv(TC)) @ _to_g(TA, c)
-        J = _cat([JA, Mo @ _to_g(TB, c)])
-        cov = _sandwich(J, joint)
+        JA = -_mul(Mo, _ad(_inv(TC)), _to_g(TA, c))
+        JB = _mul(Mo, _to_g(TB, c))
+        if cross is None and arrays.is_foreign(TC):  # independent: two n×n sandwiches
+            cov = _sym(_sw(JA, _bshape(A.cov, shape)) + _sw(JB, _bshape(B.cov, shape)))
+        else:
+            cov = _sandwich(_cat([JA, _full(JB, TC, n)]), joint)
     else:
         cov = _unscented(
             joint,
@@ -424,7 +464,7 @@ def relative(
             TB,
             TC,
         )
-    return UncertainPose(validate.finite_output(TC, "T"), validate.finite_output(cov, "cov"), c)
+    return _result(TC, cov, c)
 
 
 @_finite_result("transform")
@@ -486,8 +526,8 @@ def transform(
     TC = _f64(F @ TA if side == "left" else TA @ F)
     cov_A = _bshape(A.cov, shape)
     if method == "linear":
-        Jg = _to_g(TA, c) if side == "left" else _ad(_inv(F)) @ _to_g(TA, c)
-        cov = _sandwich(_from_g(TC, c) @ Jg, cov_A)
+        Jg = _to_g(TA, c) if side == "left" else _mul(_ad(_inv(F)), _to_g(TA, c))
+        cov = _sym(_sw(_mul(_from_g(TC, c), Jg), cov_A))
     elif side == "left":
         cov = _unscented(
             cov_A,
@@ -504,7 +544,7 @@ def transform(
             TA,
             TC,
         )
-    return UncertainPose(validate.finite_output(TC, "T"), validate.finite_output(cov, "cov"), c)
+    return _result(TC, cov, c)
 
 
 @_finite_result("act")
@@ -564,7 +604,7 @@ def act(A: UncertainPose, p: Any, cov_p: Any = None, method: Method = "linear") 
         Jg = -R @ U.so3_hat(pa)
         if n == 6:
             Jg = _cat([Jg, R])
-        J = _cat([Jg @ _to_g(TA, c), R])
+        J = _cat([_mul(Jg, _to_g(TA, c)), R])
         cov = _sandwich(J, joint)
     else:
 

@@ -70,6 +70,19 @@ def _map(X: FloatArray, src: Convention, dst: Convention) -> FloatArray:
     return unchecked.tangent_map(P, src, dst)[..., _rot(dst), _rot(src)]
 
 
+def trusted(T: Any, cov: Any, convention: Convention) -> UncertainPose:
+    """Return an :class:`UncertainPose` of torch/JAX arrays an operation computed (unchecked).
+
+    The operations' results are valid by construction (group products, ``J Σ Jᵀ``, checked
+    finite); validating them again would cost an eigen-decomposition per batch element.
+    """
+    out = object.__new__(UncertainPose)
+    object.__setattr__(out, "T", T)
+    object.__setattr__(out, "cov", cov)
+    object.__setattr__(out, "convention", convention)
+    return out
+
+
 def moved(A: UncertainPose, ref: Any) -> UncertainPose:
     """Return a numpy :class:`UncertainPose` as one of ``ref``'s array type, device and dtype."""
     T = arrays.like(np.array(A.T), ref)  # a writable copy: torch warns on read-only numpy
