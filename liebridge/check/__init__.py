@@ -3,6 +3,10 @@
 ``numerical_jacobian`` differentiates through a *given* retraction and local map — a Jacobian is
 only meaningful with respect to the chart it claims, so the check must use that chart (finite
 differences through raw matrix addition test nothing; see docs/common-formula-errors.md).
+
+``numerical_jacobian`` and ``assert_jacobian`` take torch tensors and JAX arrays (the Jacobian
+is returned in the caller's array type); the Monte Carlo references run on numpy only and raise
+``TypeError`` on a tensor (compare a tensor result with the reference of its numpy copy).
 """
 
 from .jacobian import assert_jacobian, numerical_jacobian

@@ -7,10 +7,15 @@ from typing import Any
 
 import numpy as np
 
+from .. import _validate as validate
+from .. import arrays
 from .._validate import FloatArray
 from ..conventions import Convention, get
 from ..lie import numdiff
 from ..lie.numdiff import Local, Retract
+
+#: Default step per dtype: ≈ ε^(1/3) balances truncation (ε² f''') and rounding (ε_mach / ε).
+_EPS = {"float64": 1e-6, "float32": 3e-3}
 
 
 def numerical_jacobian(
@@ -21,7 +26,7 @@ def numerical_jacobian(
     local: Local | None = None,
     out_local: Local | str | None = None,
     dim: int | None = None,
-    eps: float = 1e-6,
+    eps: float | None = None,
     in_convention: Any = None,
     out_convention: Any = None,
 ) -> FloatArray:
@@ -36,6 +41,10 @@ def numerical_jacobian(
         The function; it receives what ``retract`` returns (batched if ``x`` is batched).
     x : array_like
         The point: a pose ``(..., 4, 4)``, a rotation ``(..., 3, 3)`` or a vector ``(..., n)``.
+        A torch tensor or a JAX array is differentiated in its own library, on its device and
+        in its dtype (the steps are built without an in-place write), and the Jacobian is an
+        array of that type; ``f``, ``retract`` and the local maps then receive and return
+        arrays of that type (a numpy result of a local map is moved to it).
         Without ``retract`` it is always read as a batch of vectors (the last axis), so a
         ``(k, 3)``-shaped or ``(3, 3)``-shaped array of 3-vectors is differentiated row by row.
     retract : callable, optional
@@ -51,8 +60,9 @@ def numerical_jacobian(
         ``in_convention``) it is that convention's (its group record's: Sim(3) 7, a user's group
         its own); else inferred for square group elements as 1, 3, 6, 9 for ``(2, 2)``,
         ``(3, 3)``, ``(4, 4)``, ``(5, 5)`` (SO(2); SO(3) or SE(2); SE(3); SE₂(3)), else ``n``.
-    eps : float
-        Step. The default 1e-6 gives errors around 1e-9 for O(1) second derivatives.
+    eps : float, optional
+        Step. Default 1e-6 (float64: errors around 1e-9 for O(1) second derivatives); for a
+        float32 tensor 3e-3 (errors around 1e-5; a 1e-6 step would be lost to rounding).
     in_convention, out_convention : Convention or str, optional
         Shorthands: ``in_convention=c`` sets ``retract=c.retract`` (and ``local=c.local``);
         ``out_convention=c`` sets ``out_local=c.local``. A Jacobian is then exactly the object
@@ -60,7 +70,7 @@ def numerical_jacobian(
 
     Returns
     -------
-    ndarray, shape (..., m, dim)
+    ndarray (or the input's array type), shape (..., m, dim)
     """
     if in_convention is not None or out_convention is not None:
         if in_convention is not None:
@@ -74,9 +84,74 @@ def numerical_jacobian(
     owner = getattr(retract, "__self__", None)
     if dim is None and isinstance(owner, Convention):  # conv.retract: its group's record knows
         dim = owner.dim(x)
+    if arrays.is_foreign(x):
+        return _differences_generic(
+            f, x, retract=retract, local=local, out_local=out_local, dim=dim, eps=eps
+        )
+    if eps is None:
+        eps = _EPS["float64"]
     return numdiff.central_differences(
         f, x, retract=retract, local=local, out_local=out_local, dim=dim, eps=eps
     )
+
+
+#: Matrix shapes read as group elements when a retraction is given, and their default tangent
+#: dimension (as :func:`liebridge.lie.numdiff.central_differences` reads them).
+_GROUP_DIM = {(2, 2): 1, (3, 3): 3, (4, 4): 6, (5, 5): 9}
+
+
+def _euclidean(y0: Any, y: Any) -> Any:
+    return y - y0
+
+
+def _differences_generic(
+    f: Callable[[Any], Any],
+    x: Any,
+    *,
+    retract: Retract | None,
+    local: Local | None,
+    out_local: Local | str | None,
+    dim: int | None,
+    eps: float | None,
+) -> Any:
+    """Central differences on a torch/JAX array: the numpy formula, built without writes."""
+    xp = arrays.namespace(x)
+    if x.ndim < 1:
+        raise ValueError("x: a vector input needs shape (..., n)")
+    x_arr = validate.vector(x, "x", int(x.shape[-1]))  # float32/float64, finite
+    if eps is None:
+        eps = _EPS["float32"] if x_arr.dtype == xp.float32 else _EPS["float64"]
+    core = tuple(x_arr.shape[-2:]) if x_arr.ndim >= 2 else ()
+    if retract is None:
+        n, batch = int(x_arr.shape[-1]), tuple(x_arr.shape[:-1])
+        if dim is not None and dim != n:
+            raise ValueError(f"dim: {dim} does not match the vector length {n} of x")
+    else:
+        n = dim if dim is not None else _GROUP_DIM.get(core, int(x_arr.shape[-1]))
+        square = x_arr.ndim >= 2 and core[0] == core[1]
+        group = square and (core in _GROUP_DIM or n != core[1])
+        batch = tuple(x_arr.shape[:-2]) if group else tuple(x_arr.shape[:-1])
+    ret: Retract = retract if retract is not None else (lambda a, d: a + d)
+    if out_local is None:
+        out: Local = local if local is not None else _euclidean
+    elif isinstance(out_local, str):
+        if out_local != "euclidean":
+            raise ValueError(f"out_local: expected a callable or 'euclidean', got {out_local!r}")
+        out = _euclidean
+    else:
+        out = out_local
+
+    def diff(y0: Any, y: Any) -> Any:
+        v = out(y0, y)
+        return v if arrays.is_foreign(v) else arrays.like(np.asarray(v, dtype=np.float64), x_arr)
+
+    y0 = f(x_arr)
+    E = arrays.eye(n, x_arr)
+    cols = []
+    for j in range(n):
+        d = xp.broadcast_to(eps * E[j, :], (*batch, n))
+        cols.append((diff(y0, f(ret(x_arr, d))) - diff(y0, f(ret(x_arr, -d)))) / (2.0 * eps))
+    return xp.stack(cols, axis=-1)
 
 
 def assert_jacobian(
@@ -92,8 +167,8 @@ def assert_jacobian(
     The message gives the index of the entry with the largest excess over the tolerance, both
     values and the difference. NaN or Inf in ``actual`` or ``expected`` always fails.
     """
-    a = np.asarray(actual, dtype=np.float64)
-    e = np.asarray(expected, dtype=np.float64)
+    a = np.asarray(arrays.to_numpy(actual), dtype=np.float64)  # tensors: a detached host copy
+    e = np.asarray(arrays.to_numpy(expected), dtype=np.float64)
     if a.shape != e.shape:
         raise AssertionError(f"{name}: shape {a.shape} != expected {e.shape}")
     excess = np.abs(a - e) - (atol + rtol * np.abs(e))

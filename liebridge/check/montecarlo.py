@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 
 from .. import _validate as validate
+from .. import arrays
 from .._validate import FloatArray
 from ..conventions import ConventionLike, get, unchecked
 
@@ -46,8 +47,19 @@ def monte_carlo_covariance(
     -------
     ndarray, shape (6, 6) or (3, 3)
         Covariance about the sample mean.
+
+    Raises
+    ------
+    TypeError
+        For torch/JAX arrays (a numpy-only reference).
     """
     a, b = get(src), get(dst)
+    if arrays.any_foreign(cov, X):
+        raise TypeError(
+            "monte_carlo_covariance: the Monte Carlo reference runs on numpy arrays only; pass "
+            "host copies (x.detach().cpu().numpy(), numpy.asarray(x)) and compare the tensor "
+            "conversion with it"
+        )
     if np.shape(cov) == (4, 4) and np.shape(X) == (6, 6):
         raise TypeError(
             "monte_carlo_covariance: the arguments are (cov, X, src, dst); got a pose as cov and "

@@ -19,6 +19,7 @@ from typing import Any, Literal
 import numpy as np
 
 from .. import _validate as validate
+from .. import arrays
 from .._validate import FloatArray
 from ..conventions import Convention, group_input
 from ..uncertain import UncertainPoint, UncertainPose
@@ -32,6 +33,19 @@ __all__ = [
     "monte_carlo_relative",
     "monte_carlo_transform",
 ]
+
+
+def _numpy_only(op: str, *xs: Any) -> None:
+    """Refuse torch/JAX inputs: the Monte Carlo references run on numpy (a host reference)."""
+    for x in xs:
+        arr = x.T if isinstance(x, UncertainPose) else x
+        if arrays.is_foreign(arr):
+            raise TypeError(
+                f"{op}: the Monte Carlo references run on numpy arrays only, got a "
+                f"{type(arr).__module__}.{type(arr).__name__}; compare a tensor result against "
+                "the reference of its numpy copy (e.g. UncertainPose(T.detach().cpu().numpy(), "
+                "cov.detach().cpu().numpy(), convention))"
+            )
 
 
 def _rng(rng: np.random.Generator | None) -> np.random.Generator:
@@ -104,6 +118,7 @@ def monte_carlo_compose(
     rng: np.random.Generator | None = None,
 ) -> UncertainPose:
     """Monte Carlo of ``compose(A, B, cross)``: samples ``A_k·B_k`` read at ``A.T·B.T``."""
+    _numpy_only("monte_carlo_compose", A, B, cross)
     c, SA, SB = _joint_samples(A, B, cross, n, rng)
     Y = SA @ SB
     return _result(c, np.asarray(A.T @ B.T), Y)
@@ -113,6 +128,7 @@ def monte_carlo_inverse(
     A: UncertainPose, *, n: int = 20000, rng: np.random.Generator | None = None
 ) -> UncertainPose:
     """Monte Carlo of ``inverse(A)``: samples ``A_k⁻¹`` read at ``A.T⁻¹``."""
+    _numpy_only("monte_carlo_inverse", A)
     _check_n(n)
     d = _draw(np.asarray(A.cov), n, _rng(rng))
     Y = np.asarray(np.linalg.inv(_samples(A.convention, A.T, d)), dtype=np.float64)
@@ -129,6 +145,7 @@ def monte_carlo_relative(
     rng: np.random.Generator | None = None,
 ) -> UncertainPose:
     """Monte Carlo of ``relative(A, B, cross)``: samples ``A_k⁻¹·B_k`` read at ``A.T⁻¹·B.T``."""
+    _numpy_only("monte_carlo_relative", A, B, cross)
     c, SA, SB = _joint_samples(A, B, cross, n, rng)
     Y = np.asarray(np.linalg.inv(SA) @ SB)
     TC = np.asarray(np.linalg.inv(A.T) @ B.T, dtype=np.float64)
@@ -144,6 +161,7 @@ def monte_carlo_transform(
     rng: np.random.Generator | None = None,
 ) -> UncertainPose:
     """Monte Carlo of ``transform(A, T_fixed, side)``, known ``T_fixed``: ``F·A_k`` or ``A_k·F``."""
+    _numpy_only("monte_carlo_transform", A, T_fixed)
     _check_n(n)
     F = group_input(T_fixed, "T_fixed")
     d = _draw(np.asarray(A.cov), n, _rng(rng))
@@ -162,6 +180,7 @@ def monte_carlo_act(
     rng: np.random.Generator | None = None,
 ) -> UncertainPoint:
     """Monte Carlo of ``act(A, p, cov_p)``: points ``R_k p_k + t_k`` (``R_k p_k`` for rotations)."""
+    _numpy_only("monte_carlo_act", A, p, cov_p)
     _check_n(n)
     g = _rng(rng)
     pa = validate.vector(p, "p", 3)
@@ -199,6 +218,7 @@ def monte_carlo_average(
     first order.
     """
     _check_n(n)
+    _numpy_only("monte_carlo_average", *estimates)
     if len(estimates) < 2:
         raise ValueError("estimates: need at least two UncertainPose objects")
     E0 = estimates[0]

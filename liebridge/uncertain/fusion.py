@@ -13,19 +13,27 @@ covariances (a direction known exactly) are allowed for all but one estimate: th
 in covariance (Kalman) form with a positive definite estimate as the prior, so nothing singular
 is inverted. False: the fused mean is the weighted average of the matrices or of their
 logarithms at the identity (neither is the MAP, and the first is not a pose).
+
+On torch tensors and JAX arrays the same iteration runs with the array API (differentiable
+through its steps); one estimate, positive definite at every batch index, is then the prior for
+the whole batch, and under tracing a fixed :data:`TRACED_ITERATIONS` steps are taken
+(docs/tensors.md).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
 from .. import _validate as validate
+from .. import arrays
 from .._validate import FloatArray
 from ..conventions import Convention, unchecked
+from ..lie import unchecked as U
 from .ops import _check_pair, _check_uncertain, _sym
-from .pose import UncertainPose
+from .pose import UncertainPose, _rot, moved, same_dtype
 
 __all__ = ["average", "fuse"]
 
@@ -33,6 +41,9 @@ __all__ = ["average", "fuse"]
 #: relative to the poses' scale).
 STEP_TOL = 1e-12
 MAX_ITERATIONS = 50
+#: Gauss–Newton iterations under tracing (``jax.jit``, ``torch.compile``, ``torch.func``), where
+#: the step size cannot be read: a fixed count (quadratic convergence from agreeing estimates).
+TRACED_ITERATIONS = 8
 
 
 def _is_pd(cov: FloatArray) -> FloatArray:
@@ -87,6 +98,8 @@ def _average(est: list[UncertainPose], names: tuple[str, ...]) -> UncertainPose:
         )
     c = est[0].convention
     n = est[0].dim
+    if any(arrays.is_foreign(E.T) for E in est):
+        return _average_generic(est, names, shape)
     Ts = [np.broadcast_to(E.T, (*shape, *E.T.shape[-2:])) for E in est]
     Cs = [np.broadcast_to(E.cov, (*shape, n, n)) for E in est]
     if len(est) == 1:
@@ -168,3 +181,131 @@ def _step(
     A = np.eye(n) - K @ Jb
     P_post = A @ P @ np.swapaxes(A, -1, -2) + K @ R_big @ np.swapaxes(K, -1, -2)
     return np.asarray(delta, dtype=np.float64), np.asarray(P_post, dtype=np.float64)
+
+
+# ----------------------------------------------------------------------------- torch and JAX
+# The same Gauss–Newton in covariance form, written with the array API (no in-place write, no
+# host round trip: the result keeps the estimates' type, device, dtype and autograd graph). One
+# difference: the prior is one estimate for the whole batch (the first whose covariance is
+# positive definite at every batch index), where numpy picks one per batch element.
+
+
+def _embedded(X: Any) -> Any:
+    """Return a torch/JAX rotation as the pose ``[[R, 0], [0, 1]]`` (the engine maps poses).
+
+    Exact for every SE(3) chart: a zero translation increment keeps the translation zero, and the
+    rotation coordinates of a pose's chart are those of its rotation (see ``ops._map``).
+    """
+    return U.se3_assemble(X, arrays.zeros((*X.shape[:-2], 3), X))
+
+
+def _g_local(c: Convention, X: Any, Y: Any) -> Any:
+    if X.shape[-1] == 4:
+        return unchecked.local(c, X, Y)
+    return unchecked.local(c, _embedded(X), _embedded(Y))[..., _rot(c)]
+
+
+def _g_local_jacobian(c: Convention, X: Any, Y: Any) -> Any:
+    if X.shape[-1] == 4:
+        return unchecked.local_jacobian(c, X, Y)
+    r = _rot(c)
+    return unchecked.local_jacobian(c, _embedded(X), _embedded(Y))[..., r, r]
+
+
+def _g_retract(c: Convention, X: Any, d: Any) -> Any:
+    if X.shape[-1] == 4:
+        return unchecked.retract(c, X, d)
+    xp = arrays.namespace(d)
+    z = xp.zeros_like(d)
+    d6 = xp.concat([d, z] if c.order == "rot_first" else [z, d], axis=-1)
+    return unchecked.retract(c, _embedded(X), d6)[..., :3, :3]
+
+
+def _is_pd_generic(cov: Any) -> Any:
+    xp = arrays.namespace(cov)
+    lam = xp.linalg.eigvalsh(0.5 * (cov + arrays.mT(cov)))
+    scale = xp.max(xp.abs(lam), axis=-1)
+    return lam[..., 0] > 1e-12 * scale
+
+
+def _average_generic(
+    est: list[UncertainPose], names: tuple[str, ...], shape: tuple[int, ...]
+) -> UncertainPose:
+    ref = next(E.T for E in est if arrays.is_foreign(E.T))
+    for i, E in enumerate(est):  # numpy estimates join the tensors' type, device and dtype
+        if not arrays.is_foreign(E.T):
+            est[i] = E = moved(E, ref)
+        same_dtype(ref, E.T, f"{names[i]}.T", "the first torch/JAX estimate's T")
+    xp = arrays.namespace(ref)
+    c, n = est[0].convention, est[0].dim
+    Ts = [xp.broadcast_to(E.T, (*shape, *E.T.shape[-2:])) for E in est]
+    Cs = [xp.broadcast_to(E.cov, (*shape, n, n)) for E in est]
+    if len(est) == 1:
+        return UncertainPose(Ts[0], Cs[0], c)
+    pd = [arrays.all_true(_is_pd_generic(C)) for C in Cs]
+    if any(p is None for p in pd):  # traced: the first estimate is the prior
+        k = 0
+    elif not any(pd):
+        masks = np.stack([arrays.to_numpy(_is_pd_generic(C)) for C in Cs])
+        bad = np.argwhere(~masks.any(axis=0))
+        if bad.size:
+            idx = tuple(int(i) for i in bad[0])
+            raise ValueError(
+                f"estimates: every covariance is singular at batch index {idx}: the product of "
+                "degenerate densities has no unique MAP and no covariance; at least one estimate "
+                "must have a positive definite covariance"
+            )
+        raise ValueError(
+            "estimates: on torch/JAX arrays one estimate's covariance must be positive definite "
+            "at every batch index (it is the prior of the Gauss–Newton step); none is: reorder "
+            "the batch, or fuse numpy arrays (a prior per batch element)"
+        )
+    else:
+        k = pd.index(True)
+    T_prior, C_prior = Ts[k], Cs[k]
+    others = [i for i in range(len(est)) if i != k]
+    m = len(others)
+    T_oth = xp.stack([Ts[i] for i in others], axis=-3)  # (*shape, m, d, d)
+    Z = arrays.zeros((n, n), ref)
+    R_big = arrays.blocks(
+        [[Cs[i] if i == j else Z for j in others] for i in others]
+    )  # block diagonal, (*shape, m·n, m·n)
+    X = T_prior
+    tol = max(STEP_TOL, 64.0 * arrays.eps(ref))  # float32: its rounding floor, not 1e-12
+    for it in range(MAX_ITERATIONS):
+        delta, P = _step_generic(c, X, T_prior, C_prior, T_oth, R_big, n, m)
+        X = _g_retract(c, X, delta)
+        if arrays.all_true(xp.isfinite(X)) is False:
+            break
+        small = xp.max(xp.abs(delta)) <= tol * xp.clip(xp.max(xp.abs(X)), min=1.0)
+        done = arrays.all_true(small)
+        if done or (done is None and it + 1 >= TRACED_ITERATIONS):
+            _, P = _step_generic(c, X, T_prior, C_prior, T_oth, R_big, n, m)
+            return UncertainPose(X, _sym(P), c)
+    raise ValueError(
+        f"estimates: Gauss–Newton did not converge in {MAX_ITERATIONS} iterations (last step "
+        f"{float(arrays.to_numpy(xp.max(xp.abs(delta)))):.3g}): the estimates disagree too much "
+        f"for one MAP in the {c.name!r} chart"
+    )
+
+
+def _step_generic(
+    c: Convention, X: Any, T_prior: Any, C_prior: Any, T_oth: Any, R_big: Any, n: int, m: int
+) -> tuple[Any, Any]:
+    """:func:`_step` written with the array API (same formulas, Joseph form)."""
+    xp = arrays.namespace(X)
+    r0 = _g_local(c, T_prior, X)
+    J0i = xp.linalg.inv(_g_local_jacobian(c, T_prior, X))
+    mean = -arrays.matvec(J0i, r0)
+    P = J0i @ C_prior @ arrays.mT(J0i)
+    Xb = xp.broadcast_to(X[..., None, :, :], T_oth.shape)
+    batch = tuple(X.shape[:-2])
+    r = xp.reshape(_g_local(c, T_oth, Xb), (*batch, m * n))
+    Jb = xp.reshape(_g_local_jacobian(c, T_oth, Xb), (*batch, m * n, n))
+    PHt = P @ arrays.mT(Jb)
+    S = _sym(Jb @ PHt + R_big)
+    innov = -r - arrays.matvec(Jb, mean)
+    K = arrays.mT(xp.linalg.solve(S, arrays.mT(PHt)))
+    delta = mean + arrays.matvec(K, innov)
+    A = arrays.eye(n, X) - K @ Jb
+    return delta, A @ P @ arrays.mT(A) + K @ R_big @ arrays.mT(K)

@@ -19,6 +19,11 @@ Jacobian becomes ``J_c = M_{g→c}(C) · J_g · M_{c→g}(X)`` with the closed-f
 joint covariance of the inputs, ``[[Σ_A, cross], [crossᵀ, Σ_B]]`` (``cross = E[δA δBᵀ]``,
 zero for independent inputs).
 
+On torch tensors and JAX arrays ``method="linear"`` runs the same Jacobians with the
+array-generic tangent maps, built without in-place writes: the result keeps the caller's array
+type, device, dtype and autograd graph (numpy keeps its own code). ``method="unscented"`` runs
+on numpy only and raises ``TypeError`` on a tensor.
+
 ``method="unscented"``: the joint covariance is factored, ``S Sᵀ = Σ_joint``, and the points of
 Stroud's fifth-degree Gaussian cubature (rule En^r² 5-2, ``2N² + 1`` points for ``N`` input
 dimensions, exact for polynomials of degree ≤ 5; the same rule as
@@ -47,11 +52,21 @@ from typing import Any, Literal, TypeVar, cast
 import numpy as np
 
 from .. import _validate as validate
+from .. import arrays
 from .._validate import FloatArray
-from ..conventions import CANONICAL, Convention, group_input, unchecked
+from ..conventions import CANONICAL, Convention
 from ..conventions.cubature import cubature_rule_5, sqrt_psd
 from ..lie import unchecked as U
-from .pose import UncertainPoint, UncertainPose, _matrix_of
+from .pose import (
+    UncertainPoint,
+    UncertainPose,
+    _map,
+    _matrix_of,
+    element_input,
+    moved,
+    same_dtype,
+    trusted,
+)
 
 __all__ = ["act", "compose", "inverse", "relative", "sigma_points", "transform"]
 
@@ -65,17 +80,79 @@ def _ad(X: FloatArray) -> FloatArray:
 
 
 def _inv(X: FloatArray) -> FloatArray:
-    return U.se3_inverse(X) if X.shape[-1] == 4 else np.swapaxes(X, -1, -2)
+    return U.se3_inverse(X) if X.shape[-1] == 4 else arrays.mT(X)
 
 
-def _to_g(X: FloatArray, c: Convention) -> FloatArray:
-    """``M`` with ``ξ_gtsam = M δ_c`` at ``X``."""
-    return unchecked.tangent_map(X, c, CANONICAL)
+def _cat(parts: list[Any], axis: int = -1) -> Any:
+    """Concatenate in the parts' own namespace (numpy's ``concatenate``, else ``concat``)."""
+    if not arrays.any_foreign(*parts):
+        return np.concatenate(parts, axis=axis)
+    return arrays.namespace(*parts).concat(parts, axis=axis)
 
 
-def _from_g(X: FloatArray, c: Convention) -> FloatArray:
-    """``M`` with ``δ_c = M ξ_gtsam`` at ``X``."""
-    return unchecked.tangent_map(X, CANONICAL, c)
+def _f64(X: Any) -> Any:
+    """Return a numpy result as float64, a torch/JAX result as it is (type, dtype, graph)."""
+    return X if arrays.is_foreign(X) else np.asarray(X, dtype=np.float64)
+
+
+def _numpy_only(op: str, method: str, *xs: Any) -> None:
+    """Refuse ``method="unscented"`` on torch/JAX arrays (it runs on numpy only)."""
+    if method != "linear" and arrays.any_foreign(*xs):
+        raise TypeError(
+            f"{op}: method={method!r} runs on numpy arrays only; torch and JAX arrays take "
+            "method='linear' (differentiable, on their device), or pass numpy arrays"
+        )
+
+
+def _align(A: UncertainPose, B: UncertainPose, nb: str) -> tuple[UncertainPose, UncertainPose]:
+    """Move a numpy operand to the other's torch/JAX type (dtype and device); dtypes must agree."""
+    if arrays.is_foreign(A.T) and not arrays.is_foreign(B.T):
+        B = moved(B, A.T)
+    elif arrays.is_foreign(B.T) and not arrays.is_foreign(A.T):
+        A = moved(A, B.T)
+    same_dtype(A.T, B.T, f"{nb}.T", "A.T")
+    return A, B
+
+
+def _to_g(X: FloatArray, c: Convention) -> Any:
+    """``M`` with ``ξ_gtsam = M δ_c`` at ``X`` (torch/JAX in GTSAM's own tangent: ``None``, I)."""
+    if arrays.is_foreign(X) and c.fields == CANONICAL.fields:
+        return None
+    return _map(X, c, CANONICAL)
+
+
+def _from_g(X: FloatArray, c: Convention) -> Any:
+    """``M`` with ``δ_c = M ξ_gtsam`` at ``X`` (torch/JAX in GTSAM's own tangent: ``None``, I)."""
+    if arrays.is_foreign(X) and c.fields == CANONICAL.fields:
+        return None
+    return _map(X, CANONICAL, c)
+
+
+def _mul(*Ms: Any) -> Any:
+    """Return the product of ``Ms``, ``None`` standing for the identity (``None`` if all are)."""
+    out = None
+    for M in Ms:
+        if M is not None:
+            out = M if out is None else out @ M
+    return out
+
+
+def _full(M: Any, ref: Any, n: int) -> Any:
+    """Return ``M``, or for ``None`` the ``n × n`` identity over ``ref``'s batch (an array)."""
+    return arrays.eye(n, ref, tuple(ref.shape[:-2])) if M is None else M
+
+
+def _sw(J: Any, S: Any) -> Any:
+    """Return ``J S Jᵀ`` (``S`` for ``J = None``)."""
+    return S if J is None else J @ S @ arrays.mT(J)
+
+
+def _result(TC: Any, cov: Any, c: Convention) -> UncertainPose:
+    """Return the operation's result; torch/JAX results are valid by construction."""
+    TC, cov = validate.finite_output(TC, "T"), validate.finite_output(cov, "cov")
+    if arrays.is_foreign(TC):
+        return trusted(TC, cov, c)
+    return UncertainPose(TC, cov, c)
 
 
 def _kind(A: UncertainPose) -> str:
@@ -111,6 +188,8 @@ def _joint(
 ) -> tuple[FloatArray, tuple[int, ...]]:
     """``[[Σ_A, cross], [crossᵀ, Σ_B]]`` validated positive semi-definite."""
     n = A.dim
+    if arrays.is_foreign(A.T):
+        return _joint_generic(A, B, cross, shape)
     if cross is not None:
         X = validate.as_float_array(cross, "cross")
         if X.ndim < 2 or X.shape[-2:] != (n, n):
@@ -128,12 +207,31 @@ def _joint(
     return J, shape
 
 
+def _joint_generic(
+    A: UncertainPose, B: UncertainPose, cross: Any, shape: tuple[int, ...]
+) -> tuple[Any, tuple[int, ...]]:
+    """Return :func:`_joint` on torch/JAX arrays: blocks, no in-place write.
+
+    ``None`` for independent inputs (the operations then sum two sandwiches instead).
+    """
+    n = A.dim
+    if cross is None:  # not needed: independent inputs take two n×n sandwiches
+        return None, shape
+    (X,) = arrays.common(A.T, cross)[1:]
+    X = validate.square(X, "cross", n)
+    same_dtype(A.T, X, "cross", "A.T")
+    shape = validate.batch_shape(("A and B", shape), ("cross", tuple(X.shape[:-2])))
+    J = arrays.blocks([[A.cov, X], [arrays.mT(X), B.cov]])
+    validate.covariance(J, "cross (the joint covariance [[A.cov, cross], [crossᵀ, B.cov]])", 2 * n)
+    return J, shape
+
+
 def _sym(S: FloatArray) -> FloatArray:
-    return np.asarray(0.5 * (S + np.swapaxes(S, -1, -2)), dtype=np.float64)
+    return _f64(0.5 * (S + arrays.mT(S)))
 
 
 def _sandwich(J: FloatArray, S: FloatArray) -> FloatArray:
-    return _sym(J @ S @ np.swapaxes(J, -1, -2))
+    return _sym(J @ S @ arrays.mT(J))
 
 
 sigma_points = cubature_rule_5
@@ -242,7 +340,7 @@ def _read(c: Convention, C: FloatArray, Y: FloatArray) -> FloatArray:
 
 
 def _bshape(X: FloatArray, shape: tuple[int, ...]) -> FloatArray:
-    return np.broadcast_to(X, (*shape, *X.shape[-2:]))
+    return arrays.namespace(X).broadcast_to(X, (*shape, *X.shape[-2:]))
 
 
 # --------------------------------------------------------------------------- operations
@@ -275,15 +373,20 @@ def compose(
     """
     shape = _check_pair(A, B)
     _check_method(method)
+    A, B = _align(A, B, "B")
+    _numpy_only("compose", method, A.T)
     joint, shape = _joint(A, B, cross, shape)
     c = A.convention
     TA, TB = _bshape(A.T, shape), _bshape(B.T, shape)
-    TC = np.asarray(TA @ TB, dtype=np.float64)
+    TC = _f64(TA @ TB)
     n = A.dim
     if method == "linear":
         Mo = _from_g(TC, c)
-        J = np.concatenate([Mo @ _ad(_inv(TB)) @ _to_g(TA, c), Mo @ _to_g(TB, c)], axis=-1)
-        cov = _sandwich(J, joint)
+        JA, JB = _mul(Mo, _ad(_inv(TB)), _to_g(TA, c)), _mul(Mo, _to_g(TB, c))
+        if cross is None and arrays.is_foreign(TC):  # independent: two n×n sandwiches
+            cov = _sym(_sw(JA, _bshape(A.cov, shape)) + _sw(JB, _bshape(B.cov, shape)))
+        else:
+            cov = _sandwich(_cat([_full(JA, TC, n), _full(JB, TC, n)]), joint)
     else:
         cov = _unscented(
             joint,
@@ -294,7 +397,7 @@ def compose(
             TB,
             TC,
         )
-    return UncertainPose(validate.finite_output(TC, "T"), validate.finite_output(cov, "cov"), c)
+    return _result(TC, cov, c)
 
 
 @_finite_result("inverse")
@@ -310,14 +413,16 @@ def inverse(A: UncertainPose, method: Method = "linear") -> UncertainPose:
     """
     A = _check_uncertain(A, "A")
     _check_method(method)
+    _numpy_only("inverse", method, A.T)
     c, TA = A.convention, A.T
-    TC = _inv(TA).copy()
+    TC = _inv(TA)
+    TC = TC if arrays.is_foreign(TC) else TC.copy()
     if method == "linear":
-        J = -_from_g(TC, c) @ _ad(TA) @ _to_g(TA, c)
-        cov = _sandwich(J, A.cov)
+        J = _mul(_from_g(TC, c), _ad(TA), _to_g(TA, c))  # the sign cancels in J Σ Jᵀ
+        cov = _sym(_sw(J, A.cov))
     else:
         cov = _unscented(A.cov, lambda d, TA, TC: _read(c, TC, _inv(_sample(c, TA, d))), TA, TC)
-    return UncertainPose(validate.finite_output(TC, "T"), validate.finite_output(cov, "cov"), c)
+    return _result(TC, cov, c)
 
 
 @_finite_result("relative")
@@ -334,16 +439,21 @@ def relative(
     """
     shape = _check_pair(A, B)
     _check_method(method)
+    A, B = _align(A, B, "B")
+    _numpy_only("relative", method, A.T)
     joint, shape = _joint(A, B, cross, shape)
     c = A.convention
     TA, TB = _bshape(A.T, shape), _bshape(B.T, shape)
-    TC = np.asarray(_inv(TA) @ TB, dtype=np.float64)
+    TC = _f64(_inv(TA) @ TB)
     n = A.dim
     if method == "linear":
         Mo = _from_g(TC, c)
-        JA = -Mo @ _ad(_inv(TC)) @ _to_g(TA, c)
-        J = np.concatenate([JA, Mo @ _to_g(TB, c)], axis=-1)
-        cov = _sandwich(J, joint)
+        JA = -_mul(Mo, _ad(_inv(TC)), _to_g(TA, c))
+        JB = _mul(Mo, _to_g(TB, c))
+        if cross is None and arrays.is_foreign(TC):  # independent: two n×n sandwiches
+            cov = _sym(_sw(JA, _bshape(A.cov, shape)) + _sw(JB, _bshape(B.cov, shape)))
+        else:
+            cov = _sandwich(_cat([JA, _full(JB, TC, n)]), joint)
     else:
         cov = _unscented(
             joint,
@@ -354,7 +464,7 @@ def relative(
             TB,
             TC,
         )
-    return UncertainPose(validate.finite_output(TC, "T"), validate.finite_output(cov, "cov"), c)
+    return _result(TC, cov, c)
 
 
 @_finite_result("transform")
@@ -390,26 +500,34 @@ def transform(
     if isinstance(T_fixed, UncertainPose):
         _check_pair(A, T_fixed, "A", "T_fixed")
         if side == "left":
-            X = (
-                None
-                if cross is None
-                else np.swapaxes(validate.as_float_array(cross, "cross"), -1, -2)
-            )
+            if cross is None:
+                X = None
+            elif arrays.is_foreign(cross):
+                X = arrays.mT(validate.square(cross, "cross", A.dim))
+            else:
+                X = np.swapaxes(validate.as_float_array(cross, "cross"), -1, -2)
             return compose(T_fixed, A, X, method)
         return compose(A, T_fixed, cross, method)
     if cross is not None:
         raise ValueError("cross: only meaningful with an uncertain T_fixed (an UncertainPose)")
-    F = group_input(_matrix_of(T_fixed), "T_fixed")
-    if F.shape[-2:] != A.T.shape[-2:]:
-        raise ValueError(f"T_fixed: a {F.shape[-2:]} matrix, but A holds {A.T.shape[-2:]}")
-    shape = validate.batch_shape(("A", A.batch_shape), ("T_fixed", F.shape[:-2]))
+    TF = _matrix_of(T_fixed)
+    if arrays.is_foreign(TF) and not arrays.is_foreign(A.T):
+        A = moved(A, TF)
+    F = element_input(arrays.common(A.T, TF)[1], "T_fixed")
+    same_dtype(A.T, F, "T_fixed", "A.T")
+    _numpy_only("transform", method, A.T)
+    if tuple(F.shape[-2:]) != tuple(A.T.shape[-2:]):
+        raise ValueError(
+            f"T_fixed: a {tuple(F.shape[-2:])} matrix, but A holds {tuple(A.T.shape[-2:])}"
+        )
+    shape = validate.batch_shape(("A", A.batch_shape), ("T_fixed", tuple(F.shape[:-2])))
     c = A.convention
     TA, F = _bshape(A.T, shape), _bshape(F, shape)
-    TC = np.asarray(F @ TA if side == "left" else TA @ F, dtype=np.float64)
-    cov_A = np.broadcast_to(A.cov, (*shape, A.dim, A.dim))
+    TC = _f64(F @ TA if side == "left" else TA @ F)
+    cov_A = _bshape(A.cov, shape)
     if method == "linear":
-        Jg = _to_g(TA, c) if side == "left" else _ad(_inv(F)) @ _to_g(TA, c)
-        cov = _sandwich(_from_g(TC, c) @ Jg, cov_A)
+        Jg = _to_g(TA, c) if side == "left" else _mul(_ad(_inv(F)), _to_g(TA, c))
+        cov = _sym(_sw(_mul(_from_g(TC, c), Jg), cov_A))
     elif side == "left":
         cov = _unscented(
             cov_A,
@@ -426,7 +544,7 @@ def transform(
             TA,
             TC,
         )
-    return UncertainPose(validate.finite_output(TC, "T"), validate.finite_output(cov, "cov"), c)
+    return _result(TC, cov, c)
 
 
 @_finite_result("act")
@@ -453,26 +571,40 @@ def act(A: UncertainPose, p: Any, cov_p: Any = None, method: Method = "linear") 
     """
     A = _check_uncertain(A, "A")
     _check_method(method)
+    ref = next((x for x in (p, cov_p) if arrays.is_foreign(x)), None)
+    if ref is not None and not arrays.is_foreign(A.T):
+        A = moved(A, ref)
+    _, p, cov_p = arrays.common(A.T, p, cov_p)
+    _numpy_only("act", method, A.T)
     pa = validate.vector(p, "p", 3)
-    Cp = np.zeros((3, 3)) if cov_p is None else validate.covariance(cov_p, "cov_p", 3)
+    same_dtype(A.T, pa, "p", "A.T")
+    if cov_p is None:
+        Cp = arrays.zeros((3, 3), A.T) if arrays.is_foreign(A.T) else np.zeros((3, 3))
+    else:
+        Cp = validate.covariance(cov_p, "cov_p", 3)
+        same_dtype(A.T, Cp, "cov_p", "A.T")
     shape = validate.batch_shape(
-        ("A", A.batch_shape), ("p", pa.shape[:-1]), ("cov_p", Cp.shape[:-2])
+        ("A", A.batch_shape), ("p", tuple(pa.shape[:-1])), ("cov_p", tuple(Cp.shape[:-2]))
     )
     c, n = A.convention, A.dim
     TA = _bshape(A.T, shape)
-    pa = np.broadcast_to(pa, (*shape, 3))
+    pa = arrays.namespace(pa).broadcast_to(pa, (*shape, 3))
     R = TA[..., :3, :3]
-    q = np.einsum("...ij,...j->...i", R, pa)
+    q = arrays.matvec(R, pa)
     if n == 6:
         q = q + TA[..., :3, 3]
-    joint = np.zeros((*shape, n + 3, n + 3))
-    joint[..., :n, :n] = A.cov
-    joint[..., n:, n:] = Cp
+    if arrays.is_foreign(TA):
+        Z = arrays.zeros((n, 3), TA)
+        joint = arrays.blocks([[A.cov, Z], [arrays.mT(Z), Cp]])
+    else:
+        joint = np.zeros((*shape, n + 3, n + 3))
+        joint[..., :n, :n] = A.cov
+        joint[..., n:, n:] = Cp
     if method == "linear":
         Jg = -R @ U.so3_hat(pa)
         if n == 6:
-            Jg = np.concatenate([Jg, R], axis=-1)
-        J = np.concatenate([Jg @ _to_g(TA, c), R], axis=-1)
+            Jg = _cat([Jg, R])
+        J = _cat([_mul(Jg, _to_g(TA, c)), R])
         cov = _sandwich(J, joint)
     else:
 

@@ -8,6 +8,8 @@ of the Gaussian projected (marginalised) onto two parent-frame axes; an ellipsoi
 
 :func:`ellipse_points` and :func:`ellipsoid_points` are plain numpy (no matplotlib);
 :func:`plot_position_ellipse` / :func:`plot_position_ellipsoid` draw them on a given axes.
+:func:`position` keeps a torch/JAX pose's array type; the drawing functions read a detached host
+copy of it (a plot ends the graph), and the point functions return numpy arrays.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from .. import _validate as validate
+from .. import arrays
 from .._validate import FloatArray
 from .ops import act
 from .pose import UncertainPoint, UncertainPose
@@ -39,6 +42,11 @@ def position(X: UncertainPose | UncertainPoint) -> UncertainPoint:
     return act(X, np.zeros(3))
 
 
+def _host(x: Any) -> Any:
+    """Return a torch/JAX array as a detached host numpy copy (plots are drawn on the host)."""
+    return arrays.to_numpy(x) if arrays.is_foreign(x) else x
+
+
 def _sqrt(cov: FloatArray) -> FloatArray:
     lam, Q = np.linalg.eigh(0.5 * (cov + np.swapaxes(cov, -1, -2)))
     return np.asarray(Q * np.sqrt(np.clip(lam, 0.0, None))[..., None, :], dtype=np.float64)
@@ -49,8 +57,8 @@ def ellipse_points(mean: Any, cov: Any, n_sigma: float = 2.0, num: int = 100) ->
 
     A singular ``Σ`` gives a degenerate (segment or point) ellipse, not an error.
     """
-    m = validate.vector(mean, "mean", 2)
-    C = validate.covariance(cov, "cov", 2)
+    m = validate.vector(_host(mean), "mean", 2)
+    C = validate.covariance(_host(cov), "cov", 2)
     a = np.linspace(0.0, 2.0 * np.pi, num)
     circle = np.stack([np.cos(a), np.sin(a)], axis=-1)
     return np.asarray(m + n_sigma * circle @ _sqrt(C).T, dtype=np.float64)
@@ -60,8 +68,8 @@ def ellipsoid_points(
     mean: Any, cov: Any, n_sigma: float = 2.0, num: int = 24
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Surface grids ``(x, y, z)``, each ``(num, num)``, of the 3-D ``n_sigma`` ellipsoid."""
-    m = validate.vector(mean, "mean", 3)
-    C = validate.covariance(cov, "cov", 3)
+    m = validate.vector(_host(mean), "mean", 3)
+    C = validate.covariance(_host(cov), "cov", 3)
     uu, vv = np.meshgrid(np.linspace(0, 2 * np.pi, num), np.linspace(0, np.pi, num))
     sphere = np.stack([np.cos(uu) * np.sin(vv), np.sin(uu) * np.sin(vv), np.cos(vv)], axis=-1)
     pts = m + n_sigma * sphere @ _sqrt(C).T
@@ -94,8 +102,8 @@ def plot_position_ellipse(
     """
     pt = position(X)
     i, j = dims
-    p = pt.p.reshape(-1, 3)
-    c = pt.cov.reshape(-1, 3, 3)
+    p = _host(pt.p).reshape(-1, 3)
+    c = _host(pt.cov).reshape(-1, 3, 3)
     lines = []
     for k in range(p.shape[0]):
         e = ellipse_points(p[k, [i, j]], c[k][np.ix_([i, j], [i, j])], n_sigma)
@@ -109,8 +117,8 @@ def plot_position_ellipsoid(
 ) -> list[Any]:
     """Draw the ``n_sigma`` position ellipsoid(s) of ``X`` as wireframes on a 3-D axes."""
     pt = position(X)
-    p = pt.p.reshape(-1, 3)
-    c = pt.cov.reshape(-1, 3, 3)
+    p = _host(pt.p).reshape(-1, 3)
+    c = _host(pt.cov).reshape(-1, 3, 3)
     kwargs.setdefault("linewidth", 0.5)
     return [
         ax.plot_wireframe(*ellipsoid_points(p[k], c[k], n_sigma), **kwargs)

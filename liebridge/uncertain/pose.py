@@ -16,6 +16,7 @@ from typing import Any, Literal
 import numpy as np
 
 from .. import _validate as validate
+from .. import arrays
 from .._validate import FloatArray
 from ..conventions import (
     Convention,
@@ -24,16 +25,96 @@ from ..conventions import (
     get,
     group_input,
     pose_convention,
+    unchecked,
 )
+from ..lie.unchecked import se3_assemble as U_se3_assemble
 
 __all__ = ["UncertainPoint", "UncertainPose"]
 
 
 def _frozen(a: Any) -> FloatArray:
-    """Return a read-only float64 copy (immutable objects; the caller's array is untouched)."""
+    """Return a read-only float64 copy (immutable objects; the caller's array is untouched).
+
+    A torch/JAX array stays one (its type, device, dtype and autograd graph): a new array
+    (``a * 1.0``: never an alias of the caller's tensor, no host round trip); it cannot be made
+    read-only, but nothing in liebridge writes into it.
+    """
+    if arrays.is_foreign(a):
+        return a * 1.0
     out = np.array(a, dtype=np.float64, copy=True)
     out.setflags(write=False)
     return out
+
+
+def _broadcast(a: Any, shape: tuple[int, ...]) -> Any:
+    """Return ``a`` broadcast to ``shape`` in its own namespace."""
+    return arrays.namespace(a).broadcast_to(a, shape)
+
+
+def _rot(c: Convention) -> slice:
+    return slice(0, 3) if c.order == "rot_first" else slice(3, 6)
+
+
+def _map(X: FloatArray, src: Convention, dst: Convention) -> FloatArray:
+    """``unchecked.tangent_map(X, src, dst)``; on torch/JAX rotations through the embedded pose.
+
+    The array-generic (record-driven) engine maps SE(3) conventions on poses only. A rotation
+    ``R`` is the pose ``[[R, 0], [0, 1]]``, and in every SE(3) chart a pose's rotation increment
+    depends on the rotation coordinates alone (``Exp(ξ)``'s rotation is ``Exp(ω)``; split
+    charts perturb ``R`` by itself), so the rotation block of the pose map is the rotation map
+    (the numpy engine's rotation maps equal it; the tests compare them).
+    """
+    if X.shape[-1] == 4 or not arrays.is_foreign(X):
+        return unchecked.tangent_map(X, src, dst)
+    P = U_se3_assemble(X, arrays.zeros((*X.shape[:-2], 3), X))
+    return unchecked.tangent_map(P, src, dst)[..., _rot(dst), _rot(src)]
+
+
+def trusted(T: Any, cov: Any, convention: Convention) -> UncertainPose:
+    """Return an :class:`UncertainPose` of torch/JAX arrays an operation computed (unchecked).
+
+    The operations' results are valid by construction (group products, ``J Σ Jᵀ``, checked
+    finite); validating them again would cost an eigen-decomposition per batch element.
+    """
+    out = object.__new__(UncertainPose)
+    object.__setattr__(out, "T", T)
+    object.__setattr__(out, "cov", cov)
+    object.__setattr__(out, "convention", convention)
+    return out
+
+
+def moved(A: UncertainPose, ref: Any) -> UncertainPose:
+    """Return a numpy :class:`UncertainPose` as one of ``ref``'s array type, device and dtype."""
+    T = arrays.like(np.array(A.T), ref)  # a writable copy: torch warns on read-only numpy
+    return UncertainPose(T, arrays.like(np.array(A.cov), ref), A.convention)
+
+
+def element_input(X: Any, name: str) -> Any:
+    """Validate a pose ``(..., 4, 4)`` or a rotation ``(..., 3, 3)`` of any array type.
+
+    numpy input goes through :func:`~liebridge.conventions.group_input`; a torch/JAX array is
+    checked in its own namespace (:func:`liebridge._validate.pose`/``rotation``: the same error
+    wording, a host copy only to word it) and returned as it is, graph included.
+    """
+    if not arrays.is_foreign(X):
+        return group_input(X, name)
+    shape = tuple(X.shape[-2:]) if X.ndim >= 2 else tuple(X.shape)
+    if shape == (4, 4):
+        return validate.pose(X, name)
+    if shape == (3, 3):
+        return validate.rotation(X, name)
+    raise ValueError(
+        f"{name}: expected a pose (..., 4, 4) or a rotation (..., 3, 3), got {tuple(X.shape)}"
+    )
+
+
+def same_dtype(ref: Any, x: Any, name: str, ref_name: str) -> None:
+    """Raise ``TypeError`` when two torch/JAX arrays of one operation have different dtypes."""
+    if arrays.is_foreign(ref) and arrays.is_foreign(x) and x.dtype != ref.dtype:
+        raise TypeError(
+            f"{name}: dtype {x.dtype} differs from {ref_name}'s {ref.dtype}; convert one first "
+            "(liebridge does not promote float32 tensors silently)"
+        )
 
 
 def _matrix_of(T: Any) -> Any:
@@ -63,8 +144,11 @@ class UncertainPose:
 
     Attributes
     ----------
-    T, cov : ndarray
-        Read-only copies, broadcast to one batch shape.
+    T, cov : ndarray, or the caller's torch/JAX array type
+        Read-only copies, broadcast to one batch shape. torch tensors and JAX arrays stay
+        arrays of their library, device and dtype (float32 or float64, the same for both; a
+        numpy argument beside a tensor is moved to it), with their autograd graph: new arrays,
+        never aliases of the caller's, but not read-only (docs/tensors.md).
     convention : Convention
 
     Notes
@@ -80,13 +164,15 @@ class UncertainPose:
     def __init__(self, T: Any, cov: Any, convention: ConventionLike) -> None:
         conv = get(convention)
         pose_convention(conv, "convention")  # before T is read as a 3×3 rotation
-        Ta = group_input(_matrix_of(T), "T")
+        T, cov = arrays.common(_matrix_of(T), cov)
+        Ta = element_input(T, "T")
         pose_convention(conv, "convention", Ta)
         n = 3 if Ta.shape[-1] == 3 else 6
         C = validate.covariance(cov, "cov", n)
-        shape = validate.batch_shape(("T", Ta.shape[:-2]), ("cov", C.shape[:-2]))
-        object.__setattr__(self, "T", _frozen(np.broadcast_to(Ta, (*shape, *Ta.shape[-2:]))))
-        object.__setattr__(self, "cov", _frozen(np.broadcast_to(C, (*shape, n, n))))
+        same_dtype(Ta, C, "cov", "T")
+        shape = validate.batch_shape(("T", tuple(Ta.shape[:-2])), ("cov", tuple(C.shape[:-2])))
+        object.__setattr__(self, "T", _frozen(_broadcast(Ta, (*shape, *Ta.shape[-2:]))))
+        object.__setattr__(self, "cov", _frozen(_broadcast(C, (*shape, n, n))))
         object.__setattr__(self, "convention", conv)
 
     def __setattr__(self, name: str, value: Any) -> None:
@@ -138,11 +224,19 @@ class UncertainPose:
 
         ``cov_dst = M cov Mᵀ``, ``M = tangent_map(T, self.convention, convention)``
         (``method="linear"``, exact when :func:`~liebridge.conventions.is_exactly_linear`), or
-        the unscented transform of :func:`~liebridge.conventions.convert_covariance`. ``T`` is
-        unchanged (the mean shift of a nonlinear change of chart is second order and dropped).
+        the unscented transform of :func:`~liebridge.conventions.convert_covariance` (numpy
+        only: ``TypeError`` on tensors). ``T`` is unchanged (the mean shift of a nonlinear change
+        of chart is second order and dropped).
         """
-        dst = get(convention)
-        pose_convention(dst, "convention", self.T)
+        dst = pose_convention(get(convention), "convention", self.T)
+        if method != "linear" and arrays.is_foreign(self.T):
+            raise TypeError(
+                f"UncertainPose.to: method={method!r} runs on numpy arrays only; torch and JAX "
+                "arrays take method='linear'"
+            )
+        if self.is_rotation and arrays.is_foreign(self.T) and method == "linear":
+            M = _map(self.T, self.convention, dst)  # the generic engine maps poses only
+            return UncertainPose(self.T, M @ self.cov @ arrays.mT(M), dst)
         cov = convert_covariance(self.cov, self.T, self.convention, dst, method=method)
         return UncertainPose(self.T, cov, dst)
 
@@ -178,11 +272,13 @@ class UncertainPoint:
     cov: FloatArray
 
     def __init__(self, p: Any, cov: Any) -> None:
+        p, cov = arrays.common(p, cov)
         pa = validate.vector(p, "p", 3)
         C = validate.covariance(cov, "cov", 3)
-        shape = validate.batch_shape(("p", pa.shape[:-1]), ("cov", C.shape[:-2]))
-        object.__setattr__(self, "p", _frozen(np.broadcast_to(pa, (*shape, 3))))
-        object.__setattr__(self, "cov", _frozen(np.broadcast_to(C, (*shape, 3, 3))))
+        same_dtype(pa, C, "cov", "p")
+        shape = validate.batch_shape(("p", tuple(pa.shape[:-1])), ("cov", tuple(C.shape[:-2])))
+        object.__setattr__(self, "p", _frozen(_broadcast(pa, (*shape, 3))))
+        object.__setattr__(self, "cov", _frozen(_broadcast(C, (*shape, 3, 3))))
 
     def __setattr__(self, name: str, value: Any) -> None:
         raise AttributeError(f"UncertainPoint is immutable (cannot set {name!r})")
