@@ -293,7 +293,7 @@ def main() -> int:
     ap.add_argument("--messages", type=int, default=1_400_000, help="bag_1gb: Odometry messages")
     args = ap.parse_args()
     if args.only == "bag_1gb":
-        with tempfile.TemporaryDirectory(dir=str(ROOT)) as d:
+        with tempfile.TemporaryDirectory() as d:
             res = {"bag_1gb": bench_bag_1gb(args.messages, Path(d))}
         print(json.dumps(res, indent=2))
         out = Path(args.out)
