@@ -30,6 +30,7 @@ coordinates ``exp``/``half_exp`` today); any other is refused by name when the f
 from __future__ import annotations
 
 import contextlib
+import importlib
 import inspect
 import weakref
 from collections.abc import Callable, Iterator, Sequence
@@ -107,15 +108,10 @@ class _Kernel:
 
     def _build(self) -> None:
         ref, conv, k, dim = self._residual, self.conv, self.k, self.dim
-        xp: Any
-        if self.backend == "jax":
-            import jax
-            import jax.numpy as xp
-
-            funcs: Any = jax
-        else:
-            import torch as xp
-            import torch.func as funcs
+        # the backend's namespace and transforms (imported by name: either may be absent)
+        name, fname = ("jax.numpy", "jax") if self.backend == "jax" else ("torch", "torch.func")
+        xp: Any = importlib.import_module(name)
+        funcs: Any = importlib.import_module(fname)
         vmap, jacfwd = funcs.vmap, funcs.jacfwd
 
         def value(X: Any, *data: Any) -> Any:
@@ -132,7 +128,7 @@ class _Kernel:
             return r, J
 
         if self.backend == "jax":
-            self._value, self._lin = jax.jit(vmap(value)), jax.jit(vmap(lin))
+            self._value, self._lin = funcs.jit(vmap(value)), funcs.jit(vmap(lin))
         else:
             self._value, self._lin = vmap(value), vmap(lin)
 
