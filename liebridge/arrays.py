@@ -249,6 +249,18 @@ def matrix(entries: Sequence[Any], rows: int, cols: int) -> Any:
     return xp.reshape(xp.stack(full, axis=-1), (*shape, rows, cols))
 
 
+def concat(xs: Sequence[Any], axis: int = 0) -> Any:
+    """Concatenate along ``axis`` (numpy ≥ 1.24 too, which spells it ``concatenate``)."""
+    xp = namespace(*xs)
+    return np.concatenate(xs, axis=axis) if xp is np else xp.concat(list(xs), axis=axis)
+
+
+def atan2(y: Any, x: Any) -> Any:
+    """``atan2(y, x)`` element-wise (numpy ≥ 1.24 too, which spells it ``arctan2``)."""
+    xp = namespace(y, x)
+    return np.arctan2(y, x) if xp is np else xp.atan2(y, x)
+
+
 def vector(entries: Sequence[Any]) -> Any:
     """Return the ``(..., n)`` vector of ``entries`` (batch arrays), like :func:`matrix`."""
     return matrix(entries, 1, len(entries))[..., 0, :]
@@ -259,11 +271,8 @@ def blocks(grid: Sequence[Sequence[Any]]) -> Any:
     flat = [b for row in grid for b in row]
     xp = namespace(*flat)
     batch = tuple(np.broadcast_shapes(*(tuple(b.shape[:-2]) for b in flat)))
-    rows = [
-        xp.concat([xp.broadcast_to(b, (*batch, *b.shape[-2:])) for b in row], axis=-1)
-        for row in grid
-    ]
-    return xp.concat(rows, axis=-2)
+    rows = [concat([xp.broadcast_to(b, (*batch, *b.shape[-2:])) for b in row], -1) for row in grid]
+    return concat(rows, -2)
 
 
 def mT(A: Any) -> Any:

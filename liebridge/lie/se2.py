@@ -85,7 +85,7 @@ def _vinv(th: FloatArray) -> tuple[FloatArray, FloatArray]:
 
 
 def _log(T: FloatArray) -> FloatArray:
-    th = arrays.namespace(T).atan2(T[..., 1, 0], T[..., 0, 0])
+    th = arrays.atan2(T[..., 1, 0], T[..., 0, 0])
     p, q = _vinv(th)
     tx, ty = T[..., 0, 2], T[..., 1, 2]
     return arrays.vector([p * tx + q * ty, -q * tx + p * ty, th])

@@ -84,7 +84,7 @@ def _log(X: FloatArray) -> FloatArray:
     w = so3._log(X[..., :3, :3])
     Ji = so3._jl_inv(w)
     parts = [w, _mv(Ji, X[..., :3, 3]), _mv(Ji, X[..., :3, 4])]
-    return arrays.namespace(*parts).concat(parts, axis=-1)
+    return arrays.concat(parts, -1)
 
 
 def _inverse(X: FloatArray) -> FloatArray:

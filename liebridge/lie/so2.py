@@ -48,7 +48,7 @@ def _exp(w: FloatArray) -> FloatArray:
 
 
 def _log(R: FloatArray) -> FloatArray:
-    return arrays.namespace(R).atan2(R[..., 1, 0], R[..., 0, 0])[..., None]
+    return arrays.atan2(R[..., 1, 0], R[..., 0, 0])[..., None]
 
 
 def _inverse(R: FloatArray) -> FloatArray:

@@ -217,7 +217,7 @@ def _g_retract(c: Convention, X: Any, d: Any) -> Any:
         return unchecked.retract(c, X, d)
     xp = arrays.namespace(d)
     z = xp.zeros_like(d)
-    d6 = xp.concat([d, z] if c.order == "rot_first" else [z, d], axis=-1)
+    d6 = arrays.concat([d, z] if c.order == "rot_first" else [z, d], -1)
     return unchecked.retract(c, _embedded(X), d6)[..., :3, :3]
 
 

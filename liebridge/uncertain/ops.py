@@ -87,7 +87,7 @@ def _cat(parts: list[Any], axis: int = -1) -> Any:
     """Concatenate in the parts' own namespace (numpy's ``concatenate``, else ``concat``)."""
     if not arrays.any_foreign(*parts):
         return np.concatenate(parts, axis=axis)
-    return arrays.namespace(*parts).concat(parts, axis=axis)
+    return arrays.concat(parts, axis)
 
 
 def _f64(X: Any) -> Any:
