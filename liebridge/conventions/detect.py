@@ -169,16 +169,15 @@ def detect_convention(
         raise ConventionNotDetected(
             f"retract(X, 0) != X (max |diff| {np.abs(Y0 - X).max():.3g}): not a retraction"
         )
-    best: tuple[float, Convention | None] = (np.inf, None)
+    scored: list[tuple[float, Convention]] = []
     for cand in _candidates(g):
         try:
-            err = float(np.abs(cand._retract(X, D) - Y).max())
+            scored.append((float(np.abs(cand._retract(X, D) - Y).max()), cand))
         except ValueError:
             continue
-        if err < best[0]:
-            best = (err, cand)
-    err, found = best
-    if found is None or err > tol * max(1.0, float(np.abs(Y).max())):
+    err, found = min(scored, key=lambda t: t[0], default=(np.inf, None))
+    limit = tol * max(1.0, float(np.abs(Y).max()))
+    if found is None or err > limit:
         canon = Convention(  # the group's canonical tangent: right, its order, its exp
             "canonical",
             "right",
@@ -200,9 +199,19 @@ def detect_convention(
             f"d(GTSAM local)/dd at the probe pose:\n{np.array2string(M, precision=4)}\n"
             f"closest: {found.describe() if found else 'none'} with max mismatch {err:.3g}"
         )
-    cand = found
+    # Every candidate within the tolerance reproduces the retraction: in a group where two
+    # differ by rounding only (SO(2)'s increments commute: left ≡ right), the smallest mismatch
+    # is decided by the BLAS kernel's rounding. Take the first, in the model's order, that a
+    # registered preset names; else the closest.
     rotation_group = not g.vecs and g.scale is None and g.rot_dim == 3
-    matches = matches_so3(cand) if rotation_group else matching_presets(cand)
+    cand, matches = found, []
+    for e, c in scored:
+        if e > limit:
+            continue
+        named = matches_so3(c) if rotation_group else matching_presets(c)
+        if named:
+            cand, matches = c, named
+            break
     if prefer is not None:
         p = get(prefer)
         if p in matches:
