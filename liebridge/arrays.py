@@ -234,13 +234,14 @@ def matrix(entries: Sequence[Any], rows: int, cols: int) -> Any:
     stack them (no in-place write, so autograd and tracing see one expression).
     """
     arrays = [e for e in entries if not isinstance(e, (int, float))]
-    xp = namespace(*arrays)
-    if xp is np:
-        shape = np.broadcast_shapes(*(np.shape(e) for e in entries))
+    if not any_foreign(*arrays):  # numpy: the kernels' blocks call this in loops, keep it lean
+        shapes = {np.shape(e) for e in arrays}
+        shape = shapes.pop() if len(shapes) == 1 else np.broadcast_shapes(*shapes, ())
         out = np.empty((*shape, rows, cols))
         for k, e in enumerate(entries):
             out[..., k // cols, k % cols] = e
         return out
+    xp = namespace(*arrays)
     ref = arrays[0]
     shape = tuple(np.broadcast_shapes(*(tuple(a.shape) for a in arrays)))
     full = [
