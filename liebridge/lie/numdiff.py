@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from .. import _validate as validate
+from .. import arrays
 from .._validate import FloatArray
 
 Retract = Callable[[Any, FloatArray], Any]
@@ -20,6 +21,8 @@ Local = Callable[[Any, Any], Any]
 
 
 def _euclidean_local(y0: Any, y: Any) -> FloatArray:
+    if arrays.any_foreign(y0, y):
+        return y - y0
     return np.asarray(y, dtype=np.float64) - np.asarray(y0, dtype=np.float64)
 
 
@@ -31,7 +34,7 @@ _DEFAULT_DIM = {2: 1, 3: 3, 4: 6, 5: 9}
 
 
 def _tangent_dim(x: FloatArray) -> int:
-    if x.ndim >= 2 and x.shape[-2:] in _GROUP_SHAPES:
+    if x.ndim >= 2 and tuple(x.shape[-2:]) in _GROUP_SHAPES:
         return _DEFAULT_DIM[x.shape[-1]]
     return int(x.shape[-1])
 
@@ -59,16 +62,23 @@ def central_differences(
     6, 9 for ``(2, 2)`` … ``(5, 5)`` group elements, else the last axis; pass 7 for Sim(3)) and
     ``eps`` the step.
 
+    On a torch/JAX ``x`` the same formula runs in its namespace (no writes: the steps are rows of
+    the identity), and the result is of ``x``'s array type, differentiable.
+
     Returns
     -------
-    ndarray, shape (..., m, dim)
+    ndarray (or ``x``'s array type), shape (..., m, dim)
     """
-    x_arr = validate.as_float_array(x, "x")  # a library pose/rotation object too
+    foreign = arrays.is_foreign(x)
+    if foreign:  # float32/float64, finite (a 0-d array: the vector error below)
+        x_arr = validate.vector(x, "x", int(x.shape[-1])) if x.ndim >= 1 else x
+    else:
+        x_arr = validate.as_float_array(x, "x")  # a library pose/rotation object too
     if retract is None:
         # Euclidean input: always a batch of vectors, even when shaped (..., 3, 3) or (..., 4, 4)
         if x_arr.ndim < 1:
             raise ValueError("x: a vector input needs shape (..., n)")
-        n, batch = x_arr.shape[-1], x_arr.shape[:-1]
+        n, batch = int(x_arr.shape[-1]), tuple(x_arr.shape[:-1])
         if dim is not None and dim != n:
             raise ValueError(f"dim: {dim} does not match the vector length {n} of x")
     else:
@@ -76,9 +86,9 @@ def central_differences(
         square = x_arr.ndim >= 2 and x_arr.shape[-2] == x_arr.shape[-1]
         # a square matrix is a group element when its size is a group's, or when the tangent
         # size differs from its last axis (then it cannot be a batch of vectors: a bundle)
-        group = square and (x_arr.shape[-2:] in _GROUP_SHAPES or n != x_arr.shape[-1])
-        batch = x_arr.shape[:-2] if group else x_arr.shape[:-1]
-    ret: Retract = retract if retract is not None else (lambda a, d: np.asarray(a) + d)
+        group = square and (tuple(x_arr.shape[-2:]) in _GROUP_SHAPES or n != x_arr.shape[-1])
+        batch = tuple(x_arr.shape[:-2] if group else x_arr.shape[:-1])
+    ret: Retract = retract if retract is not None else (lambda a, d: a + d)
     if out_local is None:
         out: Local = local if local is not None else _euclidean_local
     elif isinstance(out_local, str):
@@ -87,12 +97,20 @@ def central_differences(
         out = _euclidean_local
     else:
         out = out_local
+
+    def read(y: Any) -> Any:  # the output's local coordinates, in x's array type
+        v = out(y0, y)
+        if foreign:
+            return (
+                v if arrays.is_foreign(v) else arrays.like(np.asarray(v, dtype=np.float64), x_arr)
+            )
+        return np.asarray(v, dtype=np.float64)
+
     y0 = f(x_arr)
+    E = arrays.eye(n, x_arr) if foreign else np.eye(n)
+    xp = arrays.namespace(x_arr)
     cols = []
     for j in range(n):
-        d = np.zeros((*batch, n))
-        d[..., j] = eps
-        plus = np.asarray(out(y0, f(ret(x_arr, d))), dtype=np.float64)
-        minus = np.asarray(out(y0, f(ret(x_arr, -d))), dtype=np.float64)
-        cols.append((plus - minus) / (2.0 * eps))
-    return np.stack(cols, axis=-1)
+        d = xp.broadcast_to(eps * E[j, :], (*batch, n))
+        cols.append((read(f(ret(x_arr, d))) - read(f(ret(x_arr, -d)))) / (2.0 * eps))
+    return xp.stack(cols, axis=-1)
