@@ -318,6 +318,38 @@ def test_conversions_same_values(B: Backend, src: str, dst: str, shape: tuple[in
         np.testing.assert_allclose(B.check(out), ref, atol=1e-11 * max(1.0, np.abs(ref).max()))
 
 
+SE3_TENSOR_CONVENTIONS = [n for n in TENSOR_CONVENTIONS if lb.conventions.get(n).group == "se3"]
+
+
+@pytest.mark.parametrize("shape", SHAPES, ids=str)
+@pytest.mark.parametrize("name", SE3_TENSOR_CONVENTIONS)
+def test_se3_convention_on_a_bare_rotation_same_values(
+    B: Backend, name: str, shape: tuple[int, ...]
+) -> None:
+    """An SE(3) convention given rotations ``(..., 3, 3)`` acts as its SO(3) part, as on numpy."""
+    c = lb.conventions.get(name)
+    assert isinstance(c, Convention)
+    R = _batch(so3.exp(_rotvecs()), shape, 2)
+    assert c.dim(B(R)) == 3
+    d = 0.3 * _batch(np.random.default_rng(5).normal(size=(12, 3)), shape, 1)
+    S = c.retract(R, d)
+    C = np.broadcast_to(np.diag([0.1, 0.2, 0.3]), (*shape, 3, 3))
+    cases = [
+        (c.retract(B(R), B(d)), S),
+        (c.local(B(R), B(S)), c.local(R, S)),
+        (c.local_jacobian(B(R), B(S)), c.local_jacobian(R, S)),
+        (c.to_canonical(B(R)), c.to_canonical(R)),
+        (c.from_canonical(B(R)), c.from_canonical(R)),
+        (lb.tangent_map(B(R), name, "barfoot"), lb.tangent_map(R, name, "barfoot")),
+        (
+            lb.convert_covariance(B(C), B(R), "gtsam", name),
+            lb.convert_covariance(C, R, "gtsam", name),
+        ),
+    ]
+    for out, ref in cases:
+        np.testing.assert_allclose(B.check(out), ref, atol=1e-11 * max(1.0, np.abs(ref).max()))
+
+
 def test_mixed_arguments_take_the_tensor_type(x64: None) -> None:
     torch = pytest.importorskip("torch")
     X = se3.exp(_twists()[:4])

@@ -54,7 +54,7 @@ from .._validate import FloatArray
 from ..lie import GROUPS, Group
 from . import se3_engine as _se3_engine  # noqa: F401  (registers SE(3)/SO(3)'s fast engine)
 from .chart import Chart
-from .engine import RECORD_ENGINE, Engine, engine_for
+from .engine import Engine, engine_for
 from .rotation_coords import EULER_COORDS, FIRST_ORDER_SCALE, ROTATION_COORDS
 from .se3_engine import group_input
 from .stored_inverse import STORES, engine_storing
@@ -204,10 +204,11 @@ class Convention(Chart):
         """Return the engine for these inputs.
 
         numpy: the group's (its fast implementation where it has one); torch/JAX arrays: the
-        record-driven one, written array-generically.
+        group's engine for tensors (:meth:`Engine.for_tensors`: the record-driven one, written
+        array-generically, or a group's own).
         """
         if arrays.any_foreign(*xs):
-            return engine_storing(RECORD_ENGINE, self.stores)
+            return engine_storing(engine_for(self.group).for_tensors(), self.stores)
         return self._eng
 
     def __getstate__(self) -> dict[str, Any]:

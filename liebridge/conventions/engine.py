@@ -40,6 +40,10 @@ class Engine:
     #: into each other on rotations), with the closed-form tangent-map grids.
     rotations_3d = False
 
+    def for_tensors(self) -> Engine:
+        """Return the engine of this group's conventions on torch/JAX arrays (the record's)."""
+        return RECORD_ENGINE
+
     def check(self, conv: Convention, g: Group) -> None:
         """Raise ``ValueError`` for field combinations this engine cannot run."""
         if conv.embed is not None and len(conv.embed.index) != g.dim:

@@ -16,10 +16,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .. import _validate as validate
+from .. import arrays
 from .._validate import FloatArray
 from ..lie import Group, se3, so3
 from ..lie import unchecked as U
-from .engine import Engine, register_fast
+from .engine import RECORD_ENGINE, Engine, register_fast
 from .rotation_coords import (
     d_from_rotation,
     euler_local,
@@ -42,8 +43,9 @@ def _is_so3(X: FloatArray) -> bool:
 
 def group_input(X: Any, name: str = "X") -> FloatArray:
     """Validate ``X`` as a pose ``(..., 4, 4)`` or a rotation ``(..., 3, 3)``."""
-    arr = validate.as_float_array(X, name)
-    shape = arr.shape[-2:]
+    X = arrays.unwrap(X, name)
+    arr = X if arrays.is_foreign(X) else validate.as_float_array(X, name)
+    shape = tuple(arr.shape[-2:])
     if shape == (4, 4):
         return validate.checked_pose(arr, name)
     if shape == (3, 3):
@@ -51,6 +53,11 @@ def group_input(X: Any, name: str = "X") -> FloatArray:
     raise ValueError(
         f"{name}: expected a pose (..., 4, 4) or a rotation (..., 3, 3), got {arr.shape}"
     )
+
+
+def _shape(X: Any) -> tuple[int, ...]:
+    X = arrays.unwrap(X, "X")
+    return tuple(X.shape) if arrays.is_foreign(X) else validate.as_float_array(X, "X").shape
 
 
 def _split(conv: Convention, d: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -78,6 +85,7 @@ class SE3Engine(Engine):
     def __init__(self, group: Group) -> None:
         self.group = group
         self.rotation_only = not group.vecs
+        self._tensors = SE3TensorEngine(self)
 
     def check(self, conv: Convention, g: Group) -> None:
         """SE(3)'s own rules: no embedding (the other groups use it)."""
@@ -88,7 +96,7 @@ class SE3Engine(Engine):
         """6 for a pose, 3 for a rotation (an SE(3) convention given a rotation: 3)."""
         if self.rotation_only:
             return 3
-        if X is not None and validate.as_float_array(X, "X").shape[-2:] == (3, 3):
+        if X is not None and _shape(X)[-2:] == (3, 3):
             return 3
         return 6
 
@@ -203,6 +211,10 @@ class SE3Engine(Engine):
             J = np.concatenate([J[..., :, 3:], J[..., :, :3]], axis=-1)
         return np.asarray(J, dtype=np.float64)
 
+    def for_tensors(self) -> Engine:
+        """:class:`SE3TensorEngine`: this group's conventions on torch/JAX arrays."""
+        return self._tensors
+
     # ----------------------------------------------------------------- first-order maps
     @staticmethod
     def _euler_base(conv: Convention) -> tuple[Convention, slice]:
@@ -243,6 +255,82 @@ class SE3Engine(Engine):
             M = canonical_tangent_map(base, "from", so3_)(X)
             return np.asarray(self._euler_D(conv, X, True) @ M, dtype=np.float64)
         return canonical_tangent_map(conv, "from", so3_)(X)
+
+
+def _so3_twin(conv: Convention) -> Convention:
+    """Return the SO(3) convention an SE(3) one is on a bare rotation (same side, coordinates)."""
+    twin = _TWINS.get(conv._key)
+    if twin is None:
+        twin = replace(conv, name=f"{conv.name}_so3", group="so3", stores="pose")
+        _TWINS[conv._key] = twin
+    return twin
+
+
+_TWINS: dict[tuple[str, str, str, str], Convention] = {}
+
+
+class SE3TensorEngine(Engine):
+    """SE(3)/SO(3) conventions on torch and JAX arrays.
+
+    The record-driven formulas (array-generic) for retractions and local coordinates, the
+    closed-form grids of :mod:`~liebridge.conventions.tangent_maps` for the first-order maps (the
+    same maps, block by block: no dense product, no permutation pass), and, as on numpy, an
+    SE(3) convention given a rotation ``(..., 3, 3)`` acting as its SO(3) part.
+    """
+
+    euler = True
+    embed = False
+    rotations_3d = True
+
+    def __init__(self, fast: SE3Engine) -> None:
+        self.fast = fast
+
+    def check(self, conv: Convention, g: Group) -> None:
+        """SE(3)'s own rules (:meth:`SE3Engine.check`)."""
+        self.fast.check(conv, g)
+
+    def dim(self, conv: Convention, X: Any = None) -> int:
+        """6 for a pose, 3 for a rotation."""
+        return self.fast.dim(conv, X)
+
+    def element(self, conv: Convention, X: Any, name: str) -> FloatArray:
+        """Validate a pose or a rotation on its device (:func:`group_input`)."""
+        return self.fast.element(conv, X, name)
+
+    def pair(self, conv: Convention, X: Any, Y: Any) -> tuple[FloatArray, FloatArray]:
+        """Two elements of the same kind with broadcastable batch shapes."""
+        return self.fast.pair(conv, X, Y)
+
+    def increment(self, conv: Convention, d: Any, so3: bool, name: str) -> FloatArray:
+        """Validate an increment (:meth:`SE3Engine.increment`)."""
+        return self.fast.increment(conv, d, so3, name)
+
+    def _conv(self, conv: Convention, X: FloatArray) -> Convention:
+        return _so3_twin(conv) if _is_so3(X) and not self.fast.rotation_only else conv
+
+    def retract(self, conv: Convention, X: FloatArray, d: FloatArray) -> FloatArray:
+        """Retract by the record-driven formula."""
+        return RECORD_ENGINE.retract(self._conv(conv, X), X, d)
+
+    def local(self, conv: Convention, X: FloatArray, Y: FloatArray) -> FloatArray:
+        """Return the record-driven local coordinates."""
+        return RECORD_ENGINE.local(self._conv(conv, X), X, Y)
+
+    def local_jacobian(self, conv: Convention, X: FloatArray, Y: FloatArray) -> FloatArray:
+        """Return the record-driven ``∂ local(X, retract(Y, δ)) / ∂δ``."""
+        return RECORD_ENGINE.local_jacobian(self._conv(conv, X), X, Y)
+
+    def to_canonical(self, conv: Convention, X: FloatArray) -> FloatArray:
+        """Return the closed-form grid's map (Euler coordinates: the record-driven one)."""
+        if conv.is_euler:
+            return RECORD_ENGINE.to_canonical(self._conv(conv, X), X)
+        return canonical_tangent_map(conv, "to", _is_so3(X))(X)
+
+    def from_canonical(self, conv: Convention, X: FloatArray) -> FloatArray:
+        """Inverse of :meth:`to_canonical`."""
+        if conv.is_euler:
+            return RECORD_ENGINE.from_canonical(self._conv(conv, X), X)
+        return canonical_tangent_map(conv, "from", _is_so3(X))(X)
 
 
 register_fast(se3.GROUP, SE3Engine(se3.GROUP))

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .. import arrays
 from .._validate import FloatArray
 
 if TYPE_CHECKING:
@@ -87,8 +88,16 @@ def _grid_table(grid: _Grid, so3: bool) -> FloatArray:
 
 
 def _hat_t_R(X: FloatArray) -> FloatArray:
-    """``hat(t)·R`` of poses; ``vec(hat(t)) = t @ _HAT`` (one small product, then one more)."""
+    """``hat(t)·R`` of poses; ``vec(hat(t)) = t @ _HAT`` (one small product, then one more).
+
+    torch/JAX: column ``j`` is ``t × R[:, j]`` (the same products and sums, one cross product
+    instead of assembling ``hat(t)`` and a batched 3×3 product).
+    """
     t = X[..., :3, 3]
+    if arrays.is_foreign(X):
+        xp = arrays.namespace(X)
+        Rt = arrays.mT(X[..., :3, :3])
+        return arrays.mT(xp.linalg.cross(xp.broadcast_to(t[..., None, :], Rt.shape), Rt))
     return np.asarray((t @ _HAT).reshape((*t.shape[:-1], 3, 3)) @ X[..., :3, :3])
 
 
@@ -139,6 +148,8 @@ class _GridMap:
     def __call__(self, X: FloatArray) -> FloatArray:
         b = X.shape[:-2]
         n = self.n
+        if arrays.is_foreign(X):
+            return self._blocks_of(X)
         if self.kind == "const":
             out = np.empty((*b, n, n))
             out[...] = self.const
@@ -182,6 +193,34 @@ class _GridMap:
                         dst += src
         return out
 
+    def _blocks_of(self, X: FloatArray) -> FloatArray:
+        """:meth:`_blockwise` for torch/JAX: the blocks, then one assembly (no in-place write)."""
+        b = tuple(X.shape[:-2])
+        R = X if self.so3 else X[..., :3, :3]
+        tR: FloatArray | None = None
+        grid = []
+        for row in self.grid:
+            out_row = []
+            for block in row:
+                acc: FloatArray | None = None
+                for prim, coef in block:
+                    if prim == "I":
+                        src: FloatArray = coef * arrays.eye(3, X, b)
+                    else:
+                        if prim == "R":
+                            src = R
+                        elif prim == "Rt":
+                            src = arrays.mT(R)
+                        else:
+                            tR = _hat_t_R(X) if tR is None else tR
+                            src = tR if prim == "tR" else arrays.mT(tR)
+                        if coef != 1.0:
+                            src = coef * src
+                    acc = src if acc is None else acc + src
+                out_row.append(arrays.zeros((*b, 3, 3), X) if acc is None else acc)
+            grid.append(out_row)
+        return arrays.blocks(grid)
+
 
 class _ProductMap:
     """``G(X) = A(X) @ B(X)`` for two maps that both depend on ``X``."""
@@ -192,7 +231,8 @@ class _ProductMap:
         self.A, self.B = A, B
 
     def __call__(self, X: FloatArray) -> FloatArray:
-        return np.asarray(self.A(X) @ self.B(X), dtype=np.float64)
+        M = self.A(X) @ self.B(X)
+        return M if arrays.is_foreign(M) else np.asarray(M, dtype=np.float64)
 
 
 def _add_term(terms: dict[str, float], prim: str, coef: float) -> None:

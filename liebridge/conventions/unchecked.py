@@ -65,7 +65,6 @@ def tangent_map(X: FloatArray, src: Chart, dst: Chart) -> FloatArray:
         and src._engine.rotations_3d
         and dst._engine.rotations_3d
         and not (src.is_euler or dst.is_euler)
-        and not arrays.is_foreign(X)
     ):
         return pair_tangent_map(src, dst, X.shape[-1] == 3)(X)
     # the maps to and from the canonical tangent (one of them I: skipped)
