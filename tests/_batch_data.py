@@ -84,3 +84,10 @@ def write_manifest(path: Path, rows: list[dict[str, str]]) -> None:
         fh.write(",".join(cols) + "\n")
         for r in rows:
             fh.write(",".join(r.get(c, "") for c in cols) + "\n")
+
+
+def environment_job(names: str) -> dict[str, str]:
+    """A job that reports its worker's environment (picklable by reference: a module function)."""
+    import os
+
+    return {k: os.environ.get(k, "") for k in names.split(",")}

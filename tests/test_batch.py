@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from _batch_data import BROKEN, make_fleet, make_pair, trajectory, write_manifest
+from _batch_data import BROKEN, environment_job, make_fleet, make_pair, trajectory, write_manifest
 
 import liebridge as lb
 from liebridge import batch
@@ -263,6 +263,17 @@ def test_engines_give_identical_tables(fleet, tmp_path):
     csv_s = (tmp_path / "serial.csv").read_text().splitlines()
     csv_p = (tmp_path / "procs.csv").read_text().splitlines()
     assert csv_s[0] == csv_p[0] and len(csv_s) == len(jobs) + 1
+
+
+def test_process_workers_get_one_blas_thread_and_the_callers_env_wins(monkeypatch):
+    """Two workers with two BLAS threads each oversubscribe two cores: one each, as dask's."""
+    monkeypatch.delenv("OPENBLAS_NUM_THREADS", raising=False)
+    monkeypatch.setenv("OMP_NUM_THREADS", "3")  # the caller's own setting is kept
+    names = "OPENBLAS_NUM_THREADS,OMP_NUM_THREADS"
+    rows = [r for _, r in batch.map_jobs(environment_job, [{"names": names}] * 2,
+                                         engine="processes", workers=2)]  # fmt: skip
+    assert rows == [{"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "3"}] * 2
+    assert "OPENBLAS_NUM_THREADS" not in __import__("os").environ  # the parent's is restored
 
 
 def test_a_rerun_after_interruption_computes_only_what_is_missing(fleet, tmp_path):

@@ -11,16 +11,30 @@ tagged with their index.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import warnings
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
-__all__ = ["CONNECT_TIMEOUT", "ENGINES", "close_quietly", "local_cluster", "map_jobs"]
+__all__ = [
+    "CONNECT_TIMEOUT",
+    "ENGINES",
+    "WORKER_ENV",
+    "close_quietly",
+    "local_cluster",
+    "map_jobs",
+]
 
 #: Engines by name.
 ENGINES: tuple[str, ...] = ("serial", "processes", "dask")
+
+#: Environment of the ``processes`` engine's workers where the caller's has not set it: one
+#: BLAS/OpenMP thread per worker process (the workers are the parallelism; more threads per
+#: worker oversubscribe the cores). The same values dask puts into its workers' environment.
+WORKER_ENV: dict[str, str] = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
+                              "OPENBLAS_NUM_THREADS": "1"}  # fmt: skip
 
 #: Seconds a ``Client(address)`` waits for a scheduler before failing (dask's own default: 30).
 CONNECT_TIMEOUT = 10.0
@@ -60,6 +74,8 @@ def map_jobs(
     jobs : sequence of dict
         Keyword arguments of each call (plain data: str, numbers, bool, None).
     engine : {"serial", "processes", "dask"}
+        ``processes`` workers get one BLAS/OpenMP thread each (:data:`WORKER_ENV`, where the
+        caller's environment does not set those variables), as dask's workers do.
     workers : int, optional
         Pool size for ``processes`` (default ``os.cpu_count()``) and the number of workers of
         the ``LocalCluster`` that ``dask`` starts when no ``scheduler`` is given (default 2,
@@ -109,7 +125,9 @@ def _processes(
         max_workers=min(workers, len(jobs)), mp_context=multiprocessing.get_context("spawn")
     )
     try:
-        futures = {pool.submit(_call, func, i, job): i for i, job in enumerate(jobs)}
+        # the workers are spawned by the submissions and take the environment of that moment
+        with _environment(WORKER_ENV):
+            futures = {pool.submit(_call, func, i, job): i for i, job in enumerate(jobs)}
         for fut in as_completed(futures):
             i = futures.pop(fut)
             try:
@@ -118,6 +136,19 @@ def _processes(
                 yield i, _lost(jobs[i], exc)
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
+
+
+@contextlib.contextmanager
+def _environment(defaults: dict[str, str]) -> Iterator[None]:
+    """Set the variables of ``defaults`` that ``os.environ`` lacks; restore it afterwards."""
+    added = [k for k in defaults if k not in os.environ]
+    for k in added:
+        os.environ[k] = defaults[k]
+    try:
+        yield
+    finally:
+        for k in added:
+            os.environ.pop(k, None)
 
 
 def _import_distributed() -> Any:
