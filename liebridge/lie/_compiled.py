@@ -63,3 +63,14 @@ def run(op: int, x: object) -> FloatArray | None:
     out = np.empty((*x.shape[: x.ndim - k], *core))
     r = _lie_ext.kernel(op, x, out, _COEF, SMALL_ANGLE, validate.ROTATION_TOL, _MAX_COMPONENT)
     return out if r == -1 else None
+
+
+def run_any_layout(op: int, x: object) -> FloatArray | None:
+    """:func:`run` on a numpy array of any memory layout (a C-contiguous copy where needed).
+
+    For the unchecked kernels: the result then does not depend on whether the caller passed a
+    batch or a slice of one (the compiled and the numpy pass agree to rounding, not bit for bit).
+    """
+    if type(x) is not np.ndarray:
+        return None
+    return run(op, np.ascontiguousarray(x))

@@ -121,11 +121,13 @@ def _blocked(
 
 
 def _exp(xi: FloatArray) -> FloatArray:
-    return _blocked(_exp_block, xi, 1, (4, 4))
+    out = _compiled.run_any_layout(_compiled.SE3_EXP, xi)
+    return out if out is not None else _blocked(_exp_block, xi, 1, (4, 4))
 
 
 def _log(T: FloatArray) -> FloatArray:
-    return _blocked(_log_block, T, 2, (6,))
+    out = _compiled.run_any_layout(_compiled.SE3_LOG, T)
+    return out if out is not None else _blocked(_log_block, T, 2, (6,))
 
 
 def _exp_block(xi: FloatArray) -> FloatArray:

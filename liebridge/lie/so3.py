@@ -84,6 +84,9 @@ def _poly(w: FloatArray, a: FloatArray | float, b: FloatArray) -> FloatArray:
 
 
 def _exp(w: FloatArray) -> FloatArray:
+    out = _compiled.run_any_layout(_compiled.SO3_EXP, w)
+    if out is not None:  # the compiled pass of the same formula, where built
+        return out
     th, t2 = angle(w)
     return _poly(w, sinc(th, t2), one_minus_cos_over_t2(th, t2))
 
@@ -173,6 +176,9 @@ def _axis_near_pi(
 
 
 def _log(R: FloatArray) -> FloatArray:
+    out = _compiled.run_any_layout(_compiled.SO3_LOG, R)
+    if out is not None:  # the compiled pass of the same formula, where built
+        return out
     # s = vee((R − Rᵀ)/2) = sin θ · u and c = (tr R − 1)/2 = cos θ, as batch-length vectors
     s0 = 0.5 * (R[..., 2, 1] - R[..., 1, 2])
     s1 = 0.5 * (R[..., 0, 2] - R[..., 2, 0])
