@@ -187,7 +187,7 @@ def _ad(xi: np.ndarray) -> np.ndarray:
 
 
 def _phi_mp(A: np.ndarray) -> np.ndarray:
-    """``φ(A) = Σ Aᵏ/(k+1)!`` in 40-digit arithmetic (top-right block of ``expm([[A, I], [0, 0]])``)."""
+    """``φ(A) = Σ Aᵏ/(k+1)!`` in 40 digits: the top-right block of ``expm([[A, I], [0, 0]])``."""
     mp = pytest.importorskip("mpmath")
     with mp.workdps(40):
         n = A.shape[0]
@@ -275,9 +275,7 @@ SIM3_CONVENTIONS = [
 
 
 def test_the_sim3_conventions() -> None:
-    assert {"gtsam_similarity3", "sophus_sim3", "pypose_sim3", "g2o_sim3"} <= set(
-        SIM3_CONVENTIONS
-    )
+    assert {"gtsam_similarity3", "sophus_sim3", "pypose_sim3", "g2o_sim3"} <= set(SIM3_CONVENTIONS)
 
 
 @pytest.mark.parametrize("shape", SHAPES, ids=str)
@@ -366,7 +364,7 @@ def test_jax_check_grads(fn: str, point: str, x64: None) -> None:
 
 
 def test_gradient_of_log_exp_at_the_identity_is_the_identity(x64: None) -> None:
-    """``d/dξ log(exp(ξ))`` at ξ = 0 is I₇ (finite: no ``‖ω‖`` derivative, no ``expm1(λ)/λ`` at 0)."""
+    """``d/dξ log(exp(ξ))`` at ξ = 0 is I₇: no NaN of ``‖ω‖``'s derivative or ``expm1(λ)/λ``."""
     torch = pytest.importorskip("torch")
     J = torch.autograd.functional.jacobian(
         lambda x: sim3.log(sim3.exp(x)), torch.zeros(7, dtype=torch.float64)
@@ -385,13 +383,14 @@ def test_jax_jit_and_vmap(x64: None) -> None:
     jax = pytest.importorskip("jax")
     X = sim3.exp(XI[:6])
     C = np.broadcast_to(np.diag([1e-3, 2e-3, 3e-3, 0.1, 0.2, 0.3, 0.01]), (6, 7, 7))
-    ref = lb.convert_covariance(C, X, "gtsam_similarity3", "sophus_sim3")
-    f = jax.jit(lambda C, X: lb.convert_covariance(C, X, "gtsam_similarity3", "sophus_sim3"))
-    np.testing.assert_allclose(np.asarray(f(C, X)), ref, atol=1e-14)
-    g = jax.jit(
-        jax.vmap(lambda C, X: lb.convert_covariance(C, X, "gtsam_similarity3", "sophus_sim3"))
-    )
-    np.testing.assert_allclose(np.asarray(g(C, X)), ref, atol=1e-14)
+    ref = lb.convert_covariance(C, X, "gtsam_similarity3", "pypose_sim3")
+    tol = 1e-14 * float(np.abs(ref).max())
+
+    def conv(C: Any, X: Any) -> Any:
+        return lb.convert_covariance(C, X, "gtsam_similarity3", "pypose_sim3")
+
+    np.testing.assert_allclose(np.asarray(jax.jit(conv)(C, X)), ref, atol=tol)
+    np.testing.assert_allclose(np.asarray(jax.jit(jax.vmap(conv))(C, X)), ref, atol=tol)
     for f1, x in [(sim3.exp, XI), (sim3.jl_inv, XI), (sim3.log, sim3.exp(XI))]:
         _close(np.asarray(jax.jit(f1)(x)), f1(x))
 
@@ -400,11 +399,9 @@ def test_torch_compile() -> None:
     torch = pytest.importorskip("torch")
     X = torch.tensor(sim3.exp(XI[:6]))
     C = torch.diag(torch.tensor([1e-3, 2e-3, 3e-3, 0.1, 0.2, 0.3, 0.01], dtype=torch.float64))
-    f = torch.compile(lambda C, X: lb.convert_covariance(C, X, "gtsam_similarity3", "sophus_sim3"))
-    ref = lb.convert_covariance(C.numpy(), X.numpy(), "gtsam_similarity3", "sophus_sim3")
-    np.testing.assert_allclose(f(C, X).numpy(), ref, atol=1e-14)
-    xi = torch.tensor(XI[:6])
-    np.testing.assert_allclose(torch.compile(sim3.jl)(xi).numpy(), sim3.jl(XI[:6]), atol=1e-11)
+    f = torch.compile(lambda C, X: lb.convert_covariance(C, X, "gtsam_similarity3", "pypose_sim3"))
+    ref = lb.convert_covariance(C.numpy(), X.numpy(), "gtsam_similarity3", "pypose_sim3")
+    np.testing.assert_allclose(f(C, X).numpy(), ref, atol=1e-14 * float(np.abs(ref).max()))
 
 
 # ----------------------------------------------------------------------------- errors

@@ -251,7 +251,7 @@ def _coeffs(th: Any, t2: Any, lam: Any) -> tuple[Any, Any, Any, Any, Any, Any]:
 
 
 def _poly3(w: Any, a: Any, b: Any, c: Any) -> Any:
-    """``a I + b hat(w) + c hat(w)²`` (``hat(w)² = w wᵀ − (w·w) I``), ``(..., 3, 3)``."""
+    """Return ``a I + b hat(w) + c hat(w)²`` (``hat(w)² = w wᵀ − (w·w) I``), ``(..., 3, 3)``."""
     w0, w1, w2 = w[..., 0], w[..., 1], w[..., 2]
     s0, s1, s2 = w0 * w0, w1 * w1, w2 * w2
     p01, p02, p12 = c * w0 * w1, c * w0 * w2, c * w1 * w2
@@ -316,9 +316,7 @@ def _adjoint_foreign(X: Any) -> Any:
     t = X[..., :3, 3]
     col, row = 0.0 * t[..., None], 0.0 * t[..., None, :]
     one = 1.0 + 0.0 * s[..., None, None]
-    return arrays.blocks(
-        [[R, 0.0 * R, col], [so3._hat(t) @ R, A, -t[..., None]], [row, row, one]]
-    )
+    return arrays.blocks([[R, 0.0 * R, col], [so3._hat(t) @ R, A, -t[..., None]], [row, row, one]])
 
 
 def _l_quadrature(w: Any, lam: Any, u: Any) -> Any:
@@ -363,15 +361,12 @@ def _jl_parts(xi: Any) -> tuple[Any, Any, Any, Any]:
     small = lam * lam + t2 < _SMALL_Z2
     big_angle = ~small & (t2 >= 1.0)
     f = arrays.matvec(F, xp.linalg.cross(u, w))
-    LA = (f[..., :, None] * w[..., None, :] - (HtR - W @ Um) @ Om) / xp.where(
-        big_angle, t2, one
-    )[..., None, None]
+    t2a = xp.where(big_angle, t2, one)[..., None, None]
+    LA = (f[..., :, None] * w[..., None, :] - (HtR - W @ Um) @ Om) / t2a
     lb = xp.where(small | big_angle, 2.0 * one, lam)
     db = lb * lb + t2
     LB = _poly3(w, 1.0 / lb, -1.0 / db, 1.0 / (lb * db)) @ (HtR - Um @ J)
-    LQ = _l_quadrature(
-        xp.where(small[..., None], w, 0.0 * w), xp.where(small, lam, 0.0 * one), u
-    )
+    LQ = _l_quadrature(xp.where(small[..., None], w, 0.0 * w), xp.where(small, lam, 0.0 * one), u)
     L = xp.where(small[..., None, None], LQ, xp.where(big_angle[..., None, None], LA, LB))
     return J, L, W, -arrays.matvec(F, u)
 
