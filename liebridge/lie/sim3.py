@@ -14,12 +14,24 @@ Canonical conventions:
   ``Similarity3.Expmap(ξ)`` is the same similarity (measured: equal after normalising);
 * ``adjoint(X) = [[R, 0, 0], [hat(t)R, sR, −t], [0, 0, 1]]``: ``X·Exp(ξ)·X⁻¹ = Exp(Ad_X ξ)``
   (GTSAM ``Similarity3.AdjointMap``, with its ``t_g`` replaced by ``t = s·t_g``);
-* ``jl(ξ) = φ(ad_ξ)``, ``jr(ξ) = φ(−ad_ξ)``, ``φ(x) = (eˣ − 1)/x``, evaluated as the top-right
-  block of ``expm([[ad_ξ, I], [0, 0]])`` (scaling and squaring, accurate at every magnitude; no
-  cancelling closed form); ``jl_inv``/``jr_inv`` are their inverses (``θ < 2π``).
+* ``jl(ξ) = φ(ad_ξ)``, ``jr(ξ) = φ(−ad_ξ)``, ``φ(x) = (eˣ − 1)/x``; ``jl_inv``/``jr_inv`` are
+  their inverses (``θ < 2π``). On numpy arrays ``φ`` is the top-right block of
+  ``expm([[ad_ξ, I], [0, 0]])`` (scipy's scaling and squaring). On torch/JAX arrays it is closed
+  form, from the block structure of ``ad_ξ = [[hat ω, 0, 0], [hat u, hat ω + λI, −u], [0, 0, 0]]``:
+  ``jl(ξ) = [[Jl(ω), 0, 0], [L, W, −φ₂(M) u], [0, 0, 1]]`` with ``M = hat ω + λI``,
+  ``φ₂(x) = (eˣ − 1 − x)/x²`` and ``L`` linear in ``u`` (``_jl_parts`` derives it; quadrature
+  below ``|λ + iθ| = 2``). No matrix exponential, no squarings: a fixed expression under tracing,
+  with derivatives exact at ω = 0 and λ = 0. It agrees with 40-digit ``φ(ad_ξ)`` to 1e-14
+  relative (scipy's ``expm`` to 2e-12 at λ = 30 with a 30 m translation); the inverses are block
+  inverses (SO(3)'s closed ``Jl⁻¹``, ``W⁻¹`` by ``linalg.inv``, no 7×7 inversion).
 
 The log is exact at θ = π (the rotation's log is :func:`liebridge.lie.so3.log`);
-``s = cbrt(det(sR))``, ``λ = log s``, ``u = W⁻¹ t``.
+``s = cbrt(det(sR))`` (on numpy through a power-of-two scaling, on torch/JAX as
+``m·det(A/m)^(1/3)`` with ``m`` the largest entry: ``s³`` would under- or overflow),
+``λ = log s``, ``u = W⁻¹ t`` (``linalg.solve``).
+
+Every function takes numpy, torch and JAX arrays and returns the caller's array type, device and
+dtype, differentiable (``docs/tensors.md``).
 """
 
 from __future__ import annotations
