@@ -462,3 +462,23 @@ def test_tensor_inputs_keep_their_graph_and_device(x64: None) -> None:
     assert type(Xt) is torch.Tensor and Xt.requires_grad and Xt.device == xi.device
     sim3.log(Xt).sum().backward()
     assert xi.grad is not None and torch.isfinite(xi.grad).all()
+
+
+def test_torch_func_transforms(x64: None) -> None:
+    """``torch.func.jacfwd``/``jacrev``/``vmap`` (values unknown there: no value branch needed)."""
+    torch = pytest.importorskip("torch")
+    from torch.func import jacfwd, jacrev, vmap
+
+    zero = torch.zeros(7, dtype=torch.float64)
+    for jac in (jacfwd, jacrev):
+        J = jac(lambda x: sim3.log(sim3.exp(x)))(zero)
+        np.testing.assert_allclose(J.numpy(), np.eye(7), atol=1e-12)
+    xi = torch.tensor(XI[:8])
+    _close(vmap(sim3.jl)(xi).numpy(), sim3.jl(XI[:8]))
+    X = sim3.exp(XI[3])
+    c = lb.conventions.get("pypose_sim3")
+    assert isinstance(c, Convention)
+    D = jacfwd(lambda d: c.retract(torch.tensor(X), d))(zero)  # ∂/∂d Exp(d)·X at d = 0
+    P = c.to_canonical(X)  # canonical tangent per unit of pypose's
+    ref = np.einsum("ij,jkl->ikl", X, sim3.hat(np.eye(7)).transpose(1, 2, 0)) @ P
+    _close(D.numpy(), ref)
