@@ -622,6 +622,8 @@ def similarity(x: Any, name: str, tol: float = ROTATION_TOL) -> FloatArray:
     GTSAM's ``Similarity3.matrix()`` ``[R t; 0 1/s]`` is rejected with a hint to divide by
     ``X[3, 3]`` (liebridge's matrix is the normalised one, bottom-right entry 1).
     """
+    if arrays.is_foreign(x):
+        return _foreign_similarity(x, name, tol)
     arr = square(x, name, 4)
     corner = arr[..., 3, 3]
     gtsam_like = (arr[..., 3, :3] == 0).all(axis=-1) & (corner > 0) & (corner != 1.0)
@@ -850,4 +852,29 @@ def _foreign_group(x: Any, name: str, tol: float, m: int, k: int, exact: Any) ->
         ok = False if ok_b is False else ok
     if ok is False:
         exact(arrays.to_numpy(arr).astype(np.float64), name, tol)
+    return arr
+
+
+def _foreign_similarity(x: Any, name: str, tol: float) -> Any:
+    """Validate Sim(3) matrices ``[sR t; 0 1]`` on torch/JAX (see :func:`similarity`).
+
+    Certified on the device: the bottom row exactly ``[0, 0, 0, 1]``, ``det(A/m) > 0`` with
+    ``A = sR`` and ``m = max|A|`` (``s³`` itself would under- or overflow), and
+    ``A/s`` orthonormal within ``tol`` for ``s = m·det(A/m)^(1/3)``. Where the certificate
+    fails, :func:`similarity` on a host copy words the error (argument, batch index, size).
+    """
+    arr = _foreign_square(x, name, 4)
+    xp = arrays.namespace(arr)
+    tol = _tol(arr, tol)
+    A = arr[..., :3, :3]
+    m = xp.max(xp.abs(A), axis=(-1, -2))
+    nonzero = m > 0.0
+    An = A / xp.where(nonzero, m, arrays.like(1.0, m))[..., None, None]
+    det = xp.sum(xp.linalg.cross(An[..., :, 0], An[..., :, 1]) * An[..., :, 2], axis=-1)
+    positive = nonzero & (det > 0.0)
+    R = An / (xp.where(positive, det, arrays.like(1.0, det)) ** (1.0 / 3.0))[..., None, None]
+    err = xp.max(xp.abs(arrays.mT(R) @ R - arrays.eye(3, R)), axis=(-1, -2))
+    bottom = xp.all(arr[..., 3, :] == arrays.like(_E4, arr), axis=-1)
+    if arrays.all_true(positive & (err <= tol) & bottom) is False:
+        similarity(arrays.to_numpy(arr).astype(np.float64), name, tol)
     return arr
