@@ -222,6 +222,19 @@ def test_jacobians_equal_the_exact_phi_of_ad(
     _close(B.check(sim3.jl_inv(B(xi))) @ Jl, np.eye(7), 1e-12 * float(np.abs(Jl).max()))
 
 
+@pytest.mark.parametrize("lam", [50.0, -50.0, 200.0])
+def test_numpy_jl_inv_at_a_large_log_scale_the_dense_inverse_bug(lam: float) -> None:
+    """numpy's ``jl_inv``/``jr_inv`` were ``inv`` of the 7×7 ``expm`` block: relative error 1.09
+    at λ = 50, garbage at 200. Now the block inverse of the closed form, as on tensors."""
+    xi = np.concatenate([0.7 * AXIS, [30.0, -30.0, 12.0], [lam]])
+    for f, f_inv, A in [(sim3.jl, sim3.jl_inv, _ad(xi)), (sim3.jr, sim3.jr_inv, -_ad(xi))]:
+        J = f(xi)
+        _close(J, _phi_mp(A), 1e-13)
+        Ji = f_inv(xi)
+        _close(Ji @ J, np.eye(7), 1e-12 * float(np.abs(J).max() * np.abs(Ji).max()))
+        _close(J @ Ji, np.eye(7), 1e-12 * float(np.abs(J).max() * np.abs(Ji).max()))
+
+
 @pytest.mark.parametrize("backend", TENSORS)
 def test_jacobians_by_central_differences(backend: str, x64: None) -> None:
     """``Exp(ξ + δ) ≈ Exp(ξ)·Exp(jr δ)`` and ``≈ Exp(jl δ)·Exp(ξ)``, through ``log``, on tensors."""

@@ -15,15 +15,16 @@ Canonical conventions:
 * ``adjoint(X) = [[R, 0, 0], [hat(t)R, sR, −t], [0, 0, 1]]``: ``X·Exp(ξ)·X⁻¹ = Exp(Ad_X ξ)``
   (GTSAM ``Similarity3.AdjointMap``, with its ``t_g`` replaced by ``t = s·t_g``);
 * ``jl(ξ) = φ(ad_ξ)``, ``jr(ξ) = φ(−ad_ξ)``, ``φ(x) = (eˣ − 1)/x``; ``jl_inv``/``jr_inv`` are
-  their inverses (``θ < 2π``). On numpy arrays ``φ`` is the top-right block of
-  ``expm([[ad_ξ, I], [0, 0]])`` (scipy's scaling and squaring). On torch/JAX arrays it is closed
-  form, from the block structure of ``ad_ξ = [[hat ω, 0, 0], [hat u, hat ω + λI, −u], [0, 0, 0]]``:
+  their inverses (``θ < 2π``). On every array type ``φ`` is closed form (one code path for
+  numpy, torch and JAX), from the block structure of
+  ``ad_ξ = [[hat ω, 0, 0], [hat u, hat ω + λI, −u], [0, 0, 0]]``:
   ``jl(ξ) = [[Jl(ω), 0, 0], [L, W, −φ₂(M) u], [0, 0, 1]]`` with ``M = hat ω + λI``,
   ``φ₂(x) = (eˣ − 1 − x)/x²`` and ``L`` linear in ``u`` (``_jl_parts`` derives it; quadrature
   below ``|λ + iθ| = 2``). No matrix exponential, no squarings: a fixed expression under tracing,
   with derivatives exact at ω = 0 and λ = 0. It agrees with 40-digit ``φ(ad_ξ)`` to 1e-14
-  relative (scipy's ``expm`` to 2e-12 at λ = 30 with a 30 m translation); the inverses are block
-  inverses (SO(3)'s closed ``Jl⁻¹``, ``W⁻¹`` by ``linalg.inv``, no 7×7 inversion).
+  relative (scipy's ``expm`` of ``[[ad_ξ, I], [0, 0]]``, used before, to 2e-12 at λ = 30 with a
+  30 m translation); the inverses are block inverses (SO(3)'s closed ``Jl⁻¹``, ``W⁻¹`` by
+  ``linalg.inv``; the dense 7×7 inverse used before lost all accuracy for ``|λ| ≳ 45``).
 
 The log is exact at θ = π (the rotation's log is :func:`liebridge.lie.so3.log`);
 ``s = cbrt(det(sR))`` (on numpy through a power-of-two scaling, on torch/JAX as
@@ -141,57 +142,28 @@ def _adjoint(X: FloatArray) -> FloatArray:
     return out
 
 
-def _ad(xi: FloatArray) -> FloatArray:
-    """``ad_ξ = [[hat ω, 0, 0], [hat u, hat ω + λI, −u], [0, 0, 0]]``: ``ad_ξ η = [ξ, η]``."""
-    W = so3._hat(xi[..., :3])
-    out = np.zeros((*xi.shape[:-1], 7, 7))
-    out[..., :3, :3] = W
-    out[..., 3:6, :3] = so3._hat(xi[..., 3:6])
-    out[..., 3:6, 3:6] = W + xi[..., 6, None, None] * np.eye(3)
-    out[..., 3:6, 6] = -xi[..., 3:6]
-    return out
-
-
-def _phi(A: FloatArray) -> FloatArray:
-    """``φ(A) = Σ Aᵏ/(k+1)!`` as the top-right block of ``expm([[A, I], [0, 0]])``."""
-    from scipy.linalg import expm
-
-    n = A.shape[-1]
-    big = np.zeros((*A.shape[:-2], 2 * n, 2 * n))
-    big[..., :n, :n] = A
-    big[..., :n, n:] = np.eye(n)
-    return np.asarray(expm(big)[..., :n, n:], dtype=np.float64)
-
-
 def _jl(xi: FloatArray) -> FloatArray:
-    if arrays.is_foreign(xi):
-        return _jl_foreign(xi)
-    return _phi(_ad(xi))
+    return _jl_foreign(xi)
 
 
 def _jr(xi: FloatArray) -> FloatArray:
-    if arrays.is_foreign(xi):
-        return _jl_foreign(-xi)
-    return _phi(-_ad(xi))
+    return _jl_foreign(-xi)
 
 
 def _jl_inv(xi: FloatArray) -> FloatArray:
-    if arrays.is_foreign(xi):
-        return _jl_inv_foreign(xi)
-    return np.asarray(np.linalg.inv(_jl(xi)), dtype=np.float64)
+    return _jl_inv_foreign(xi)
 
 
 def _jr_inv(xi: FloatArray) -> FloatArray:
-    if arrays.is_foreign(xi):
-        return _jl_inv_foreign(-xi)
-    return np.asarray(np.linalg.inv(_jr(xi)), dtype=np.float64)
+    return _jl_inv_foreign(-xi)
 
 
 # ----------------------------------------------------------------------------- torch and JAX
 # The same maps on torch/JAX arrays, written against the array API (liebridge.arrays): no host
 # copy, no in-place write, no Python branch on values (every branch evaluated and selected by
-# ``where``, the discarded one on safe values). numpy keeps its code above (scipy's ``expm`` for
-# the Jacobians, the power-of-two scaling of ``_scale``): the same maps, held equal by the tests.
+# ``where``, the discarded one on safe values). The Jacobians below are numpy's too; numpy keeps
+# its own code above for the rest (the power-of-two scaling of ``_scale``): the same maps, held
+# equal by the tests.
 
 #: Maclaurin coefficients of ``φ₁(λ) = (e^λ − 1)/λ = Σ λᵏ/(k+1)!`` and
 #: ``φ₂(λ) = (e^λ − 1 − λ)/λ² = Σ λᵏ/(k+2)!``, used for ``|λ| < 1`` (truncation below 1e-19).
