@@ -488,3 +488,10 @@ def test_under_jit_shapes_are_checked_not_values(x64: None) -> None:
         jax.jit(sph.retract)(jax.numpy.asarray([0, 0, G_LEN]), jax.numpy.zeros(3))
     out = jax.jit(s2.log)(jax.numpy.asarray([0, 0, 1.0]), jax.numpy.asarray([0, 0, 2.0]))
     assert out.shape == (3,)  # not a unit vector: nothing can be checked while tracing
+
+
+def test_nav_state_assembles_tensors(B: Backend) -> None:
+    rng = np.random.default_rng(16)
+    R, p, v = _rotations(4, rng), rng.normal(size=(4, 3)), rng.normal(size=(4, 3))
+    _close(B.check(nav_state(B(R), p, B(v))), nav_state(R, p, v), 0.0)
+    _close(B.check(nav_state(B(R), B(p[0]), B(v))), nav_state(R, p[0], v), 0.0)

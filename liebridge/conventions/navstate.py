@@ -292,14 +292,23 @@ def nav_state(R_world_body: Any, p_world: Any, v_world: Any) -> FloatArray:
     """Assemble extended poses ``(..., 5, 5)`` from ``R_world_body``, position and velocity.
 
     ``R_world_body`` rotates body (IMU) coordinates into the world frame; from an OpenVINS JPL
-    ``q_GtoI`` it is ``quaternion.to_matrix(q_GtoI, order="jpl").T``.
+    ``q_GtoI`` it is ``quaternion.to_matrix(q_GtoI, order="jpl").T``. torch/JAX arguments give
+    an array of their type (numpy ones beside them are moved to it), stacked, differentiable.
     """
+    if arrays.any_foreign(R_world_body, p_world, v_world):
+        R_world_body, p_world, v_world = arrays.common(R_world_body, p_world, v_world)
     R = validate.rotation(R_world_body, "R_world_body")
     p = validate.vector(p_world, "p_world", 3)
     v = validate.vector(v_world, "v_world", 3)
     shape = validate.batch_shape(
         ("R_world_body", R.shape[:-2]), ("p_world", p.shape[:-1]), ("v_world", v.shape[:-1])
     )
+    if arrays.any_foreign(R, p, v):
+        xp = arrays.namespace(R, p, v)
+        cols = [xp.broadcast_to(R, (*shape, 3, 3))]
+        cols += [xp.broadcast_to(x, (*shape, 3))[..., None] for x in (p, v)]
+        bottom = xp.broadcast_to(arrays.like(np.eye(5)[3:], R), (*shape, 2, 5))
+        return arrays.concat([arrays.concat(cols, -1), bottom], -2)
     X = np.zeros((*shape, 5, 5))
     X[..., :3, :3] = R
     X[..., :3, 3] = p
