@@ -495,3 +495,18 @@ def test_nav_state_assembles_tensors(B: Backend) -> None:
     R, p, v = _rotations(4, rng), rng.normal(size=(4, 3)), rng.normal(size=(4, 3))
     _close(B.check(nav_state(B(R), p, B(v))), nav_state(R, p, v), 0.0)
     _close(B.check(nav_state(B(R), B(p[0]), B(v))), nav_state(R, p[0], v), 0.0)
+
+
+def test_the_other_conversions_of_a_state_equal_numpys(B: Backend) -> None:
+    rng = np.random.default_rng(17)
+    X = _element(C.FASTLIO_IMU, 3, rng)
+    P, d, J = _cov(15, rng), 0.1 * rng.normal(size=(3, 15)), rng.normal(size=(2, 15))
+    L = np.linalg.inv(P)
+    cases: list[Callable[[Any], Any]] = [
+        lambda T: lb.convert_tangent(T(d), T(X), "fastlio_imu", "basalt"),
+        lambda T: lb.convert_tangent(T(d), T(X), "fastlio_imu", "basalt", exact=False),
+        lambda T: lb.convert_information(T(L), T(X), "fastlio_imu", "gtsam_combined"),
+        lambda T: lb.convert_jacobian(T(J), T(X), "fastlio_imu", "gtsam_combined"),
+    ]
+    for case in cases:
+        _close(B.check(case(B)), case(np.asarray), TOL64)
