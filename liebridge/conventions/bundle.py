@@ -115,6 +115,7 @@ class Bundle(Chart):
     )
     _tslices: tuple[slice, ...] = field(init=False, repr=False, compare=False, default=())
     _mslices: tuple[slice, ...] = field(init=False, repr=False, compare=False, default=())
+    _generic: bool = field(init=False, repr=False, compare=False, default=False)
 
     @classmethod
     def of(
@@ -161,6 +162,8 @@ class Bundle(Chart):
         object.__setattr__(self, "_tslices", tuple(ts))
         object.__setattr__(self, "_mslices", tuple(ms))
         object.__setattr__(self, "_key", (self.name, self.group, "bundle", str(self.perm)))
+        generic = all(isinstance(b, _VECTOR_LIKE) or b._array_api for _, b in self.blocks)
+        object.__setattr__(self, "_generic", generic)
 
     # ----------------------------------------------------------------- layout
     @property
@@ -182,7 +185,7 @@ class Bundle(Chart):
     @property
     def _array_api(self) -> bool:
         """Whether this bundle runs on torch/JAX arrays: where every block does."""
-        return all(isinstance(b, _VECTOR_LIKE) or b._array_api for _, b in self.blocks)
+        return self._generic  # (read on every call: computed once, in __post_init__)
 
     def _template(self) -> tuple[FloatArray, FloatArray]:
         """Return ``(fixed, value)``: the entries every element has (off-block, vector blocks)."""

@@ -120,6 +120,7 @@ class NavChart(Chart):
     notes: str = field(default="", compare=False, repr=False)
     group: str = field(init=False, default="", compare=False)
     _key: tuple[str, str, str, str] = field(init=False, repr=False, compare=False)
+    _generic: bool = field(init=False, repr=False, compare=False, default=False)
 
     @classmethod
     def of(
@@ -163,6 +164,7 @@ class NavChart(Chart):
             "_key",
             (f"nav:{p.side}", p.order, f"{p.chart}+v_{self.velocity}{perm}", p.rotation),
         )
+        object.__setattr__(self, "_generic", p._array_api)
 
     @property
     def _p(self) -> Convention:
@@ -200,7 +202,7 @@ class NavChart(Chart):
     @property
     def _array_api(self) -> bool:
         """Whether this chart runs on torch/JAX arrays: where its pose convention does."""
-        return self.pose._array_api
+        return self._generic  # (read on every call: computed once, in __post_init__)
 
     def _retract(self, X: FloatArray, d: FloatArray) -> FloatArray:
         d = _to_concat_any(d, self.perm)

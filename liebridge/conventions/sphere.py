@@ -171,20 +171,28 @@ class Sphere:
     def _local(self, X: FloatArray, Y: FloatArray) -> FloatArray:
         n, m = self._unit(X), self._unit(Y)
         E = self._frame(n)
-        return _mv(arrays.mT(E), s2.log(n, m))
+        return _mv(arrays.mT(E) if arrays.is_foreign(E) else np.swapaxes(E, -1, -2), s2.log(n, m))
 
     def _to_canonical(self, X: FloatArray) -> FloatArray:
         n = self._unit(X)
-        return _f64(arrays.mT(s2.unit3_basis(n)) @ self._frame(n))
+        if arrays.is_foreign(n):
+            return arrays.mT(s2.unit3_basis(n)) @ self._frame(n)
+        return np.asarray(np.swapaxes(s2.unit3_basis(n), -1, -2) @ self._frame(n), np.float64)
 
     def _from_canonical(self, X: FloatArray) -> FloatArray:
         n = self._unit(X)
-        return _f64(arrays.mT(self._frame(n)) @ s2.unit3_basis(n))
+        if arrays.is_foreign(n):
+            return arrays.mT(self._frame(n)) @ s2.unit3_basis(n)
+        return np.asarray(np.swapaxes(self._frame(n), -1, -2) @ s2.unit3_basis(n), np.float64)
 
     def _local_jacobian(self, X: FloatArray, Y: FloatArray) -> FloatArray:
         n, m = self._unit(X), self._unit(Y)
         D = s2.dlog(n, m)
-        return _f64(arrays.mT(self._frame(n)) @ D @ self._frame(m))
+        if arrays.is_foreign(D):
+            return arrays.mT(self._frame(n)) @ D @ self._frame(m)
+        return np.asarray(
+            np.swapaxes(self._frame(n), -1, -2) @ D @ self._frame(m), dtype=np.float64
+        )
 
     # public, validated versions (a Sphere on its own, outside a bundle)
     def retract(self, g: Any, d: Any) -> FloatArray:
