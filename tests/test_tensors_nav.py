@@ -510,3 +510,18 @@ def test_the_other_conversions_of_a_state_equal_numpys(B: Backend) -> None:
     ]
     for case in cases:
         _close(B.check(case(B)), case(np.asarray), TOL64)
+
+
+def test_the_docs_section_runs() -> None:
+    """The python block of docs/tensors.md's navigation-state section runs."""
+    pytest.importorskip("torch")
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "tensors.md").read_text("utf-8")
+    start = text.index("## Navigation states, bundles and S²")
+    end = text.find("\n## ", start + 1)
+    blocks = re.findall(r"^```python\n(.*?)^```", text[start:end], re.M | re.S)
+    assert blocks
+    for n, code in enumerate(blocks):
+        exec(compile(code, f"tensors.md[navigation block {n}]", "exec"), {"__name__": "nav_md"})
