@@ -433,6 +433,8 @@ def test_jax_jit_of_a_bundle_conversion(x64: None) -> None:
     g = jax.jit(lambda X, d: C.FASTLIO.local(X, C.FASTLIO.retract(X, d)))
     d = 0.1 * rng.normal(size=(4, 23))
     _close(np.asarray(g(X, d)), d, 1e-12)
+    v = jax.vmap(lambda X, d: C.FASTLIO.local(X, C.FASTLIO.retract(X, d)))  # one element each
+    _close(np.asarray(v(X, d)), d, 1e-12)
 
 
 def test_torch_compile_of_a_navigation_tangent_map() -> None:
