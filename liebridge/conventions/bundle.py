@@ -18,6 +18,14 @@ vector ``b`` (or a sphere's ``g``) as ``[[I, b], [0, 1]]``; :meth:`Bundle.assemb
 Two bundles convert into each other when their blocks are of the same groups in the same order.
 The canonical tangent of a bundle is the concatenation of its blocks' canonical (GTSAM) tangents.
 
+A bundle runs on numpy, torch and JAX arrays (the caller's array type, device and dtype,
+differentiable) where each of its blocks does: vectors and spheres always, a convention or a
+navigation chart where its pose convention does (the group blocks call their conventions' own
+array-generic retractions and maps; nothing is copied). The element and the maps are assembled
+from the blocks' results by stacking (``arrays.blocks``), never written in place; the tangent
+order is a gather. Checks run on the device (block structure: one reduction; each block: its
+own validator); numpy's message is worded from a host copy only when a check fails.
+
 >>> from liebridge.conventions import get
 >>> nav15 = Bundle.of("gtsam_combined_like", [("nav", get("gtsam_navstate")),
 ...                   ("b_a", Vector(3)), ("b_g", Vector(3))])
@@ -34,12 +42,19 @@ from typing import Any
 import numpy as np
 
 from .. import _validate as validate
+from .. import arrays
 from .._validate import FloatArray
 from .chart import Chart
 from .convention import Convention
-from .navstate import NavChart
+from .navstate import (
+    NavChart,
+    _block_diagonal,
+    _broadcast_concat,
+    _from_concat_any,
+    _to_concat_any,
+)
 from .sphere import Sphere
-from .tangent_order import from_concatenated, perm_matrix, to_concatenated
+from .tangent_order import perm_matrix
 
 
 @dataclass(frozen=True)
@@ -71,6 +86,15 @@ def _mdim(b: Block) -> int:
     return b.n + 1 if isinstance(b, _VECTOR_LIKE) else b.record.matrix
 
 
+def _vector_block(x: Any) -> Any:
+    """``[[I, x], [0, 1]]`` ``(..., k+1, k+1)`` of torch/JAX vectors ``x`` ``(..., k)``."""
+    xp = arrays.namespace(x)
+    batch, k = tuple(x.shape[:-1]), int(x.shape[-1])
+    top = arrays.concat([arrays.eye(k, x, batch), x[..., :, None]], -1)
+    bottom = xp.broadcast_to(arrays.like(np.eye(k + 1)[k:], x), (*batch, 1, k + 1))
+    return arrays.concat([top, bottom], -2)
+
+
 @dataclass(frozen=True)
 class Bundle(Chart):
     """A product-state chart; build it with :meth:`Bundle.of`. See the module docstring.
@@ -91,6 +115,7 @@ class Bundle(Chart):
     )
     _tslices: tuple[slice, ...] = field(init=False, repr=False, compare=False, default=())
     _mslices: tuple[slice, ...] = field(init=False, repr=False, compare=False, default=())
+    _generic: bool = field(init=False, repr=False, compare=False, default=False)
 
     @classmethod
     def of(
@@ -137,6 +162,8 @@ class Bundle(Chart):
         object.__setattr__(self, "_tslices", tuple(ts))
         object.__setattr__(self, "_mslices", tuple(ms))
         object.__setattr__(self, "_key", (self.name, self.group, "bundle", str(self.perm)))
+        generic = all(isinstance(b, _VECTOR_LIKE) or b._array_api for _, b in self.blocks)
+        object.__setattr__(self, "_generic", generic)
 
     # ----------------------------------------------------------------- layout
     @property
@@ -155,15 +182,34 @@ class Bundle(Chart):
         )
         return f"{self.name} (bundle): {parts}" + (f", order={self.perm}" if self.perm else "")
 
+    @property
+    def _array_api(self) -> bool:
+        """Whether this bundle runs on torch/JAX arrays: where every block does."""
+        return self._generic  # (read on every call: computed once, in __post_init__)
+
+    def _template(self) -> tuple[FloatArray, FloatArray]:
+        """Return ``(fixed, value)``: the entries every element has (off-block, vector blocks)."""
+        N = self.matrix_size
+        fixed, value = np.ones((N, N)), np.zeros((N, N))
+        for (_, b), ms in zip(self.blocks, self._mslices, strict=True):
+            fixed[ms, ms] = 0.0
+            if isinstance(b, Vector):
+                a, k = ms.start, b.n
+                fixed[a : a + k, a : a + k] = 1.0
+                value[a : a + k, a : a + k] = np.eye(k)
+                fixed[a + k, ms] = 1.0
+                value[a + k, a + k] = 1.0
+        return fixed, value
+
     def _P(self) -> FloatArray:
         """``P`` with ``d_concatenated = P d``."""
         return perm_matrix(self.dim(), self.perm)
 
     def _to_concat(self, d: FloatArray) -> FloatArray:
-        return to_concatenated(d, self.perm)
+        return _to_concat_any(d, self.perm)
 
     def _from_concat(self, c: FloatArray) -> FloatArray:
-        return from_concatenated(c, self.perm)
+        return _from_concat_any(c, self.perm)
 
     # ----------------------------------------------------------------- elements
     def assemble(self, **parts: Any) -> FloatArray:
@@ -172,6 +218,8 @@ class Bundle(Chart):
         extra = sorted(set(parts) - {n for n, _ in self.blocks})
         if missing or extra:
             raise ValueError(f"{self.name}.assemble: missing {missing}, unknown {extra}")
+        if arrays.any_foreign(*parts.values()):
+            return self._assemble_generic(parts)
         arrs = {n: validate.as_float_array(parts[n], n) for n, _ in self.blocks}
         batch = validate.batch_shape(
             *(
@@ -195,19 +243,48 @@ class Bundle(Chart):
                 X[..., ms, ms] = b.element(arrs[n], n)
         return X
 
+    def _assemble_generic(self, parts: dict[str, Any]) -> Any:
+        """:meth:`assemble` on torch/JAX arrays: the blocks stacked, not written."""
+        names = [n for n, _ in self.blocks]
+        arrs = dict(zip(names, arrays.common(*(parts[n] for n in names)), strict=True))
+        diag = []
+        for n, b in self.blocks:
+            if isinstance(b, Sphere):
+                diag.append(_vector_block(b.vector(arrs[n], n)))
+            elif isinstance(b, Vector):
+                diag.append(_vector_block(validate.vector(arrs[n], n, b.n)))
+            else:
+                diag.append(b.element(arrs[n], n))
+        batch = validate.batch_shape(
+            *((n, tuple(a.shape[:-2])) for (n, _), a in zip(self.blocks, diag, strict=True))
+        )
+        return _block_diagonal(diag, batch)
+
     def split(self, X: Any) -> dict[str, FloatArray]:
         """Return the parts of an element by block name (inverse of :meth:`assemble`)."""
         X = self.element(X)
         out = {}
         for (n, b), ms in zip(self.blocks, self._mslices, strict=True):
             blk = X[..., ms, ms]
-            out[n] = np.array(blk[..., :-1, -1] if isinstance(b, _VECTOR_LIKE) else blk)
+            part = blk[..., :-1, -1] if isinstance(b, _VECTOR_LIKE) else blk
+            # a new array, never a view of the caller's
+            out[n] = 1.0 * part if arrays.is_foreign(part) else np.array(part)
         return out
 
     def element(self, X: Any, name: str = "X") -> FloatArray:
         """Validate a block-diagonal element: zero off the blocks, each block in its group."""
         N = self.matrix_size
         arr = validate.square(X, name, N)
+        if arrays.is_foreign(arr):
+            xp = arrays.namespace(arr)
+            fixed, value = self._template()
+            dev = (arr - arrays.like(value, arr)) * arrays.like(fixed, arr)
+            if arrays.all_true(xp.all(dev == 0.0)) is False:  # numpy words the first violation
+                self.element(arrays.to_numpy(arr).astype(np.float64), name)
+            for (n, b), ms in zip(self.blocks, self._mslices, strict=True):
+                if not isinstance(b, Vector):
+                    b.element(arr[..., ms, ms], f"{name} (block {n!r})")
+            return arr
         mask = np.ones((N, N), dtype=bool)
         for ms in self._mslices:
             mask[ms, ms] = False
@@ -246,6 +323,16 @@ class Bundle(Chart):
 
     def _retract(self, X: FloatArray, d: FloatArray) -> FloatArray:
         c = self._to_concat(d)
+        if arrays.any_foreign(X, c):
+            diag = []
+            for (_, b), ts, ms in zip(self.blocks, self._tslices, self._mslices, strict=True):
+                sub = X[..., ms, ms]
+                if isinstance(b, Vector):
+                    diag.append(_vector_block(sub[..., :-1, -1] + c[..., ts]))
+                else:
+                    diag.append(b._retract(sub, c[..., ts]))
+            batch = tuple(np.broadcast_shapes(tuple(X.shape[:-2]), tuple(d.shape[:-1])))
+            return _block_diagonal(diag, batch)
         N = self.matrix_size
         out = np.zeros((*np.broadcast_shapes(X.shape[:-2], d.shape[:-1]), N, N))
         for (_, b), ts, ms in zip(self.blocks, self._tslices, self._mslices, strict=True):
@@ -265,6 +352,8 @@ class Bundle(Chart):
                 parts.append(B[..., :-1, -1] - A[..., :-1, -1])
             else:
                 parts.append(b._local(A, B))
+        if arrays.any_foreign(*parts):
+            return self._from_concat(_broadcast_concat(parts))
         batch = np.broadcast_shapes(*(p.shape[:-1] for p in parts))
         parts = [np.broadcast_to(p, (*batch, p.shape[-1])) for p in parts]
         return self._from_concat(np.concatenate(parts, axis=-1))
@@ -272,6 +361,16 @@ class Bundle(Chart):
     def _blockdiag(self, X: FloatArray, f: str, Y: FloatArray | None = None) -> FloatArray:
         n = self.dim()
         batch = X.shape[:-2] if Y is None else np.broadcast_shapes(X.shape[:-2], Y.shape[:-2])
+        if arrays.any_foreign(X) or (Y is not None and arrays.is_foreign(Y)):
+            diag = []
+            for (_, b), ms in zip(self.blocks, self._mslices, strict=True):
+                if isinstance(b, Vector):
+                    diag.append(arrays.eye(b.n, X))
+                elif Y is None:
+                    diag.append(getattr(b, f)(X[..., ms, ms]))
+                else:
+                    diag.append(b._local_jacobian(X[..., ms, ms], Y[..., ms, ms]))
+            return _block_diagonal(diag, tuple(batch))
         out = np.zeros((*batch, n, n))
         for (_, b), ts, ms in zip(self.blocks, self._tslices, self._mslices, strict=True):
             if isinstance(b, Vector):
@@ -283,12 +382,24 @@ class Bundle(Chart):
         return out
 
     def _to_canonical(self, X: FloatArray) -> FloatArray:
-        return np.asarray(self._blockdiag(X, "_to_canonical") @ self._P(), dtype=np.float64)
+        M = self._blockdiag(X, "_to_canonical")
+        if arrays.is_foreign(M):  # M·P: its columns, gathered
+            return M if self.perm is None else M[..., :, list(self.perm)]
+        return np.asarray(M @ self._P(), dtype=np.float64)
 
     def _from_canonical(self, X: FloatArray) -> FloatArray:
-        return np.asarray(self._P().T @ self._blockdiag(X, "_from_canonical"), dtype=np.float64)
+        M = self._blockdiag(X, "_from_canonical")
+        if arrays.is_foreign(M):  # Pᵀ·M: its rows, gathered
+            return M if self.perm is None else M[..., list(self.perm), :]
+        return np.asarray(self._P().T @ M, dtype=np.float64)
 
     def _local_jacobian(self, X: FloatArray, Y: FloatArray) -> FloatArray:
+        if arrays.any_foreign(X, Y):
+            J = self._blockdiag(X, "", Y)
+            if self.perm is None:
+                return J
+            p = list(self.perm)
+            return J[..., p, :][..., :, p]
         P = self._P()
         return np.asarray(P.T @ self._blockdiag(X, "", Y) @ P, dtype=np.float64)
 
@@ -355,11 +466,13 @@ class Bundle(Chart):
         """
         _, entries = self._keep(keep)
         arr = validate.covariance(cov, "cov", self.dim())
-        return np.asarray(arr[..., entries, :][..., :, entries], dtype=np.float64)
+        out = arr[..., entries, :][..., :, entries]
+        return out if arrays.is_foreign(out) else np.asarray(out, dtype=np.float64)
 
     def sub_element(self, X: Any, keep: Sequence[str]) -> FloatArray:
         """Return the element of :meth:`sub` (the kept diagonal blocks of ``X``)."""
         blocks, _ = self._keep(keep)
         arr = self.element(X)
         idx = [j for i in blocks for j in range(*self._mslices[i].indices(self.matrix_size))]
-        return np.asarray(arr[..., idx, :][..., :, idx], dtype=np.float64)
+        out = arr[..., idx, :][..., :, idx]
+        return out if arrays.is_foreign(out) else np.asarray(out, dtype=np.float64)

@@ -22,6 +22,15 @@ bias vectors (``openvins``, ``vins``, ``gtsam_imu_keys``, ... in
 The first-order map to GTSAM's SE₂(3) tangent ``(θ, ρ, ν)`` (right, ``X·Exp(ξ)``) is
 block diagonal: the pose convention's own map to ``(ω, v)`` (to first order ``X·Exp(ξ)`` moves
 ``(R, p)`` as the SE(3) ``X·Exp(ω, v)`` does) and ``I`` (body velocity) or ``Rᵀ`` (world).
+
+A :class:`NavChart` runs on numpy, torch and JAX arrays (the caller's array type, device and
+dtype, differentiable) wherever its pose convention does: its pose part is the pose
+convention's own retraction and maps (the array-generic SE(3) engine), the velocity part and the
+assembly of the 5×5 element and the 9×9 maps are stacked, never written in place. A pose
+convention with rotation coordinates that run on numpy only (Cayley: ``openvins``, ``vins``)
+refuses tensors in ``retract``/``local``/``local_jacobian`` as that convention does; its first-order
+maps (``to_canonical``, ``tangent_map``, ``convert_covariance``) need no rotation coordinates and
+run on tensors.
 """
 
 from __future__ import annotations
@@ -33,6 +42,7 @@ from typing import Any, Literal
 import numpy as np
 
 from .. import _validate as validate
+from .. import arrays
 from .._validate import FloatArray
 from ..lie import se3, se23
 from .chart import Chart
@@ -48,7 +58,48 @@ def _pose(X: FloatArray) -> FloatArray:
 
 
 def _mv(A: FloatArray, x: FloatArray) -> FloatArray:
+    if arrays.any_foreign(A, x):
+        return arrays.matvec(A, x)
     return np.einsum("...ij,...j->...i", A, x)
+
+
+# the tangent permutations on any array type (numpy: tangent_order's, the same maps); these
+# belong to tangent_order.py, whose numpy functions write in place
+def _to_concat_any(d: Any, perm: tuple[int, ...] | None) -> Any:
+    """Return the concatenated tangent of ``d`` (``d_concatenated[perm] = d``), any array type."""
+    if perm is None:
+        return d
+    if arrays.is_foreign(d):  # out[perm] = d  ⇔  out = d[perm⁻¹]: a gather, not a write
+        return d[..., [int(i) for i in np.argsort(perm)]]
+    return to_concatenated(d, perm)
+
+
+def _from_concat_any(c: Any, perm: tuple[int, ...] | None) -> Any:
+    """Return the state's tangent of a concatenated tangent ``c``, any array type."""
+    if perm is None or not arrays.is_foreign(c):
+        return from_concatenated(c, perm)
+    return c[..., list(perm)]
+
+
+def _broadcast_concat(parts: list[Any]) -> Any:
+    """Concatenate ``(..., n_i)`` parts along the last axis after broadcasting their batches."""
+    xp = arrays.namespace(*parts)
+    batch = tuple(np.broadcast_shapes(*(tuple(p.shape[:-1]) for p in parts)))
+    return arrays.concat([xp.broadcast_to(p, (*batch, p.shape[-1])) for p in parts], -1)
+
+
+def _block_diagonal(diag: list[Any], batch: tuple[int, ...]) -> Any:
+    """Return the block diagonal ``(*batch, N, N)`` of torch/JAX blocks (stacked)."""
+    ref = diag[0]
+    grid = [
+        [
+            b if i == j else arrays.zeros((int(b.shape[-2]), int(c.shape[-1])), ref)
+            for j, c in enumerate(diag)
+        ]
+        for i, b in enumerate(diag)
+    ]
+    M = arrays.blocks(grid)
+    return arrays.namespace(ref).broadcast_to(M, (*batch, *M.shape[-2:]))
 
 
 @dataclass(frozen=True)
@@ -69,6 +120,7 @@ class NavChart(Chart):
     notes: str = field(default="", compare=False, repr=False)
     group: str = field(init=False, default="", compare=False)
     _key: tuple[str, str, str, str] = field(init=False, repr=False, compare=False)
+    _generic: bool = field(init=False, repr=False, compare=False, default=False)
 
     @classmethod
     def of(
@@ -112,6 +164,7 @@ class NavChart(Chart):
             "_key",
             (f"nav:{p.side}", p.order, f"{p.chart}+v_{self.velocity}{perm}", p.rotation),
         )
+        object.__setattr__(self, "_generic", p._array_api)
 
     @property
     def _p(self) -> Convention:
@@ -143,15 +196,32 @@ class NavChart(Chart):
     # ----------------------------------------------------------------- retraction
     def _increment(self, d: Any, so3: bool, name: str = "d") -> FloatArray:
         arr = validate.vector(d, name, 9)
-        self._p._increment(self._to_concat(arr)[..., :6], False, name)
+        self._p._increment(_to_concat_any(arr, self.perm)[..., :6], False, name)
         return arr
 
+    @property
+    def _array_api(self) -> bool:
+        """Whether this chart runs on torch/JAX arrays: where its pose convention does."""
+        return self._generic  # (read on every call: computed once, in __post_init__)
+
     def _retract(self, X: FloatArray, d: FloatArray) -> FloatArray:
-        d = self._to_concat(d)
+        d = _to_concat_any(d, self.perm)
         T2 = self._p._retract(_pose(X), d[..., :6])
         dv = d[..., 6:]
         v = X[..., :3, 4]
         v2 = v + (_mv(X[..., :3, :3], dv) if self.velocity == "body" else dv)
+        if arrays.any_foreign(T2, v2):
+            xp = arrays.namespace(T2, v2)
+            batch = tuple(np.broadcast_shapes(tuple(T2.shape[:-2]), tuple(v2.shape[:-1])))
+            top = arrays.concat(
+                [
+                    xp.broadcast_to(T2[..., :3, :], (*batch, 3, 4)),
+                    xp.broadcast_to(v2, (*batch, 3))[..., None],
+                ],
+                -1,
+            )
+            bottom = xp.broadcast_to(arrays.like(np.eye(5)[3:], top), (*batch, 2, 5))
+            return arrays.concat([top, bottom], -2)
         out = np.zeros((*np.broadcast_shapes(X.shape[:-2], d.shape[:-1]), 5, 5))
         out[..., :4, :4] = T2
         out[..., :3, 4] = v2
@@ -162,39 +232,60 @@ class NavChart(Chart):
         d = self._p._local(_pose(X), _pose(Y))
         dv = Y[..., :3, 4] - X[..., :3, 4]
         if self.velocity == "body":
-            dv = _mv(np.swapaxes(X[..., :3, :3], -1, -2), dv)
+            dv = _mv(arrays.mT(X[..., :3, :3]), dv)
+        if arrays.any_foreign(d, dv):
+            return _from_concat_any(_broadcast_concat([d, dv]), self.perm)
         batch = np.broadcast_shapes(d.shape[:-1], dv.shape[:-1])
         parts = [np.broadcast_to(d, (*batch, 6)), np.broadcast_to(dv, (*batch, 3))]
         return from_concatenated(np.concatenate(parts, axis=-1), self.perm)
 
     # ----------------------------------------------------------------- first-order maps
     def _blocks(self, X: FloatArray, A: FloatArray, vel: FloatArray) -> FloatArray:
+        if arrays.any_foreign(A, vel):
+            batch = tuple(np.broadcast_shapes(tuple(A.shape[:-2]), tuple(vel.shape[:-2])))
+            return _block_diagonal([A, vel], batch)
         out = np.zeros((*np.broadcast_shapes(A.shape[:-2], vel.shape[:-2]), 9, 9))
         out[..., :6, :6] = A
         out[..., 6:, 6:] = vel
         return out
 
+    def _eye3(self, R: FloatArray, batch: tuple[int, ...]) -> FloatArray:
+        if arrays.is_foreign(R):
+            return arrays.eye(3, R, batch)
+        return np.broadcast_to(np.eye(3), (*batch, 3, 3))
+
     def _to_canonical(self, X: FloatArray) -> FloatArray:
         R = X[..., :3, :3]
-        vel = np.broadcast_to(np.eye(3), R.shape) if self.velocity == "body" else R.swapaxes(-1, -2)
+        vel = self._eye3(R, tuple(R.shape[:-2])) if self.velocity == "body" else arrays.mT(R)
         M = self._blocks(X, self._p._to_canonical(_pose(X)), vel)
-        return M if self.perm is None else np.asarray(M @ self._P(), dtype=np.float64)
+        if self.perm is None:
+            return M
+        if arrays.is_foreign(M):  # M·P: its columns, gathered
+            return M[..., :, list(self.perm)]
+        return np.asarray(M @ self._P(), dtype=np.float64)
 
     def _from_canonical(self, X: FloatArray) -> FloatArray:
         R = X[..., :3, :3]
-        vel = np.broadcast_to(np.eye(3), R.shape) if self.velocity == "body" else R
+        vel = self._eye3(R, tuple(R.shape[:-2])) if self.velocity == "body" else R
         M = self._blocks(X, self._p._from_canonical(_pose(X)), vel)
-        return M if self.perm is None else np.asarray(self._P().T @ M, dtype=np.float64)
+        if self.perm is None:
+            return M
+        if arrays.is_foreign(M):  # Pᵀ·M: its rows, gathered
+            return M[..., list(self.perm), :]
+        return np.asarray(self._P().T @ M, dtype=np.float64)
 
     def _local_jacobian(self, X: FloatArray, Y: FloatArray) -> FloatArray:
         A = self._p._local_jacobian(_pose(X), _pose(Y))
         if self.velocity == "body":
-            vel = np.swapaxes(X[..., :3, :3], -1, -2) @ Y[..., :3, :3]
+            vel = arrays.mT(X[..., :3, :3]) @ Y[..., :3, :3]
         else:
-            vel = np.broadcast_to(np.eye(3), (*A.shape[:-2], 3, 3))
+            vel = self._eye3(A, tuple(A.shape[:-2]))
         J = self._blocks(X, A, vel)
         if self.perm is None:
             return J
+        if arrays.is_foreign(J):
+            p = list(self.perm)
+            return J[..., p, :][..., :, p]
         P = self._P()
         return np.asarray(P.T @ J @ P, dtype=np.float64)
 
@@ -203,14 +294,23 @@ def nav_state(R_world_body: Any, p_world: Any, v_world: Any) -> FloatArray:
     """Assemble extended poses ``(..., 5, 5)`` from ``R_world_body``, position and velocity.
 
     ``R_world_body`` rotates body (IMU) coordinates into the world frame; from an OpenVINS JPL
-    ``q_GtoI`` it is ``quaternion.to_matrix(q_GtoI, order="jpl").T``.
+    ``q_GtoI`` it is ``quaternion.to_matrix(q_GtoI, order="jpl").T``. torch/JAX arguments give
+    an array of their type (numpy ones beside them are moved to it), stacked, differentiable.
     """
+    if arrays.any_foreign(R_world_body, p_world, v_world):
+        R_world_body, p_world, v_world = arrays.common(R_world_body, p_world, v_world)
     R = validate.rotation(R_world_body, "R_world_body")
     p = validate.vector(p_world, "p_world", 3)
     v = validate.vector(v_world, "v_world", 3)
     shape = validate.batch_shape(
         ("R_world_body", R.shape[:-2]), ("p_world", p.shape[:-1]), ("v_world", v.shape[:-1])
     )
+    if arrays.any_foreign(R, p, v):
+        xp = arrays.namespace(R, p, v)
+        cols = [xp.broadcast_to(R, (*shape, 3, 3))]
+        cols += [xp.broadcast_to(x, (*shape, 3))[..., None] for x in (p, v)]
+        bottom = xp.broadcast_to(arrays.like(np.eye(5)[3:], R), (*shape, 2, 5))
+        return arrays.concat([arrays.concat(cols, -1), bottom], -2)
     X = np.zeros((*shape, 5, 5))
     X[..., :3, :3] = R
     X[..., :3, 3] = p

@@ -22,6 +22,11 @@ Any two of these charts differ by a 2×2 rotation (or reflection) at each point:
 between them are exactly linear (for angles below π). The defining identity of MTK's chart:
 ``retract(g, δ) = Exp(B δ)·g``. False: ``retract(g, δ) = normalize(g + length·B δ)·length``
 (``B δ`` is the rotation axis, perpendicular to the motion, not the direction of motion).
+
+Every method runs on numpy, torch and JAX arrays (the caller's array type, device and dtype,
+differentiable): the bases and the geodesic maps are :mod:`liebridge.lie.s2`'s, and the checks
+(``‖g‖ = length``, the block's constant entries) are one reduction on the device, numpy's
+message worded from a host copy only when one fails.
 """
 
 from __future__ import annotations
@@ -32,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from .. import _validate as validate
+from .. import arrays
 from .._validate import FloatArray
 from ..lie import s2
 
@@ -41,7 +47,14 @@ LENGTH_RTOL = 1e-6
 
 
 def _mv(A: FloatArray, x: FloatArray) -> FloatArray:
+    if arrays.any_foreign(A, x):
+        return arrays.matvec(A, x)
     return np.asarray(np.einsum("...ij,...j->...i", A, x), dtype=np.float64)
+
+
+def _f64(x: Any) -> Any:
+    """Return a numpy result as float64, a torch/JAX one as it is."""
+    return x if arrays.is_foreign(x) else np.asarray(x, dtype=np.float64)
 
 
 @dataclass(frozen=True)
@@ -88,6 +101,13 @@ class Sphere:
     def vector(self, g: Any, name: str = "g") -> FloatArray:
         """Validate stored vectors ``(..., 3)`` of norm ``length`` (relative tolerance 1e-6)."""
         arr = validate.vector(g, name, 3)
+        if arrays.is_foreign(arr):
+            xp = arrays.namespace(arr)
+            tol = max(LENGTH_RTOL, 64.0 * arrays.eps(arr))
+            err = xp.abs(xp.sqrt(arrays.dot(arr, arr)) / self.length - 1.0)
+            if arrays.all_true(err <= tol) is False:
+                self.vector(arrays.to_numpy(arr).astype(np.float64), name)
+            return arr
         err = np.abs(np.linalg.norm(arr, axis=-1) / self.length - 1.0)
         bad = err > LENGTH_RTOL
         if bad.any():
@@ -101,6 +121,14 @@ class Sphere:
     def element(self, X: Any, name: str = "X") -> FloatArray:
         """Validate ``[[I, g], [0, 1]]`` blocks ``(..., 4, 4)`` with ``‖g‖ = length``."""
         arr = validate.square(X, name, 4)
+        if arrays.is_foreign(arr):
+            xp = arrays.namespace(arr)
+            fixed = arrays.like(_FIXED, arr)
+            dev = (arr - arrays.like(np.eye(4), arr)) * fixed  # 0 where the entries are right
+            if arrays.all_true(xp.all(dev == 0.0)) is False:
+                self.element(arrays.to_numpy(arr).astype(np.float64), name)  # words the error
+            self.vector(arr[..., :3, 3], name)
+            return arr
         ok = (arr[..., :3, :3] == np.eye(3)).all(axis=(-1, -2)) & (
             arr[..., 3, :] == np.eye(4)[3]
         ).all(axis=-1)
@@ -115,10 +143,15 @@ class Sphere:
         if self.basis == "gtsam":
             return s2.unit3_basis(n)
         B = s2.mtk_basis(n, self._axis, self.length)
+        if arrays.is_foreign(n):  # −[n]ₓ B, column by column
+            xp = arrays.namespace(n)
+            return -arrays.mT(xp.linalg.cross(n[..., None, :], arrays.mT(B)))
         return np.asarray(-np.cross(n[..., :, None], B, axis=-2), dtype=np.float64)
 
     def _unit(self, X: FloatArray) -> FloatArray:
         g = X[..., :3, 3]
+        if arrays.is_foreign(g):  # ‖g‖ = length > 0: no guard needed
+            return g / arrays.namespace(g).sqrt(arrays.dot(g, g))[..., None]
         return np.asarray(g / np.linalg.norm(g, axis=-1, keepdims=True), dtype=np.float64)
 
     # ----------------------------------------------------------------- chart
@@ -128,6 +161,8 @@ class Sphere:
     def _retract(self, X: FloatArray, d: FloatArray) -> FloatArray:
         n = self._unit(X)
         m = s2.exp(n, _mv(self._frame(n), d))
+        if arrays.is_foreign(m):
+            return _block(self.length * m)
         out = np.zeros((*np.broadcast_shapes(X.shape[:-2], d.shape[:-1]), 4, 4))
         out[..., :, :] = np.eye(4)
         out[..., :3, 3] = self.length * m
@@ -136,19 +171,25 @@ class Sphere:
     def _local(self, X: FloatArray, Y: FloatArray) -> FloatArray:
         n, m = self._unit(X), self._unit(Y)
         E = self._frame(n)
-        return _mv(np.swapaxes(E, -1, -2), s2.log(n, m))
+        return _mv(arrays.mT(E) if arrays.is_foreign(E) else np.swapaxes(E, -1, -2), s2.log(n, m))
 
     def _to_canonical(self, X: FloatArray) -> FloatArray:
         n = self._unit(X)
+        if arrays.is_foreign(n):
+            return arrays.mT(s2.unit3_basis(n)) @ self._frame(n)
         return np.asarray(np.swapaxes(s2.unit3_basis(n), -1, -2) @ self._frame(n), np.float64)
 
     def _from_canonical(self, X: FloatArray) -> FloatArray:
         n = self._unit(X)
+        if arrays.is_foreign(n):
+            return arrays.mT(self._frame(n)) @ s2.unit3_basis(n)
         return np.asarray(np.swapaxes(self._frame(n), -1, -2) @ s2.unit3_basis(n), np.float64)
 
     def _local_jacobian(self, X: FloatArray, Y: FloatArray) -> FloatArray:
         n, m = self._unit(X), self._unit(Y)
         D = s2.dlog(n, m)
+        if arrays.is_foreign(D):
+            return arrays.mT(self._frame(n)) @ D @ self._frame(m)
         return np.asarray(
             np.swapaxes(self._frame(n), -1, -2) @ D @ self._frame(m), dtype=np.float64
         )
@@ -156,19 +197,33 @@ class Sphere:
     # public, validated versions (a Sphere on its own, outside a bundle)
     def retract(self, g: Any, d: Any) -> FloatArray:
         """Perturb stored vectors ``g`` ``(..., 3)`` by ``d`` ``(..., 2)``; returns ``(..., 3)``."""
+        g, d = arrays.common(g, d)
         X = _block(self.vector(g))
         d = validate.vector(d, "d", 2)
         validate.batch_shape(("g", X.shape[:-2]), ("d", d.shape[:-1]))
-        return np.asarray(self._retract(X, d)[..., :3, 3], dtype=np.float64)
+        return _f64(self._retract(X, d)[..., :3, 3])
 
     def local(self, g: Any, h: Any) -> FloatArray:
         """Inverse of :meth:`retract`: ``d`` ``(..., 2)`` with ``retract(g, d) = h``."""
+        g, h = arrays.common(g, h)
         X, Y = _block(self.vector(g)), _block(self.vector(h, "h"))
         validate.batch_shape(("g", X.shape[:-2]), ("h", Y.shape[:-2]))
         return self._local(X, Y)
 
 
+#: The constant entries of an S² block ``[[I, g], [0, 1]]`` (1 where fixed).
+_FIXED = np.ones((4, 4))
+_FIXED[:3, 3] = 0.0
+
+
 def _block(g: FloatArray) -> FloatArray:
+    """``[[I, g], [0, 1]]`` ``(..., 4, 4)`` of vectors ``g`` ``(..., 3)`` (any array type)."""
+    if arrays.is_foreign(g):
+        xp = arrays.namespace(g)
+        batch = tuple(g.shape[:-1])
+        top = arrays.concat([arrays.eye(3, g, batch), g[..., :, None]], -1)
+        bottom = xp.broadcast_to(arrays.like(np.eye(4)[3:], g), (*batch, 1, 4))
+        return arrays.concat([top, bottom], -2)
     X = np.zeros((*g.shape[:-1], 4, 4))
     X[..., :, :] = np.eye(4)
     X[..., :3, 3] = g
