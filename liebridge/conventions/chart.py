@@ -116,7 +116,7 @@ class Chart(ABC):
         (``arrays.host``: a tensor that requires grad is refused).
         """
         xs = arrays.common(*xs)
-        if self._array_api or not arrays.any_foreign(*xs):
+        if not arrays.any_foreign(*xs) or self._array_api:  # numpy first: no property lookup
             return xs
         return tuple(arrays.host(x, self.name) for x in xs)
 
