@@ -9,6 +9,7 @@ differentiable with respect to the pose and the covariance (reparameterised samp
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -20,20 +21,31 @@ from ..conventions import Convention, ConventionLike, get, unchecked
 from ..lie.unchecked import se3_assemble
 
 
-def _signs(V: Any, host_vectors: Any) -> Any:
-    """Column signs making ``V`` (a torch/JAX factorisation's vectors) equal numpy's ``Vh``.
+def _aligned(S: Any, V: Any, host_vectors: Callable[[], np.ndarray]) -> Any:
+    """``S`` with its columns ordered and signed as numpy's factor (a torch/JAX factor).
 
-    LAPACK leaves each eigen/singular vector's sign to the implementation (torch's ``eigh``
-    flips some that numpy's and JAX's do not); the Monte Carlo draws ``z Sᵀ`` depend on them.
-    The signs are a discrete choice read from a detached host copy (no gradient is cut); under
-    tracing they are not read (JAX's vectors agree with numpy's, tested).
+    ``S = V √Λ`` was computed on the device; numpy's vectors ``host_vectors()`` (from a
+    detached host copy) differ from ``V``'s columns by LAPACK's choices: signs (torch's ``eigh``
+    flips some that numpy's and JAX's do not) and, for a factor built block by block, the
+    order. Each numpy column is matched with the device column most parallel to it, giving a
+    signed permutation ``P`` (a constant: no gradient is cut) and the factor ``S P``, whose
+    draws ``z (S P)ᵀ`` are numpy's. Where the match is not a permutation (a repeated
+    eigenvalue, whose vectors each library chooses freely) ``P = I``: the draws are still from
+    the right distribution, not numpy's numbers. Under tracing the values are unknown and
+    ``S`` is returned as it is.
     """
-    if arrays.is_traced(V):
-        return 1.0
+    if arrays.is_traced(S):
+        return S
     Vh = host_vectors()
-    s = np.sign(np.sum(Vh * arrays.to_numpy(V).astype(np.float64), axis=-2))
-    s[s == 0] = 1.0
-    return arrays.like(s[..., None, :], V)
+    D = np.swapaxes(arrays.to_numpy(V).astype(np.float64), -1, -2) @ Vh  # (j device, i numpy)
+    j = np.argmax(np.abs(D), axis=-2)  # (..., N): the device column of each numpy column
+    N = D.shape[-1]
+    P = np.zeros(D.shape)
+    np.put_along_axis(P, j[..., None, :], 1.0, axis=-2)
+    P = P * np.sign(D)
+    ok = np.all(np.sort(j, axis=-1) == np.arange(N), axis=-1) & np.all(np.abs(P).sum(-2) == 1, -1)
+    P = np.where(ok[..., None, None], P, np.eye(N))
+    return S @ arrays.like(P, S)
 
 
 def _root(lam: Any) -> Any:
@@ -172,7 +184,9 @@ def _covariance_generic(
     z = arrays.like(rng.standard_normal((n, dim)), C)  # multivariate_normal's draws
     xp = arrays.namespace(C)
     U, s, _ = xp.linalg.svd(C)
-    U = U * _signs(U, lambda: np.linalg.svd(arrays.to_numpy(C).astype(np.float64))[0])
-    d = z @ arrays.mT(U * _root(s)[None, :])
+    S = _aligned(
+        U * _root(s)[None, :], U, lambda: np.linalg.svd(arrays.to_numpy(C).astype(np.float64))[0]
+    )
+    d = z @ arrays.mT(S)
     y = _local(b, Xa, _retract(a, Xa, d))
     return _cov_generic(y)

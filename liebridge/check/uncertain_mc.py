@@ -33,7 +33,7 @@ from .. import arrays
 from .._validate import FloatArray
 from ..conventions import Convention, group_input
 from ..uncertain import UncertainPoint, UncertainPose
-from .montecarlo import _cov_generic, _element, _local, _retract, _root, _signs
+from .montecarlo import _aligned, _cov_generic, _element, _local, _retract, _root
 
 __all__ = [
     "monte_carlo_act",
@@ -93,18 +93,50 @@ def _check_n(n: int) -> None:
 
 def _draw(joint: FloatArray, n: int, rng: np.random.Generator) -> FloatArray:
     """``(..., n, N)`` samples of ``N(0, joint)`` (eigen square root: PSD joints allowed)."""
-    if arrays.is_foreign(joint):
-        xp = arrays.namespace(joint)
-        sym = 0.5 * (joint + arrays.mT(joint))
-        lam, Q = xp.linalg.eigh(sym)
-        Q = Q * _signs(Q, lambda: np.linalg.eigh(arrays.to_numpy(sym).astype(np.float64))[1])
-        S = Q * _root(lam)[..., None, :]
-        z = rng.standard_normal((*joint.shape[:-2], n, joint.shape[-1]))
-        return arrays.like(z, joint) @ arrays.mT(S)
+    if isinstance(joint, tuple) or arrays.is_foreign(joint):
+        return _draw_generic(joint, n, rng)
     lam, Q = np.linalg.eigh(0.5 * (joint + np.swapaxes(joint, -1, -2)))
     S = Q * np.sqrt(np.clip(lam, 0.0, None))[..., None, :]
     z = rng.standard_normal((*joint.shape[:-2], n, joint.shape[-1]))
     return np.asarray(z @ np.swapaxes(S, -1, -2), dtype=np.float64)
+
+
+def _block_diagonal(parts: list[Any]) -> Any:
+    dims = [int(b.shape[-1]) for b in parts]
+    return arrays.blocks(
+        [
+            [b if i == k else arrays.zeros((dims[i], dims[k]), b) for k in range(len(parts))]
+            for i, b in enumerate(parts)
+        ]
+    )
+
+
+def _draw_generic(joint: Any, n: int, rng: np.random.Generator) -> Any:
+    """:func:`_draw` on torch/JAX arrays: numpy's normals, the factor on the device.
+
+    ``joint`` is the joint covariance or, for independent inputs, a tuple of its diagonal
+    blocks, each factored on its own (a gradient then needs distinct eigenvalues within each
+    block only: an isotropic covariance that does not require grad, or a zero one, does not make
+    the other's NaN). The factor's columns are ordered and signed as numpy's ``eigh`` of the
+    whole joint (:func:`~liebridge.check.montecarlo._aligned`), so the draws are numpy's.
+    """
+    blocks = list(joint) if isinstance(joint, tuple) else [joint]
+    ref = blocks[0]
+    xp = arrays.namespace(ref)
+    if len(blocks) > 1 and arrays.is_traced(ref):  # no alignment: numpy's order of the whole
+        blocks = [_block_diagonal(blocks)]
+    syms = [0.5 * (b + arrays.mT(b)) for b in blocks]
+    pairs = [xp.linalg.eigh(b) for b in syms]
+    lam = arrays.concat([p[0] for p in pairs], -1)
+    V = pairs[0][1] if len(pairs) == 1 else _block_diagonal([p[1] for p in pairs])
+    full = syms[0] if len(syms) == 1 else _block_diagonal(syms)
+    S = _aligned(
+        V * _root(lam)[..., None, :],
+        V,
+        lambda: np.linalg.eigh(arrays.to_numpy(full).astype(np.float64))[1],
+    )
+    z = rng.standard_normal((*ref.shape[:-2], n, int(S.shape[-1])))
+    return arrays.like(z, ref) @ arrays.mT(S)
 
 
 def _cov(y: FloatArray) -> FloatArray:
@@ -118,7 +150,13 @@ def _joint(A: UncertainPose, B: UncertainPose, cross: Any) -> FloatArray:
     n = A.dim
     shape = validate.batch_shape(("A", A.batch_shape), ("B", B.batch_shape))
     if arrays.is_foreign(A.T):
-        X = arrays.zeros((n, n), A.T) if cross is None else validate.square(cross, "cross", n)
+        if cross is None:  # independent: the blocks (factored one by one)
+            xp = arrays.namespace(A.T)
+            return (
+                xp.broadcast_to(A.cov, (*shape, n, n)),
+                xp.broadcast_to(B.cov, (*shape, n, n)),
+            )
+        X = validate.square(cross, "cross", n)
         shape = validate.batch_shape(("A and B", shape), ("cross", tuple(X.shape[:-2])))
         xp = arrays.namespace(X)
         J = arrays.blocks([[A.cov, X], [arrays.mT(X), B.cov]])

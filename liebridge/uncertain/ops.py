@@ -225,14 +225,14 @@ def _joint_generic(
 
 
 def _joint_full(A: UncertainPose, B: UncertainPose, joint: Any, shape: tuple[int, ...]) -> Any:
-    """Return the joint covariance over the batch ``shape`` (built for independent tensors).
+    """Return the joint covariance over the batch ``shape``, or its diagonal blocks.
 
     :func:`_joint` returns ``None`` for independent torch/JAX inputs (the linear path sums two
-    sandwiches); the cubature needs ``[[Σ_A, 0], [0, Σ_B]]`` itself.
+    sandwiches); the cubature then takes the blocks ``(Σ_A, Σ_B)`` of ``[[Σ_A, 0], [0, Σ_B]]``
+    and factors each (:func:`_unscented_generic`).
     """
     if joint is None:
-        Z = arrays.zeros((A.dim, A.dim), A.cov)
-        joint = arrays.blocks([[A.cov, Z], [Z, B.cov]])
+        return (_bshape(A.cov, shape), _bshape(B.cov, shape))
     return _bshape(joint, shape)
 
 
@@ -261,7 +261,7 @@ def _unscented(joint: FloatArray, f: Callable[..., FloatArray], *inputs: FloatAr
     about :data:`UNSCENTED_BYTES` of sigma points (≈ 1 kB per point and element in flight).
     A torch/JAX ``joint`` takes :func:`_unscented_generic` (the same formula).
     """
-    if arrays.is_foreign(joint):
+    if isinstance(joint, tuple) or arrays.is_foreign(joint):
         return _unscented_generic(joint, f, *inputs)
     shape = joint.shape[:-2]
     N = joint.shape[-1]
@@ -302,15 +302,36 @@ def _unscented_generic(joint: Any, f: Callable[..., Any], *inputs: Any) -> Any:
     (``arrays.like``), ``δ = P Sᵀ`` and the moments are matrix products (numpy's ``einsum``s),
     and the chunks are concatenated instead of written into a preallocated output, so autograd
     and tracing see one expression.
+
+    ``joint`` may be a tuple of the diagonal blocks of a block-diagonal joint covariance
+    (independent inputs): each block is factored on its own and ``S`` is their block diagonal.
+    numpy's ``eigh`` of the whole joint returns the same eigenvectors, in another column order
+    (and the rule is symmetric under permutations and sign changes of the coordinates), so the
+    result is the same; the gradient then needs distinct eigenvalues within each block only
+    (an isotropic covariance that does not require grad, or an exact point's zero covariance,
+    does not make the other input's gradient NaN).
     """
-    xp = arrays.namespace(joint)
-    shape = tuple(joint.shape[:-2])
-    N = int(joint.shape[-1])
+    if isinstance(joint, tuple):
+        ref = joint[0]
+        roots = [_sqrt_psd(b) for b in joint]
+        dims = [int(b.shape[-1]) for b in joint]
+        S = arrays.blocks(
+            [
+                [r if i == k else arrays.zeros((dims[i], dims[k]), ref) for k in range(len(dims))]
+                for i, r in enumerate(roots)
+            ]
+        )
+    else:
+        ref, S = joint, None
+    xp = arrays.namespace(ref)
+    shape = tuple(ref.shape[:-2])
+    N = int(S.shape[-1]) if S is not None else int(joint.shape[-1])
     pts_np, w_np = sigma_points(N)
-    pts, w = arrays.like(pts_np, joint), arrays.like(w_np, joint)
+    pts, w = arrays.like(pts_np, ref), arrays.like(w_np, ref)
     total = math.prod(shape)
     chunk = max(1, UNSCENTED_BYTES // (pts_np.shape[0] * 1024))
-    flat_joint = xp.reshape(joint, (total, N, N))
+    flat_S = None if S is None else xp.reshape(S, (total, N, N))
+    flat_joint = xp.reshape(joint, (total, N, N)) if S is None else None
     flat = [
         xp.reshape(
             xp.broadcast_to(a, (*shape, *a.shape[len(shape) :])),
@@ -321,7 +342,8 @@ def _unscented_generic(joint: Any, f: Callable[..., Any], *inputs: Any) -> Any:
     parts_out = []
     for lo in range(0, max(total, 1), chunk):
         hi = min(lo + chunk, total)
-        d = pts @ arrays.mT(_sqrt_psd(flat_joint[lo:hi]))  # (b, K, N): d_k = S p_k
+        root = _sqrt_psd(flat_joint[lo:hi]) if flat_S is None else flat_S[lo:hi]
+        d = pts @ arrays.mT(root)  # (b, K, N): d_k = S p_k
         try:
             y = f(d, *(a[lo:hi] for a in flat))
         except ValueError as exc:  # the index inside the chunk → the caller's batch index
@@ -684,5 +706,7 @@ def act(A: UncertainPose, p: Any, cov_p: Any = None, method: Method = "linear") 
                 out = np.einsum("...ij,...j->...i", X[..., :3, :3], pk)
             return out + X[..., :3, 3] if n == 6 else out
 
-        cov = _unscented(_bshape(joint, shape), f, TA, pa)
+        if arrays.is_foreign(TA):  # independent: the blocks, factored one by one
+            joint = (_bshape(A.cov, shape), _bshape(Cp, shape))
+        cov = _unscented(joint, f, TA, pa)
     return UncertainPoint(validate.finite_output(q, "p"), validate.finite_output(cov, "cov"))
