@@ -162,7 +162,9 @@ def _parts(r: Any) -> tuple[Any, Any]:
 @pytest.mark.parametrize("name", ["gtsam", "ros", "barfoot"])
 @pytest.mark.parametrize("op", OPS)
 @pytest.mark.parametrize("backend", FOREIGN)
-def test_unscented_equals_numpy(backend: str, op: str, name: str, rotation: bool, x64: None) -> None:
+def test_unscented_equals_numpy(
+    backend: str, op: str, name: str, rotation: bool, x64: None
+) -> None:
     b = Backend(backend)
     for shape in SHAPES:
         x = _inputs(shape)
@@ -197,19 +199,22 @@ def test_unscented_differs_from_linear_on_tensors(backend: str, x64: None) -> No
 
 
 @pytest.mark.parametrize("backend", FOREIGN)
-def test_unscented_chart_domain_error_names_covariance_and_batch_index(backend: str) -> None:
-    """A cubature point outside the chart's domain: the covariance and batch index are named."""
+def test_unscented_mixed_operands_give_the_tensor_type(backend: str, x64: None) -> None:
+    """A numpy operand beside a tensor is moved to it; the result is the tensor's type."""
     b = Backend(backend)
-    c = u.UncertainPose(np.eye(4), np.eye(6), "gtsam").convention
-    cov = np.broadcast_to(1e-4 * np.eye(6), (3, 6, 6)).copy()
-    cov[2] = np.diag([2.0, 2.0, 2.0, 1e-4, 1e-4, 1e-4])  # √8·1.41 > π: past the log's cut
-    A = u.UncertainPose(b(np.broadcast_to(np.eye(4), (3, 4, 4))), b(cov), c)
-    try:
-        out = u.inverse(A, method="unscented")
-    except ValueError as exc:  # the retraction refused a point: its message names where
-        assert "A.cov: a cubature point" in str(exc)
-        return
-    assert np.isfinite(b.check(out.cov)).all()  # or the chart took every point
+    x = _inputs((2,), seed=12)
+    j = x["joint"]
+    A = u.UncertainPose(b(x["TA"]), b(j[..., :6, :6]), "ros")
+    B = u.UncertainPose(x["TB"], j[..., 6:, 6:], "ros")  # numpy
+    ref_A = u.UncertainPose(x["TA"], j[..., :6, :6], "ros")
+    got = u.compose(A, B, j[..., :6, 6:], method="unscented")
+    ref = u.compose(ref_A, B, j[..., :6, 6:], method="unscented")
+    _close(b.check(got.cov), ref.cov, TOL64, "compose")
+    q = u.act(B, b(x["p"]), method="unscented")
+    _close(b.check(q.cov), u.act(B, x["p"], method="unscented").cov, TOL64, "act")
+    mc = check.monte_carlo_compose(B, A, n=300, rng=np.random.default_rng(2))
+    ref_mc = check.monte_carlo_compose(B, ref_A, n=300, rng=np.random.default_rng(2))
+    _close(b.check(mc.cov), ref_mc.cov, TOL64, "monte_carlo_compose")
 
 
 # ----------------------------------------------------------------------------- Monte Carlo
@@ -270,7 +275,11 @@ def test_monte_carlo_rotations_fuse_and_covariance_equal_numpy(backend: str, x64
                     check.monte_carlo_act(A, bb(x["p"]), n=400, rng=np.random.default_rng(1)).cov,
                     check.monte_carlo_fuse(A, A2, n=400, rng=np.random.default_rng(1)).cov,
                     check.monte_carlo_covariance(
-                        bb(j[:k, :k]), bb(TA[:m, :m]), name, "barfoot", n=400,
+                        bb(j[:k, :k]),
+                        bb(TA[:m, :m]),
+                        name,
+                        "barfoot",
+                        n=400,
                         rng=np.random.default_rng(1),
                     ),
                 ]
@@ -310,7 +319,10 @@ def test_tensor_monte_carlo_agrees_with_the_linear_propagation(
         (check.monte_carlo_inverse(A, n=n), u.inverse(A)),
         (check.monte_carlo_compose(A, B, X, n=n), u.compose(A, B, X)),
         (check.monte_carlo_relative(A, B, X, n=n), u.relative(A, B, X)),
-        (check.monte_carlo_act(A, b(x["p"]), b(x["cov_p"]), n=n), u.act(A, b(x["p"]), b(x["cov_p"]))),
+        (
+            check.monte_carlo_act(A, b(x["p"]), b(x["cov_p"]), n=n),
+            u.act(A, b(x["p"]), b(x["cov_p"])),
+        ),
     ]
     for mc, lin in cases:
         got, ref = b.check(mc.cov), b.check(lin.cov)
@@ -370,7 +382,9 @@ def _grad_fn(op: str, name: str, T0A: Any, T0B: Any, eye: Any) -> Callable[..., 
 
 @pytest.mark.skipif(not HAS["torch"], reason="torch extra")
 @pytest.mark.parametrize("at_zero", [False, True], ids=["generic", "theta_zero"])
-@pytest.mark.parametrize(("op", "name"), [("compose", "ros"), ("compose", "barfoot"), ("inverse", "gtsam")])
+@pytest.mark.parametrize(
+    ("op", "name"), [("compose", "ros"), ("compose", "barfoot"), ("inverse", "gtsam")]
+)
 def test_torch_gradcheck_unscented(op: str, name: str, at_zero: bool) -> None:
     """With respect to the means' tangents and the covariances' factors (distinct eigenvalues)."""
     import torch
@@ -399,7 +413,7 @@ def test_jax_check_grads_unscented(op: str, at_zero: bool, x64: None) -> None:
         dB, LB = args[2], args[3]
         args = args[:2]
 
-        def f(dA: Any, LA: Any) -> Any:  # noqa: F811 - the inputs inverse reads
+        def f(dA: Any, LA: Any) -> Any:  # the inputs inverse reads
             return g(dA, LA, dB, LB)
 
     check_grads(f, tuple(args), order=1, modes=("rev",), eps=1e-6, atol=1e-5, rtol=1e-5)

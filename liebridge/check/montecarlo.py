@@ -169,7 +169,7 @@ def monte_carlo_covariance(
 
 
 def _covariance_generic(
-    cov: Any, X: Any, a: Convention, b: Convention, n: int, rng: np.random.Generator | None
+    cov: Any, X: Any, a: Any, b: Any, n: int, rng: np.random.Generator | None
 ) -> Any:
     """:func:`monte_carlo_covariance` on torch/JAX arrays (numpy's draws, on the device)."""
     cov, X = arrays.common(cov, X)

@@ -146,7 +146,7 @@ def _cov(y: FloatArray) -> FloatArray:
     return np.asarray(np.einsum("...ki,...kj->...ij", dy, dy) / (y.shape[-2] - 1), np.float64)
 
 
-def _joint(A: UncertainPose, B: UncertainPose, cross: Any) -> FloatArray:
+def _joint(A: UncertainPose, B: UncertainPose, cross: Any) -> Any:
     n = A.dim
     shape = validate.batch_shape(("A", A.batch_shape), ("B", B.batch_shape))
     if arrays.is_foreign(A.T):

@@ -331,7 +331,7 @@ def _unscented_generic(joint: Any, f: Callable[..., Any], *inputs: Any) -> Any:
     total = math.prod(shape)
     chunk = max(1, UNSCENTED_BYTES // (pts_np.shape[0] * 1024))
     flat_S = None if S is None else xp.reshape(S, (total, N, N))
-    flat_joint = xp.reshape(joint, (total, N, N)) if S is None else None
+    flat_joint: Any = xp.reshape(joint, (total, N, N)) if S is None else None
     flat = [
         xp.reshape(
             xp.broadcast_to(a, (*shape, *a.shape[len(shape) :])),
