@@ -450,23 +450,16 @@ def test_assert_jacobian_reads_tensors() -> None:
 
 
 # ------------------------------------------------------------------ numpy-only, bad input
-def test_unscented_and_monte_carlo_refuse_tensors() -> None:
+def test_unscented_change_of_convention_refuses_tensors() -> None:
+    """``UncertainPose.to(method="unscented")`` (convert_covariance's) stays numpy-only.
+
+    The operations' ``method="unscented"`` and the Monte Carlo references run on tensors
+    (tests/test_tensors_sampling.py).
+    """
     T = torch.eye(4, dtype=torch.float64)
     A = u.UncertainPose(T, 1e-3 * torch.eye(6, dtype=torch.float64), "gtsam")
-    for call in [
-        lambda: u.compose(A, A, method="unscented"),
-        lambda: u.inverse(A, method="unscented"),
-        lambda: u.relative(A, A, method="unscented"),
-        lambda: u.transform(A, T, method="unscented"),
-        lambda: u.act(A, torch.zeros(3, dtype=torch.float64), method="unscented"),
-        lambda: A.to("ros", method="unscented"),
-    ]:
-        with pytest.raises(TypeError, match="method='unscented' runs on numpy arrays only"):
-            call()
-    with pytest.raises(TypeError, match=r"monte_carlo_compose: .* numpy arrays only"):
-        check.monte_carlo_compose(A, A)
-    with pytest.raises(TypeError, match=r"monte_carlo_covariance: .* numpy arrays only"):
-        check.monte_carlo_covariance(A.cov, T, "gtsam", "ros")
+    with pytest.raises(TypeError, match="method='unscented' runs on numpy arrays only"):
+        A.to("ros", method="unscented")
 
 
 def test_tensor_bad_input_names_argument_and_batch_index() -> None:

@@ -5,8 +5,9 @@ only meaningful with respect to the chart it claims, so the check must use that 
 differences through raw matrix addition test nothing; see docs/common-formula-errors.md).
 
 ``numerical_jacobian`` and ``assert_jacobian`` take torch tensors and JAX arrays (the Jacobian
-is returned in the caller's array type); the Monte Carlo references run on numpy only and raise
-``TypeError`` on a tensor (compare a tensor result with the reference of its numpy copy).
+is returned in the caller's array type); so do the Monte Carlo references, which compute on the
+device with numpy's random numbers (drawn from ``rng`` on the host and moved there): for the
+same seed they equal the reference of the numpy copy, and they are differentiable.
 """
 
 from .jacobian import assert_jacobian, numerical_jacobian

@@ -4,12 +4,17 @@ One rule serves every sigma-point computation of the package: :func:`cubature_ru
 fifth-degree rule) and :func:`sqrt_psd`, a symmetric square root that accepts a semi-definite
 covariance. ``liebridge.conventions.convert_covariance(..., method="unscented")`` and
 ``liebridge.uncertain`` (``method="unscented"``) both use them.
+
+The rule's points and weights are constants (numpy; move them with ``arrays.like``);
+:func:`sqrt_psd` runs on numpy arrays and, with the same formula, on torch tensors and JAX arrays
+(their own ``eigh``: the caller's array type, device and dtype, differentiable).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from .. import arrays
 from .._validate import FloatArray
 
 __all__ = ["cubature_rule_5", "sqrt_psd"]
@@ -52,8 +57,24 @@ def cubature_rule_5(n: int) -> tuple[FloatArray, FloatArray]:
 def sqrt_psd(cov: FloatArray) -> FloatArray:
     """``S`` with ``S Sᵀ = Σ`` for symmetric positive semi-definite ``Σ`` (..., n, n).
 
-    From the eigendecomposition of the symmetric part, negative rounding eigenvalues clipped to 0
-    (a Cholesky factor would refuse a singular covariance).
+    ``S = U √Λ`` from the eigendecomposition ``U Λ Uᵀ`` of the symmetric part, negative rounding
+    eigenvalues clipped to 0 (a Cholesky factor would refuse a singular covariance). ``S`` is not
+    the symmetric square root ``U √Λ Uᵀ``; its columns are the eigenvectors scaled, in LAPACK's
+    order (ascending eigenvalues) and with the library's signs (numpy and JAX agree, torch's
+    ``eigh`` may flip a column): a cubature rule symmetric under sign changes and permutations of
+    the coordinates, such as :func:`cubature_rule_5`, gives the same result for each.
+
+    numpy input keeps numpy's code; a torch tensor or a JAX array runs the same formula in its
+    own namespace (``xp.linalg.eigh``; the clip as ``where``, with a derivative 0 at a zero
+    eigenvalue instead of ``√``'s infinite one) and returns an array of its type, device and
+    dtype. Differentiable where the eigenvectors are, i.e. at covariances with distinct
+    eigenvalues (``eigh``'s derivative divides by their differences).
     """
+    if arrays.is_foreign(cov):
+        xp = arrays.namespace(cov)
+        lam, U = xp.linalg.eigh(0.5 * (cov + arrays.mT(cov)))
+        pos = lam > 0
+        root = xp.where(pos, xp.sqrt(xp.where(pos, lam, xp.ones_like(lam))), xp.zeros_like(lam))
+        return U * root[..., None, :]
     lam, U = np.linalg.eigh(0.5 * (cov + np.swapaxes(cov, -1, -2)))
     return np.asarray(U * np.sqrt(np.clip(lam, 0.0, None))[..., None, :], dtype=np.float64)

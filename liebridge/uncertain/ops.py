@@ -22,7 +22,13 @@ zero for independent inputs).
 On torch tensors and JAX arrays ``method="linear"`` runs the same Jacobians with the
 array-generic tangent maps, built without in-place writes: the result keeps the caller's array
 type, device, dtype and autograd graph (numpy keeps its own code). ``method="unscented"`` runs
-on numpy only and raises ``TypeError`` on a tensor.
+on them too, with the same rule and the same square root (the eigendecomposition of
+:func:`~liebridge.conventions.cubature.sqrt_psd`, in the array's own ``eigh``): the sigma points
+are pushed through the conventions' ``retract``/``local`` on the device, the weights are arrays
+of the caller's type, the chunks are concatenated (no in-place write); differentiable with
+respect to the means and the covariances (the latter where the joint covariance has distinct
+eigenvalues, where its eigenvectors are differentiable). No random numbers are drawn: the
+cubature is deterministic (the Monte Carlo references are :mod:`liebridge.check`'s).
 
 ``method="unscented"``: the joint covariance is factored, ``S Sᵀ = Σ_joint``, and the points of
 Stroud's fifth-degree Gaussian cubature (rule En^r² 5-2, ``2N² + 1`` points for ``N`` input
@@ -62,6 +68,7 @@ from .pose import (
     UncertainPose,
     _map,
     _matrix_of,
+    _rot,
     element_input,
     moved,
     same_dtype,
@@ -93,15 +100,6 @@ def _cat(parts: list[Any], axis: int = -1) -> Any:
 def _f64(X: Any) -> Any:
     """Return a numpy result as float64, a torch/JAX result as it is (type, dtype, graph)."""
     return X if arrays.is_foreign(X) else np.asarray(X, dtype=np.float64)
-
-
-def _numpy_only(op: str, method: str, *xs: Any) -> None:
-    """Refuse ``method="unscented"`` on torch/JAX arrays (it runs on numpy only)."""
-    if method != "linear" and arrays.any_foreign(*xs):
-        raise TypeError(
-            f"{op}: method={method!r} runs on numpy arrays only; torch and JAX arrays take "
-            "method='linear' (differentiable, on their device), or pass numpy arrays"
-        )
 
 
 def _align(A: UncertainPose, B: UncertainPose, nb: str) -> tuple[UncertainPose, UncertainPose]:
@@ -226,6 +224,18 @@ def _joint_generic(
     return J, shape
 
 
+def _joint_full(A: UncertainPose, B: UncertainPose, joint: Any, shape: tuple[int, ...]) -> Any:
+    """Return the joint covariance over the batch ``shape``, or its diagonal blocks.
+
+    :func:`_joint` returns ``None`` for independent torch/JAX inputs (the linear path sums two
+    sandwiches); the cubature then takes the blocks ``(Σ_A, Σ_B)`` of ``[[Σ_A, 0], [0, Σ_B]]``
+    and factors each (:func:`_unscented_generic`).
+    """
+    if joint is None:
+        return (_bshape(A.cov, shape), _bshape(B.cov, shape))
+    return _bshape(joint, shape)
+
+
 def _sym(S: FloatArray) -> FloatArray:
     return _f64(0.5 * (S + arrays.mT(S)))
 
@@ -243,13 +253,16 @@ _sqrt_psd = sqrt_psd
 UNSCENTED_BYTES = 2**26
 
 
-def _unscented(joint: FloatArray, f: Callable[..., FloatArray], *arrays: FloatArray) -> FloatArray:
-    """Covariance of ``f(δ, *arrays)``, ``δ ~ N(0, joint)`` by the fifth-degree cubature.
+def _unscented(joint: FloatArray, f: Callable[..., FloatArray], *inputs: FloatArray) -> FloatArray:
+    """Covariance of ``f(δ, *inputs)``, ``δ ~ N(0, joint)`` by the fifth-degree cubature.
 
-    ``f`` maps ``(b, K, N)`` perturbations and the ``arrays`` (each ``(b, …)``, the batch of
+    ``f`` maps ``(b, K, N)`` perturbations and the ``inputs`` (each ``(b, …)``, the batch of
     ``joint`` flattened to ``b``) to ``(b, K, m)`` outputs. The batch is processed in chunks of
     about :data:`UNSCENTED_BYTES` of sigma points (≈ 1 kB per point and element in flight).
+    A torch/JAX ``joint`` takes :func:`_unscented_generic` (the same formula).
     """
+    if isinstance(joint, tuple) or arrays.is_foreign(joint):
+        return _unscented_generic(joint, f, *inputs)
     shape = joint.shape[:-2]
     N = joint.shape[-1]
     pts, w = sigma_points(N)
@@ -258,7 +271,7 @@ def _unscented(joint: FloatArray, f: Callable[..., FloatArray], *arrays: FloatAr
     flat_joint = joint.reshape((total, N, N))
     flat = [
         np.reshape(np.broadcast_to(a, (*shape, *a.shape[len(shape) :])), (total, -1))
-        for a in arrays
+        for a in inputs
     ]
     out: FloatArray | None = None
     for lo in range(0, max(total, 1), chunk):
@@ -266,7 +279,7 @@ def _unscented(joint: FloatArray, f: Callable[..., FloatArray], *arrays: FloatAr
         d = np.einsum("...ij,kj->...ki", _sqrt_psd(flat_joint[lo:hi]), pts)
         parts = (
             a[lo:hi].reshape((hi - lo, *b.shape[len(shape) :]))
-            for a, b in zip(flat, arrays, strict=True)
+            for a, b in zip(flat, inputs, strict=True)
         )
         try:
             y = f(d, *parts)
@@ -279,6 +292,66 @@ def _unscented(joint: FloatArray, f: Callable[..., FloatArray], *arrays: FloatAr
         out[lo:hi] = part
     assert out is not None
     return _sym(out.reshape((*shape, *out.shape[1:])))
+
+
+def _unscented_generic(joint: Any, f: Callable[..., Any], *inputs: Any) -> Any:
+    """:func:`_unscented` on torch/JAX arrays: one expression, the caller's type and device.
+
+    The same rule, square root and weighted moments as the numpy code, written with the array
+    API: the points and weights are moved to ``joint``'s type, dtype and device
+    (``arrays.like``), ``δ = P Sᵀ`` and the moments are matrix products (numpy's ``einsum``s),
+    and the chunks are concatenated instead of written into a preallocated output, so autograd
+    and tracing see one expression.
+
+    ``joint`` may be a tuple of the diagonal blocks of a block-diagonal joint covariance
+    (independent inputs): each block is factored on its own and ``S`` is their block diagonal.
+    numpy's ``eigh`` of the whole joint returns the same eigenvectors, in another column order
+    (and the rule is symmetric under permutations and sign changes of the coordinates), so the
+    result is the same; the gradient then needs distinct eigenvalues within each block only
+    (an isotropic covariance that does not require grad, or an exact point's zero covariance,
+    does not make the other input's gradient NaN).
+    """
+    if isinstance(joint, tuple):
+        ref = joint[0]
+        roots = [_sqrt_psd(b) for b in joint]
+        dims = [int(b.shape[-1]) for b in joint]
+        S = arrays.blocks(
+            [
+                [r if i == k else arrays.zeros((dims[i], dims[k]), ref) for k in range(len(dims))]
+                for i, r in enumerate(roots)
+            ]
+        )
+    else:
+        ref, S = joint, None
+    xp = arrays.namespace(ref)
+    shape = tuple(ref.shape[:-2])
+    N = int(S.shape[-1]) if S is not None else int(joint.shape[-1])
+    pts_np, w_np = sigma_points(N)
+    pts, w = arrays.like(pts_np, ref), arrays.like(w_np, ref)
+    total = math.prod(shape)
+    chunk = max(1, UNSCENTED_BYTES // (pts_np.shape[0] * 1024))
+    flat_S = None if S is None else xp.reshape(S, (total, N, N))
+    flat_joint: Any = xp.reshape(joint, (total, N, N)) if S is None else None
+    flat = [
+        xp.reshape(
+            xp.broadcast_to(a, (*shape, *a.shape[len(shape) :])),
+            (total, *a.shape[len(shape) :]),
+        )
+        for a in inputs
+    ]
+    parts_out = []
+    for lo in range(0, max(total, 1), chunk):
+        hi = min(lo + chunk, total)
+        root = _sqrt_psd(flat_joint[lo:hi]) if flat_S is None else flat_S[lo:hi]
+        d = pts @ arrays.mT(root)  # (b, K, N): d_k = S p_k
+        try:
+            y = f(d, *(a[lo:hi] for a in flat))
+        except ValueError as exc:  # the index inside the chunk → the caller's batch index
+            raise ValueError(_rebase(str(exc), lo, shape)) from None
+        dy = y - (w @ y)[..., None, :]  # about the cubature mean
+        parts_out.append(arrays.mT(dy) @ (w[:, None] * dy))
+    out = parts_out[0] if len(parts_out) == 1 else arrays.concat(parts_out, 0)
+    return _sym(xp.reshape(out, (*shape, *out.shape[1:])))
 
 
 def _rebase(msg: str, offset: int, shape: tuple[int, ...]) -> str:
@@ -323,9 +396,27 @@ def _check_method(method: str) -> None:
         raise ValueError(f"method: expected 'linear' or 'unscented', got {method!r}")
 
 
+def _embed(c: Convention, R: Any, d: Any) -> tuple[Any, Any]:
+    """Return a torch/JAX rotation as the pose ``[[R, 0], [0, 1]]``, its increment ``d`` padded.
+
+    The array-generic retraction runs on poses only; in every SE(3) chart a rotation increment
+    ``(ω, 0)`` moves a pose of zero translation to the pose of the rotation's own retraction
+    (``Exp((ω, 0))`` has no translation; split charts perturb ``R`` by itself): the rotation
+    block of the pose result is the rotation result (as ``pose._map`` for the tangent maps).
+    """
+    P = U.se3_assemble(R, arrays.zeros((*R.shape[:-2], 3), R))
+    if d is None:
+        return P, None
+    z = arrays.zeros((*d.shape[:-1], 3), d)
+    return P, arrays.concat([d, z] if c.order == "rot_first" else [z, d], -1)
+
+
 def _sample(c: Convention, T: FloatArray, d: FloatArray, name: str = "A.cov") -> FloatArray:
     """``c.retract(T, d)`` for cubature points ``d`` (..., K, n) at means ``T`` (..., 4, 4)."""
     try:
+        if T.shape[-1] == 3 and arrays.is_foreign(T):  # a rotation, through its pose
+            P, D = _embed(c, T[..., None, :, :], d)
+            return c.retract(P, D)[..., :3, :3]
         return c.retract(T[..., None, :, :], d)
     except ValueError as exc:
         raise ValueError(
@@ -336,7 +427,10 @@ def _sample(c: Convention, T: FloatArray, d: FloatArray, name: str = "A.cov") ->
 
 def _read(c: Convention, C: FloatArray, Y: FloatArray) -> FloatArray:
     """``c.local(C̄, Y)`` for samples ``Y`` (..., K, 4, 4) about the mean ``C̄`` (..., 4, 4)."""
-    return c.local(np.broadcast_to(C[..., None, :, :], Y.shape), Y)
+    Cb = arrays.namespace(C).broadcast_to(C[..., None, :, :], tuple(Y.shape))
+    if Y.shape[-1] == 3 and arrays.is_foreign(Y):  # rotations, through their poses
+        return c.local(_embed(c, Cb, None)[0], _embed(c, Y, None)[0])[..., _rot(c)]
+    return c.local(Cb, Y)
 
 
 def _bshape(X: FloatArray, shape: tuple[int, ...]) -> FloatArray:
@@ -374,7 +468,6 @@ def compose(
     shape = _check_pair(A, B)
     _check_method(method)
     A, B = _align(A, B, "B")
-    _numpy_only("compose", method, A.T)
     joint, shape = _joint(A, B, cross, shape)
     c = A.convention
     TA, TB = _bshape(A.T, shape), _bshape(B.T, shape)
@@ -389,7 +482,7 @@ def compose(
             cov = _sandwich(_cat([_full(JA, TC, n), _full(JB, TC, n)]), joint)
     else:
         cov = _unscented(
-            joint,
+            _joint_full(A, B, joint, shape),
             lambda d, TA, TB, TC: _read(
                 c, TC, _sample(c, TA, d[..., :n]) @ _sample(c, TB, d[..., n:], "B.cov")
             ),
@@ -413,7 +506,6 @@ def inverse(A: UncertainPose, method: Method = "linear") -> UncertainPose:
     """
     A = _check_uncertain(A, "A")
     _check_method(method)
-    _numpy_only("inverse", method, A.T)
     c, TA = A.convention, A.T
     TC = _inv(TA)
     TC = TC if arrays.is_foreign(TC) else TC.copy()
@@ -440,7 +532,6 @@ def relative(
     shape = _check_pair(A, B)
     _check_method(method)
     A, B = _align(A, B, "B")
-    _numpy_only("relative", method, A.T)
     joint, shape = _joint(A, B, cross, shape)
     c = A.convention
     TA, TB = _bshape(A.T, shape), _bshape(B.T, shape)
@@ -456,7 +547,7 @@ def relative(
             cov = _sandwich(_cat([JA, _full(JB, TC, n)]), joint)
     else:
         cov = _unscented(
-            joint,
+            _joint_full(A, B, joint, shape),
             lambda d, TA, TB, TC: _read(
                 c, TC, _inv(_sample(c, TA, d[..., :n])) @ _sample(c, TB, d[..., n:], "B.cov")
             ),
@@ -515,7 +606,6 @@ def transform(
         A = moved(A, TF)
     F = element_input(arrays.common(A.T, TF)[1], "T_fixed")
     same_dtype(A.T, F, "T_fixed", "A.T")
-    _numpy_only("transform", method, A.T)
     if tuple(F.shape[-2:]) != tuple(A.T.shape[-2:]):
         raise ValueError(
             f"T_fixed: a {tuple(F.shape[-2:])} matrix, but A holds {tuple(A.T.shape[-2:])}"
@@ -575,7 +665,6 @@ def act(A: UncertainPose, p: Any, cov_p: Any = None, method: Method = "linear") 
     if ref is not None and not arrays.is_foreign(A.T):
         A = moved(A, ref)
     _, p, cov_p = arrays.common(A.T, p, cov_p)
-    _numpy_only("act", method, A.T)
     pa = validate.vector(p, "p", 3)
     same_dtype(A.T, pa, "p", "A.T")
     if cov_p is None:
@@ -611,8 +700,13 @@ def act(A: UncertainPose, p: Any, cov_p: Any = None, method: Method = "linear") 
         def f(d: FloatArray, TA: FloatArray, pa: FloatArray) -> FloatArray:
             X = _sample(c, TA, d[..., :n])
             pk = pa[..., None, :] + d[..., n:]
-            out = np.einsum("...ij,...j->...i", X[..., :3, :3], pk)
+            if arrays.is_foreign(X):
+                out = arrays.matvec(X[..., :3, :3], pk)
+            else:
+                out = np.einsum("...ij,...j->...i", X[..., :3, :3], pk)
             return out + X[..., :3, 3] if n == 6 else out
 
+        if arrays.is_foreign(TA):  # independent: the blocks, factored one by one
+            joint = (_bshape(A.cov, shape), _bshape(Cp, shape))
         cov = _unscented(joint, f, TA, pa)
     return UncertainPoint(validate.finite_output(q, "p"), validate.finite_output(cov, "cov"))
