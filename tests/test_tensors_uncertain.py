@@ -450,16 +450,20 @@ def test_assert_jacobian_reads_tensors() -> None:
 
 
 # ------------------------------------------------------------------ numpy-only, bad input
-def test_unscented_change_of_convention_refuses_tensors() -> None:
-    """``UncertainPose.to(method="unscented")`` (convert_covariance's) stays numpy-only.
-
-    The operations' ``method="unscented"`` and the Monte Carlo references run on tensors
-    (tests/test_tensors_sampling.py).
-    """
-    T = torch.eye(4, dtype=torch.float64)
-    A = u.UncertainPose(T, 1e-3 * torch.eye(6, dtype=torch.float64), "gtsam")
-    with pytest.raises(TypeError, match="method='unscented' runs on numpy arrays only"):
-        A.to("ros", method="unscented")
+@pytest.mark.parametrize("rotation", [False, True], ids=["pose", "rotation"])
+def test_unscented_change_of_convention_on_tensors_equals_numpy(rotation: bool, x64: None) -> None:
+    """``UncertainPose.to(method="unscented")`` (``convert_covariance``'s) on torch and JAX."""
+    rng = np.random.default_rng(11)
+    T = se3.exp(rng.normal(size=(3, 6)))
+    A = 0.2 * rng.normal(size=(3, 6, 6))
+    C = A @ np.swapaxes(A, -1, -2) + 1e-4 * np.eye(6)
+    if rotation:
+        T, C = T[:, :3, :3], C[:, :3, :3]
+    ref = u.UncertainPose(T, C, "gtsam").to("ros", method="unscented").cov
+    for backend in ("torch", "jax"):
+        out = u.UncertainPose(to(T, backend), to(C, backend), "gtsam").to("ros", method="unscented")
+        assert not isinstance(out.cov, np.ndarray)
+        np.testing.assert_allclose(host(out.cov), ref, rtol=0, atol=1e-12)
 
 
 def test_tensor_bad_input_names_argument_and_batch_index() -> None:

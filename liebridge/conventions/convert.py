@@ -285,8 +285,6 @@ def convert_covariance(
     if method == "linear" and arrays.is_foreign(Xa):
         M = unchecked_map(Xa, a, b)
         return validate.finite_output(M @ cov @ arrays.mT(M), "convert_covariance")
-    if arrays.is_foreign(Xa):
-        raise TypeError("convert_covariance: method='unscented' runs on numpy arrays only")
     if method == "linear":
         M = unchecked_map(Xa, a, b)
         # a batch: numpy multiplies stacks of small matrices fast only when they are contiguous
@@ -297,6 +295,8 @@ def convert_covariance(
     if method != "unscented":
         raise ValueError(f"method: expected 'linear' or 'unscented', got {method!r}")
     chunk = _chunk_size(chunk_size)
+    if arrays.is_foreign(Xa):  # torch/JAX: the same passes, the chunks concatenated
+        return _unscented_foreign(cov, Xa, a, b, n, so3, batch, chunk)
     # X and cov broadcast against each other first (one covariance at many poses, many at one);
     # each chunk gathers its elements from the broadcast views, so nothing is copied whole.
     Xv = np.broadcast_to(Xa, (*batch, *Xa.shape[-2:]))
@@ -344,10 +344,53 @@ def _chunk_size(chunk_size: Any) -> int:
     return int(chunk_size)
 
 
+def _unscented_foreign(
+    cov: Any,
+    Xa: Any,
+    a: Chart,
+    b: Chart,
+    n: int,
+    so3: bool,
+    batch: tuple[int, ...],
+    chunk: int,
+) -> Any:
+    """:func:`_unscented` on torch/JAX arrays: broadcast, flattened, in chunks, concatenated."""
+    xp = arrays.namespace(Xa)
+    k = Xa.shape[-1]
+    total = math.prod(batch)
+    Xv = xp.reshape(xp.broadcast_to(Xa, (*batch, k, k)), (total, k, k))
+    cv = xp.reshape(xp.broadcast_to(cov, (*batch, n, n)), (total, n, n))
+    parts = []
+    for lo in range(0, max(total, 1), chunk):
+        hi = min(lo + chunk, total)
+        try:
+            parts.append(_unscented(cv[lo:hi], Xv[lo:hi], a, b, n, so3))
+        except ValueError as e:  # name the index in the caller's batch, not in the chunk
+            raise ValueError(_rebase_index(str(e), lo, batch)) from None
+    out = parts[0] if len(parts) == 1 else arrays.concat(parts, 0)
+    return validate.finite_output(xp.reshape(out, (*batch, *out.shape[1:])), "convert_covariance")
+
+
 def _unscented(
     cov: FloatArray, Xa: FloatArray, a: Chart, b: Chart, n: int, so3: bool
 ) -> FloatArray:
-    """Convert a flat batch of covariances ``(N, n, n)`` at ``(N, k, k)`` by sigma points."""
+    """Convert a flat batch of covariances ``(N, n, n)`` at ``(N, k, k)`` by sigma points.
+
+    numpy, torch and JAX alike (the rule's points and weights moved to the array's device).
+    """
+    if arrays.is_foreign(Xa):
+        pts_np, w_np = cubature_rule_5(n)
+        pts, w = arrays.like(pts_np, Xa), arrays.like(w_np, Xa)
+        S = sqrt_psd(cov)
+        deltas = arrays.mT(S @ arrays.mT(pts))  # (..., K, n)
+        a._increment(deltas, so3, "cov (its sigma points)")
+        Xb = Xa[..., None, :, :]
+        y = b._local(Xb, a._retract(Xb, deltas))
+        mean = arrays.matvec(arrays.mT(y), w)
+        dy = y - mean[..., None, :]
+        out = arrays.mT(dy * w[:, None]) @ dy
+        out = 0.5 * (out + arrays.mT(out))
+        return validate.finite_output(out, "convert_covariance (unscented: the sigma points at X)")
     pts, w = cubature_rule_5(n)
     S = sqrt_psd(cov)  # (..., n, n), S Sᵀ = Σ
     deltas = np.einsum("...ij,kj->...ki", S, pts)  # (..., K, n)

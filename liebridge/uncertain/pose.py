@@ -224,19 +224,11 @@ class UncertainPose:
 
         ``cov_dst = M cov Mᵀ``, ``M = tangent_map(T, self.convention, convention)``
         (``method="linear"``, exact when :func:`~liebridge.conventions.is_exactly_linear`), or
-        the unscented transform of :func:`~liebridge.conventions.convert_covariance` (numpy
-        only: ``TypeError`` on tensors). ``T`` is unchanged (the mean shift of a nonlinear change
-        of chart is second order and dropped).
+        the unscented transform of :func:`~liebridge.conventions.convert_covariance` (numpy,
+        torch and JAX). ``T`` is unchanged (the mean shift of a nonlinear change of chart is
+        second order and dropped).
         """
         dst = pose_convention(get(convention), "convention", self.T)
-        if method != "linear" and arrays.is_foreign(self.T):
-            raise TypeError(
-                f"UncertainPose.to: method={method!r} runs on numpy arrays only; torch and JAX "
-                "arrays take method='linear'"
-            )
-        if self.is_rotation and arrays.is_foreign(self.T) and method == "linear":
-            M = _map(self.T, self.convention, dst)  # the generic engine maps poses only
-            return UncertainPose(self.T, M @ self.cov @ arrays.mT(M), dst)
         cov = convert_covariance(self.cov, self.T, self.convention, dst, method=method)
         return UncertainPose(self.T, cov, dst)
 
