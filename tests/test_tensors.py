@@ -203,16 +203,14 @@ def test_compose_act_interpolate(B: Backend, shape: tuple[int, ...]) -> None:
 
 # ----------------------------------------------------------------------------- conventions
 def _tensor_conventions() -> list[str]:
-    """Every registered convention that runs on tensors (array-API group, rotation vector)."""
+    """Every registered convention that runs on tensors (array-API group, rotation vector).
+
+    Embedded tangents (``ros_pose2``) included.
+    """
     out = []
     for name in lb.conventions.names():
         c = lb.conventions.get(name)
-        if (
-            isinstance(c, Convention)
-            and c.record.array_api
-            and c.rotation in ("exp", "half_exp")
-            and c.embed is None
-        ):
+        if isinstance(c, Convention) and c.record.array_api and c.rotation in ("exp", "half_exp"):
             out.append(name)
     return out
 
@@ -222,7 +220,7 @@ TENSOR_CONVENTIONS = _tensor_conventions()
 
 def test_the_tensor_conventions_include_the_learned_slam_ones() -> None:
     assert {"gtsam", "pypose", "sophus", "barfoot", "theseus", "jaxlie"} <= set(TENSOR_CONVENTIONS)
-    assert {"gtsam_pose2", "gtsam_rot2", "gtsam_navstate"} <= set(TENSOR_CONVENTIONS)
+    assert {"gtsam_pose2", "gtsam_rot2", "gtsam_navstate", "ros_pose2"} <= set(TENSOR_CONVENTIONS)
 
 
 def _element_for(c: Convention, shape: tuple[int, ...]) -> np.ndarray:

@@ -174,8 +174,10 @@ def from_internal(conv: Convention, xi: FloatArray) -> FloatArray:
     d = xi[..., [int(i) for i in g.perm(conv.order)]]
     if conv.embed is None:
         return _out(d)
-    if arrays.is_foreign(d):
-        raise TypeError(f"Convention {conv.name!r}: an embedded tangent runs on numpy arrays only")
+    if arrays.is_foreign(d):  # a zero column appended, then gathered: no in-place write
+        where = {j: k for k, j in enumerate(conv.embed.index)}
+        ext = arrays.concat([d, arrays.zeros((*d.shape[:-1], 1), d)], -1)
+        return ext[..., [where.get(j, len(where)) for j in range(conv.embed.size)]]
     out = np.zeros((*d.shape[:-1], conv.embed.size))
     out[..., list(conv.embed.index)] = d
     return out
