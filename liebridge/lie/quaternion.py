@@ -69,7 +69,7 @@ def _parts(q: Any, order: str) -> tuple[Any, Any, Any, Any]:
 
 
 def _pack(w: Any, x: Any, y: Any, z: Any, order: str) -> Any:
-    """The ``(..., 4)`` array of ``(w, x, y, z)`` stored in ``order``."""
+    """Return the ``(..., 4)`` array of ``(w, x, y, z)`` stored in ``order``."""
     return arrays.vector([w, x, y, z] if order == "wxyz" else [x, y, z, w])
 
 

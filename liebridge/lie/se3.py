@@ -237,9 +237,7 @@ def hat(xi: Any) -> FloatArray:
     """Map a twist ``(ω, v)`` ``(..., 6)`` to ``[[hat(ω), v], [0, 0]]``, ``(..., 4, 4)``."""
     xi = validate.vector(xi, "xi", 6)
     x, y, z, a, b, c = (xi[..., k] for k in range(6))
-    return arrays.matrix(
-        [0.0, -z, y, a, z, 0.0, -x, b, -y, x, 0.0, c, 0.0, 0.0, 0.0, 0.0], 4, 4
-    )
+    return arrays.matrix([0.0, -z, y, a, z, 0.0, -x, b, -y, x, 0.0, c, 0.0, 0.0, 0.0, 0.0], 4, 4)
 
 
 def vee(X: Any) -> FloatArray:
