@@ -179,7 +179,8 @@ def multiply(q1: Any, q2: Any, *, order: QuatOrder) -> FloatArray:
     order = _check_order(order)
     if order == "jpl":
         return multiply(q2, q1, order="xyzw")
-    q1, q2 = arrays.common(q1, q2)
+    if arrays.any_foreign(q1, q2):  # a numpy operand next to a tensor: the tensor's type
+        q1, q2 = arrays.common(q1, q2)
     a = validate.quaternion(q1, "q1")
     b = validate.quaternion(q2, "q2")
     validate.batch_shape(("q1", tuple(a.shape[:-1])), ("q2", tuple(b.shape[:-1])))
@@ -245,7 +246,8 @@ def slerp(q0: Any, q1: Any, tau: Any, *, order: QuatOrder) -> FloatArray:
     ``order`` names the storage of both inputs and of the result (the arc does not depend on it).
     """
     order = _check_order(order)
-    q0, q1, tau = arrays.common(q0, q1, tau)
+    if arrays.any_foreign(q0, q1, tau):
+        q0, q1, tau = arrays.common(q0, q1, tau)
     a = validate.quaternion(q0, "q0")
     b = validate.quaternion(q1, "q1")
     if arrays.is_foreign(a):
