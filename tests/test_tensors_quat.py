@@ -161,6 +161,26 @@ def test_from_matrix_keeps_the_hemisphere_and_sign_at_half_turns(B: Backend) -> 
     np.testing.assert_allclose(q[7], [0.0, 0.0, 1.0, 0.0], atol=1e-15)
     np.testing.assert_allclose(q[8], [0.0, 0.0, 0.0, 1.0], atol=1e-15)
     np.testing.assert_allclose(q[10], [0.0, 1.0, -1.0, 0.0] / np.sqrt(2.0), atol=1e-15)
+    # exact half turns 2uuᵀ − I (w = 0 exactly: the sign is the selected formula's, and where
+    # R₀₀ = R₁₁ ties, the first of them, as scipy's argmax)
+    exact = np.stack([2.0 * np.outer(u, u) - np.eye(3) for u in _HALF_TURN_AXES])
+    for order in ORDERS:
+        _close(B.check(Q.from_matrix(B(exact), order=order)), Q.from_matrix(exact, order=order))
+    q = B.check(Q.from_matrix(B(exact), order="wxyz"))
+    np.testing.assert_array_equal(q[:, 0], 0.0)
+    np.testing.assert_allclose(q[3], [0.0, 1.0, -1.0, 0.0] / np.sqrt(2.0), atol=1e-15)
+    np.testing.assert_allclose(q[5], [0.0, 0.0, 1.0, -1.0] / np.sqrt(2.0), atol=1e-15)
+
+
+_HALF_TURN_AXES = [
+    np.array([1.0, 0.0, 0.0]),
+    np.array([0.0, 1.0, 0.0]),
+    np.array([0.0, 0.0, 1.0]),
+    np.array([1.0, -1.0, 0.0]) / np.sqrt(2.0),
+    np.array([1.0, 1.0, 0.0]) / np.sqrt(2.0),
+    np.array([0.0, 1.0, -1.0]) / np.sqrt(2.0),
+    np.array([1.0, -1.0, 1.0]) / np.sqrt(3.0),
+]
 
 
 def test_from_matrix_of_a_slightly_non_orthogonal_matrix_equals_scipys_projection(
