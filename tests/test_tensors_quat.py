@@ -701,3 +701,20 @@ def test_numpy_quaternion_results_stay_numpy() -> None:
     ):
         assert type(out) is np.ndarray and out.dtype == np.float64
     np.testing.assert_array_equal(q, keep)
+
+
+def test_bench_quaternion_tensors_smoke(x64: None) -> None:
+    """The benchmark runs and both sides agree (its timings are not asserted)."""
+    if not (HAS["torch"] or HAS["jax"]):
+        pytest.skip("torch or jax extra")
+    import importlib.util as iu
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_quaternion_tensors.py"
+    spec = iu.spec_from_file_location("bench_quaternion_tensors", path)
+    assert spec is not None and spec.loader is not None
+    bench = iu.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    rows = bench.run([200], 1)
+    assert {r["op"] for r in rows} == {"to_matrix", "from_matrix"}
+    assert all(r["max_abs_diff"] <= 1e-9 and r["liebridge_ms"] > 0 for r in rows)
