@@ -38,6 +38,14 @@ SPLIT_BODY = Convention(
     rotation="exp",
     quat_order="wxyz",
 )
+EULER = Convention(  # absolute Euler angles: not an increment on tensors (refused by name)
+    name="euler_test",
+    side="right",
+    order="trans_first",
+    chart="so3xr3_world",
+    rotation="euler_zyx",
+    quat_order="wxyz",
+)
 # GTSAM's own, PyPose (left, translation first), Sophus (right, translation first), SymForce
 # (split chart, world-frame translation), a split chart with body-frame translation
 CONVENTIONS = ["gtsam", "pypose", "sophus", "symforce", SPLIT_BODY]
@@ -353,7 +361,7 @@ def _torch() -> Any:
     ("kwargs", "error", "match"),
     [
         ({"backend": "numpy"}, ValueError, r"backend: expected one of \('jax', 'torch'\)"),
-        ({"convention": "g2o"}, ValueError, r"convention: 'g2o' .*quat_vec.* torch arrays"),
+        ({"convention": EULER}, ValueError, r"convention: 'euler_test' .*euler_zyx.* torch arrays"),
         ({"convention": "ros_pose2"}, ValueError, r"convention: 'ros_pose2' .*longer vector"),
         ({"convention": "nope"}, ValueError, r"nope"),
         ({"keys": [1, 1]}, ValueError, r"key 1 appears twice"),

@@ -35,11 +35,19 @@ Their first-order map is not constant: the Euler rates of a body rate ``ω`` are
 [0, sφ/cθ, cφ/cθ]]``, singular at ``cos θ = 0``: at pitch = ±90° (gimbal lock) the chart is
 singular and every function here raises (never NaN). False: "Euler-angle covariances convert by
 reordering to (ω)" — only at roll = pitch = 0 is ``W = I``.
+
+Every function takes torch tensors and JAX arrays too and returns the caller's array type
+(differentiable: ``where`` with safe discarded branches, no host copy, no in-place write); numpy
+keeps its code. The checks (``‖r‖ ≤ 1`` of ``quat_vec``, ``1 + tr R > 0`` of ``cayley``, gimbal
+lock) are certified on the device; only where one fails is a host copy made, to word the same
+error as numpy's (under tracing values are unknown and not checked). The record-driven engine
+reaches the Euler coordinates only through :func:`euler_retract`, :func:`euler_local` and the rate
+maps, never as an increment: :func:`to_rotation` and friends refuse them on tensors.
 """
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -47,7 +55,7 @@ from .. import _validate as validate
 from .. import arrays
 from .._validate import FloatArray
 from ..lie import unchecked as U
-from ..lie.series import sinc
+from ..lie.series import angle, sinc
 
 RotationCoords = Literal["exp", "half_exp", "quat_vec", "cayley", "euler_zyx", "euler_rpy"]
 ROTATION_COORDS: tuple[str, ...] = (
@@ -65,16 +73,28 @@ FIRST_ORDER_SCALE: dict[str, float] = {
 GIMBAL_TOL = 1e-9
 
 
+def _xp(x: FloatArray) -> Any:
+    return arrays.namespace(x)
+
+
 def _rpy(e: FloatArray, kind: str) -> FloatArray:
     """Euler coordinates of ``kind`` → ``(roll, pitch, yaw)``."""
-    return e if kind == "euler_rpy" else np.asarray(e[..., ::-1], dtype=np.float64)
+    if kind == "euler_rpy":
+        return e
+    if arrays.is_foreign(e):
+        return e[..., [2, 1, 0]]
+    return np.asarray(e[..., ::-1], dtype=np.float64)
 
 
 def _from_rpy(rpy: FloatArray, kind: str) -> FloatArray:
-    return rpy if kind == "euler_rpy" else np.asarray(rpy[..., ::-1], dtype=np.float64)
+    return _rpy(rpy, kind)  # the reversal is its own inverse
 
 
 def _check_gimbal(cp: FloatArray, what: str) -> None:
+    if arrays.is_foreign(cp):  # certified on the device; the host copy words the error
+        if arrays.all_true(_xp(cp).abs(cp) >= GIMBAL_TOL) is False:
+            _check_gimbal(arrays.to_numpy(cp), what)
+        return
     bad = ~(np.abs(cp) >= GIMBAL_TOL)
     if bad.any():
         i = validate.batch_index(bad)
@@ -85,27 +105,35 @@ def _check_gimbal(cp: FloatArray, what: str) -> None:
         )
 
 
+def _trig(rpy: FloatArray, k: int) -> tuple[FloatArray, FloatArray]:
+    xp = _xp(rpy)
+    return xp.cos(rpy[..., k]), xp.sin(rpy[..., k])
+
+
 def euler_to_matrix(e: FloatArray, kind: str) -> FloatArray:
     """``Rz(yaw)·Ry(pitch)·Rx(roll)`` from Euler coordinates of ``kind`` ``(..., 3)``."""
     rpy = _rpy(e, kind)
-    cr, sr = np.cos(rpy[..., 0]), np.sin(rpy[..., 0])
-    cp, sp = np.cos(rpy[..., 1]), np.sin(rpy[..., 1])
-    cy, sy = np.cos(rpy[..., 2]), np.sin(rpy[..., 2])
-    R = np.empty((*rpy.shape[:-1], 3, 3))
-    R[..., 0, 0] = cy * cp
-    R[..., 0, 1] = cy * sp * sr - sy * cr
-    R[..., 0, 2] = cy * sp * cr + sy * sr
-    R[..., 1, 0] = sy * cp
-    R[..., 1, 1] = sy * sp * sr + cy * cr
-    R[..., 1, 2] = sy * sp * cr - cy * sr
-    R[..., 2, 0] = -sp
-    R[..., 2, 1] = cp * sr
-    R[..., 2, 2] = cp * cr
-    return R
+    (cr, sr), (cp, sp), (cy, sy) = _trig(rpy, 0), _trig(rpy, 1), _trig(rpy, 2)
+    return arrays.matrix(
+        [
+            cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr,
+            sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr,
+            -sp, cp * sr, cp * cr,
+        ],
+        3,
+        3,
+    )  # fmt: skip
 
 
 def matrix_to_euler(R: FloatArray, kind: str, what: str = "R") -> FloatArray:
     """Euler coordinates of ``kind`` of ``R`` (pitch in [−π/2, π/2]); gimbal lock raises."""
+    if arrays.is_foreign(R):
+        cp = _xp(R).hypot(R[..., 0, 0], R[..., 1, 0])
+        _check_gimbal(cp, what)
+        pitch = arrays.atan2(-R[..., 2, 0], cp)
+        roll = arrays.atan2(R[..., 2, 1], R[..., 2, 2])
+        yaw = arrays.atan2(R[..., 1, 0], R[..., 0, 0])
+        return _from_rpy(arrays.vector([roll, pitch, yaw]), kind)
     cp = np.hypot(R[..., 0, 0], R[..., 1, 0])
     _check_gimbal(cp, what)
     pitch = np.arctan2(-R[..., 2, 0], cp)
@@ -117,9 +145,17 @@ def matrix_to_euler(R: FloatArray, kind: str, what: str = "R") -> FloatArray:
 def euler_rate_map(e: FloatArray, kind: str, what: str = "R") -> FloatArray:
     """``W`` with ``ė = W ω_body`` (rows and columns: ``e`` in ``kind``'s order / ``ω``)."""
     rpy = _rpy(e, kind)
-    cr, sr = np.cos(rpy[..., 0]), np.sin(rpy[..., 0])
-    cp, sp = np.cos(rpy[..., 1]), np.sin(rpy[..., 1])
+    (cr, sr), (cp, sp) = _trig(rpy, 0), _trig(rpy, 1)
     _check_gimbal(cp, what)
+    if arrays.is_foreign(rpy):
+        rows = [
+            [1.0 + 0.0 * cp, sr * sp / cp, cr * sp / cp],
+            [0.0 * cp, cr, -sr],
+            [0.0 * cp, sr / cp, cr / cp],
+        ]
+        if kind != "euler_rpy":
+            rows = rows[::-1]
+        return arrays.matrix([v for row in rows for v in row], 3, 3)
     W = np.zeros((*rpy.shape[:-1], 3, 3))
     W[..., 0, 0] = 1.0
     W[..., 0, 1] = sr * sp / cp
@@ -134,8 +170,13 @@ def euler_rate_map(e: FloatArray, kind: str, what: str = "R") -> FloatArray:
 def euler_rate_map_inv(e: FloatArray, kind: str) -> FloatArray:
     """``W⁻¹``: ``ω_body = W⁻¹ ė`` = ``[[1, 0, −sθ], [0, cφ, sφ cθ], [0, −sφ, cφ cθ]]`` (rpy)."""
     rpy = _rpy(e, kind)
-    cr, sr = np.cos(rpy[..., 0]), np.sin(rpy[..., 0])
-    cp, sp = np.cos(rpy[..., 1]), np.sin(rpy[..., 1])
+    (cr, sr), (cp, sp) = _trig(rpy, 0), _trig(rpy, 1)
+    if arrays.is_foreign(rpy):
+        zero = 0.0 * cp
+        rows = [[1.0 + zero, zero, -sp], [zero, cr, sr * cp], [zero, -sr, cr * cp]]
+        if kind != "euler_rpy":
+            rows = [row[::-1] for row in rows]
+        return arrays.matrix([v for row in rows for v in row], 3, 3)
     Wi = np.zeros((*rpy.shape[:-1], 3, 3))
     Wi[..., 0, 0] = 1.0
     Wi[..., 0, 2] = -sp
@@ -148,6 +189,9 @@ def euler_rate_map_inv(e: FloatArray, kind: str) -> FloatArray:
 
 def _wrap_angles(d: FloatArray, kind: str) -> FloatArray:
     """Wrap the yaw and roll entries (not pitch) of an Euler difference to (−π, π]."""
+    if arrays.is_foreign(d):
+        w = np.pi - _xp(d).remainder(np.pi - d, 2.0 * np.pi)
+        return arrays.concat([w[..., :1], d[..., 1:2], w[..., 2:]], axis=-1)
     w = np.pi - np.mod(np.pi - d, 2.0 * np.pi)
     keep = np.array([False, True, False])  # pitch sits in the middle in both orders
     return np.where(keep, d, w)
@@ -161,22 +205,63 @@ def euler_retract(R: FloatArray, r: FloatArray, kind: str) -> FloatArray:
 def euler_local(RX: FloatArray, RY: FloatArray, kind: str) -> FloatArray:
     """``e(RY) − e(RX)``, yaw and roll differences wrapped to (−π, π]."""
     d = matrix_to_euler(RY, kind, "Y") - matrix_to_euler(RX, kind, "X")
-    return np.asarray(_wrap_angles(d, kind), dtype=np.float64)
+    out = _wrap_angles(d, kind)
+    return out if arrays.is_foreign(out) else np.asarray(out, dtype=np.float64)
 
 
 def _generic_kind(x: FloatArray, kind: str) -> None:
-    """Raise unless ``kind`` runs on ``x``'s array type (torch/JAX: ``exp`` and ``half_exp``)."""
-    if arrays.is_foreign(x) and kind not in ("exp", "half_exp"):
+    """Raise unless ``kind`` is an increment on ``x``'s array type (Euler angles are absolute)."""
+    if arrays.is_foreign(x) and kind in EULER_COORDS:
         raise TypeError(
-            f"rotation coordinates {kind!r} run on numpy arrays only; on torch/JAX arrays the "
-            "rotation-vector coordinates 'exp' and 'half_exp' do (docs/tensors.md)"
+            f"rotation coordinates {kind!r} are absolute Euler angles, not an increment: on "
+            "torch/JAX arrays a convention with them runs through euler_retract/euler_local "
+            "and the rate maps, which its engine does not call there (docs/tensors.md)"
         )
+
+
+def _sqrt0(x: FloatArray) -> FloatArray:
+    """``sqrt(x)`` for ``x ≥ 0`` with a finite gradient at 0 (torch/JAX; 0 there, by ``where``)."""
+    xp = _xp(x)
+    pos = x > 0.0
+    return xp.where(pos, xp.sqrt(xp.where(pos, x, 1.0 + 0.0 * x)), 0.0 * x)
+
+
+def _raise_quat_vec_norm(n2: FloatArray) -> None:
+    if (n2 > 1.0 + 1e-12).any():
+        i = tuple(int(k) for k in np.argwhere(n2 > 1.0 + 1e-12)[0])
+        raise ValueError(
+            f"d: quaternion-vector rotation coordinates need ‖r‖ ≤ 1, got "
+            f"‖r‖ = {float(np.sqrt(n2[i])):.6g} at batch index {i}"
+        )
+
+
+def _raise_cayley_pi(den: FloatArray) -> None:
+    if (den <= 1e-12).any():
+        i = tuple(int(k) for k in np.argwhere(den <= 1e-12)[0])
+        raise ValueError(
+            f"Cayley coordinates are undefined for a rotation by π (batch index {i}): "
+            f"1 + tr R = {float(den[i]):.3g}"
+        )
+
+
+def _to_rotation_generic(r: FloatArray, kind: str) -> FloatArray:
+    """:func:`to_rotation` of ``quat_vec``/``cayley`` on torch/JAX (``I + a·W + b·W²``)."""
+    W = U.so3_hat(r)
+    n2 = arrays.dot(r, r)
+    if kind == "quat_vec":
+        if arrays.all_true(n2 <= 1.0 + 1e-12) is False:
+            _raise_quat_vec_norm(arrays.to_numpy(n2))
+        w = _sqrt0(1.0 - n2)  # w = sqrt(1 − ‖r‖²) ≥ 0, clipped at 0 as numpy's
+        return arrays.eye(3, r) + 2.0 * w[..., None, None] * W + 2.0 * (W @ W)
+    c = (4.0 / (4.0 + n2))[..., None, None]
+    return arrays.eye(3, r) + c * (W + 0.5 * (W @ W))
 
 
 def to_rotation(r: FloatArray, kind: str) -> FloatArray:
     """Map coordinates ``r`` ``(..., 3)`` to the rotation increment ``(..., 3, 3)``.
 
-    For the Euler kinds: the rotation with those Euler angles.
+    For the Euler kinds: the rotation with those Euler angles (numpy only: on tensors the Euler
+    chart is :func:`euler_retract`'s, not an increment).
     """
     _generic_kind(r, kind)
     if kind in EULER_COORDS:
@@ -185,21 +270,46 @@ def to_rotation(r: FloatArray, kind: str) -> FloatArray:
         return U.so3_exp(r)
     if kind == "half_exp":
         return U.so3_exp(2.0 * r)
+    if kind in ("quat_vec", "cayley") and arrays.is_foreign(r):
+        return _to_rotation_generic(r, kind)
     W = U.so3_hat(r)
     n2 = np.einsum("...i,...i->...", r, r)
     if kind == "quat_vec":
-        if (n2 > 1.0 + 1e-12).any():
-            i = tuple(int(k) for k in np.argwhere(n2 > 1.0 + 1e-12)[0])
-            raise ValueError(
-                f"d: quaternion-vector rotation coordinates need ‖r‖ ≤ 1, got "
-                f"‖r‖ = {float(np.sqrt(n2[i])):.6g} at batch index {i}"
-            )
+        _raise_quat_vec_norm(n2)
         w = np.sqrt(np.clip(1.0 - n2, 0.0, None))
         return np.eye(3) + 2.0 * w[..., None, None] * W + 2.0 * (W @ W)
     if kind == "cayley":
         c = (4.0 / (4.0 + n2))[..., None, None]
         return np.eye(3) + c * (W + 0.5 * (W @ W))
     raise ValueError(f"rotation: unknown rotation coordinates {kind!r}")
+
+
+def _quat_vec_of_log(w: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """``(u, θ)``: the quaternion's vector part ``sin(θ/2)·ω/θ = ½·sinc(θ/2)·ω`` and ``θ``."""
+    if arrays.is_foreign(w):
+        th, t2 = angle(w)  # ‖ω‖ with a finite gradient at 0
+        return 0.5 * sinc(0.5 * th, 0.25 * t2)[..., None] * w, th
+    th = np.linalg.norm(w, axis=-1)
+    return 0.5 * sinc(0.5 * th)[..., None] * w, th
+
+
+def _cayley(R: FloatArray) -> FloatArray:
+    """``r = 2 vee(R − Rᵀ)/(1 + tr R)``; a rotation by π (``1 + tr R ≤ 1e-12``) raises."""
+    if arrays.is_foreign(R):
+        s = arrays.vector(
+            [R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]]
+        )
+        den = 1.0 + (R[..., 0, 0] + R[..., 1, 1] + R[..., 2, 2])
+        if arrays.all_true(den > 1e-12) is False:
+            _raise_cayley_pi(arrays.to_numpy(den))
+        return 2.0 * s / den[..., None]
+    s = np.stack(
+        [R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]],
+        axis=-1,
+    )
+    den = 1.0 + np.trace(R, axis1=-2, axis2=-1)
+    _raise_cayley_pi(den)
+    return np.asarray(2.0 * s / den[..., None], dtype=np.float64)
 
 
 def from_rotation(R: FloatArray, kind: str) -> FloatArray:
@@ -212,23 +322,10 @@ def from_rotation(R: FloatArray, kind: str) -> FloatArray:
     if kind == "half_exp":
         return 0.5 * U.so3_log(R)
     if kind == "quat_vec":
-        w = U.so3_log(R)
-        th = np.linalg.norm(w, axis=-1)
         # vector part sin(θ/2)·ω/θ = ½·sinc(θ/2)·ω, w-component cos(θ/2) ≥ 0 for θ ≤ π
-        return 0.5 * sinc(0.5 * th)[..., None] * w
+        return _quat_vec_of_log(U.so3_log(R))[0]
     if kind == "cayley":
-        s = np.stack(
-            [R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]],
-            axis=-1,
-        )
-        den = 1.0 + np.trace(R, axis1=-2, axis2=-1)
-        if (den <= 1e-12).any():
-            i = tuple(int(k) for k in np.argwhere(den <= 1e-12)[0])
-            raise ValueError(
-                f"Cayley coordinates are undefined for a rotation by π (batch index {i}): "
-                f"1 + tr R = {float(den[i]):.3g}"
-            )
-        return np.asarray(2.0 * s / den[..., None], dtype=np.float64)
+        return _cayley(R)
     raise ValueError(f"rotation: unknown rotation coordinates {kind!r}")
 
 
@@ -252,15 +349,21 @@ def d_from_rotation(R: FloatArray, kind: str, side: str) -> FloatArray:
         w = U.so3_log(R)
         J = U.so3_jr_inv(w) if side == "right" else U.so3_jl_inv(w)
         return J if kind == "exp" else 0.5 * J
+    foreign = arrays.is_foreign(R)
     if kind == "quat_vec":
-        w = U.so3_log(R)
-        th = np.linalg.norm(w, axis=-1)
-        u = 0.5 * sinc(0.5 * th)[..., None] * w
-        qw = np.cos(0.5 * th)[..., None, None]
+        u, th = _quat_vec_of_log(U.so3_log(R))
+        qw = _xp(R).cos(0.5 * th)[..., None, None]
         H = U.so3_hat(u)
-        return 0.5 * (qw * np.eye(3) + (H if side == "right" else -H))
+        eye = arrays.eye(3, R) if foreign else np.eye(3)
+        return 0.5 * (qw * eye + (H if side == "right" else -H))
     if kind == "cayley":
         r = from_rotation(R, "cayley")
+        if foreign:
+            tr = (R[..., 0, 0] + R[..., 1, 1] + R[..., 2, 2])[..., None, None]
+            Rt = arrays.mT(R)
+            D = 2.0 / (1.0 + tr) * (tr * arrays.eye(3, R) - Rt)
+            D = D + 0.5 * r[..., :, None] * r[..., None, :]
+            return D if side == "right" else D @ Rt
         tr = np.trace(R, axis1=-2, axis2=-1)[..., None, None]
         D = 2.0 / (1.0 + tr) * (tr * np.eye(3) - np.swapaxes(R, -1, -2))
         D = D + 0.5 * r[..., :, None] * r[..., None, :]

@@ -140,21 +140,17 @@ def _tangent(xi: Any, name: str = "xi") -> FloatArray:
     return validate.tangent(xi, name, 3, _ROT)
 
 
-@arrays.numpy_only
 def hat(xi: Any) -> FloatArray:
     """``(vx, vy, ω)`` → ``[[0, −ω, vx], [ω, 0, vy], [0, 0, 0]]``, ``(..., 3, 3)``."""
     xi = validate.vector(xi, "xi", 3)
-    out = np.zeros((*xi.shape[:-1], 3, 3))
-    out[..., 0, 1], out[..., 1, 0] = -xi[..., 2], xi[..., 2]
-    out[..., :2, 2] = xi[..., :2]
-    return out
+    vx, vy, w = xi[..., 0], xi[..., 1], xi[..., 2]
+    return arrays.matrix([0.0, -w, vx, w, 0.0, vy, 0.0, 0.0, 0.0], 3, 3)
 
 
-@arrays.numpy_only
 def vee(X: Any) -> FloatArray:
     """Inverse of :func:`hat`: ``(..., 3, 3)`` → ``(vx, vy, ω)``."""
     X = validate.square(X, "X", 3)
-    return np.stack([X[..., 0, 2], X[..., 1, 2], 0.5 * (X[..., 1, 0] - X[..., 0, 1])], axis=-1)
+    return arrays.vector([X[..., 0, 2], X[..., 1, 2], 0.5 * (X[..., 1, 0] - X[..., 0, 1])])
 
 
 def exp(xi: Any) -> FloatArray:

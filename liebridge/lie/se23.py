@@ -126,22 +126,19 @@ def _tangent(xi: Any, name: str = "xi") -> FloatArray:
     return validate.tangent(xi, name, 9, slice(0, 3))
 
 
-@arrays.numpy_only
 def hat(xi: Any) -> FloatArray:
     """``(ω, ρ_p, ρ_v)`` → ``[[hat(ω), ρ_p, ρ_v], [0, 0, 0], [0, 0, 0]]``, ``(..., 5, 5)``."""
     xi = validate.vector(xi, "xi", 9)
-    out = np.zeros((*xi.shape[:-1], 5, 5))
-    out[..., :3, :3] = so3._hat(xi[..., :3])
-    out[..., :3, 3] = xi[..., 3:6]
-    out[..., :3, 4] = xi[..., 6:]
-    return out
+    x, y, z, p0, p1, p2, v0, v1, v2 = (xi[..., k] for k in range(9))
+    return arrays.matrix(
+        [0.0, -z, y, p0, v0, z, 0.0, -x, p1, v1, -y, x, 0.0, p2, v2] + [0.0] * 10, 5, 5
+    )
 
 
-@arrays.numpy_only
 def vee(X: Any) -> FloatArray:
     """Inverse of :func:`hat`: ``(..., 5, 5)`` → ``(ω, ρ_p, ρ_v)``."""
     X = validate.square(X, "X", 5)
-    return np.concatenate([so3.vee(X[..., :3, :3]), X[..., :3, 3], X[..., :3, 4]], axis=-1)
+    return arrays.concat([so3.vee(X[..., :3, :3]), X[..., :3, 3], X[..., :3, 4]], axis=-1)
 
 
 def exp(xi: Any) -> FloatArray:

@@ -233,21 +233,17 @@ def _jl_inv(xi: FloatArray) -> FloatArray:
     return _blocks(Ji, 0.0 * Ji, -Ji @ _q(w, xi[..., 3:]) @ Ji, Ji)
 
 
-@arrays.numpy_only
 def hat(xi: Any) -> FloatArray:
     """Map a twist ``(ω, v)`` ``(..., 6)`` to ``[[hat(ω), v], [0, 0]]``, ``(..., 4, 4)``."""
     xi = validate.vector(xi, "xi", 6)
-    out = np.zeros((*xi.shape[:-1], 4, 4))
-    out[..., :3, :3] = so3._hat(xi[..., :3])
-    out[..., :3, 3] = xi[..., 3:]
-    return out
+    x, y, z, a, b, c = (xi[..., k] for k in range(6))
+    return arrays.matrix([0.0, -z, y, a, z, 0.0, -x, b, -y, x, 0.0, c, 0.0, 0.0, 0.0, 0.0], 4, 4)
 
 
-@arrays.numpy_only
 def vee(X: Any) -> FloatArray:
     """Inverse of :func:`hat`: ``(..., 4, 4)`` → ``(ω, v)`` ``(..., 6)``."""
     X = validate.square(X, "X", 4)
-    return np.concatenate([so3.vee(X[..., :3, :3]), X[..., :3, 3]], axis=-1)
+    return arrays.concat([so3.vee(X[..., :3, :3]), X[..., :3, 3]], axis=-1)
 
 
 def exp(xi: Any) -> FloatArray:
@@ -306,7 +302,6 @@ def adjoint(T: Any) -> FloatArray:
     return validate.finite_output(_adjoint(validate.pose(T, "T")), "se3.adjoint")
 
 
-@arrays.numpy_only
 def ad(xi: Any) -> FloatArray:
     """Small adjoint ``ad_ξ = [[hat(ω), 0], [hat(v), hat(ω)]]`` in (ω, v), ``(..., 6, 6)``.
 
@@ -314,7 +309,7 @@ def ad(xi: Any) -> FloatArray:
     """
     xi = validate.vector(xi, "xi", 6)
     W = so3._hat(xi[..., :3])
-    return _blocks(W, np.zeros_like(W), so3._hat(xi[..., 3:]), W)
+    return _blocks(W, arrays.zeros(tuple(W.shape), W), so3._hat(xi[..., 3:]), W)
 
 
 def jr(xi: Any) -> FloatArray:

@@ -73,20 +73,17 @@ def _tangent(w: Any) -> FloatArray:
     return validate.tangent(w, "w", 1, slice(0, 1))
 
 
-@arrays.numpy_only
 def hat(w: Any) -> FloatArray:
     """``(θ,)`` → ``[[0, −θ], [θ, 0]]``, ``(..., 2, 2)``."""
     w = validate.vector(w, "w", 1)
-    out = np.zeros((*w.shape[:-1], 2, 2))
-    out[..., 0, 1], out[..., 1, 0] = -w[..., 0], w[..., 0]
-    return out
+    return arrays.matrix([0.0, -w[..., 0], w[..., 0], 0.0], 2, 2)
 
 
-@arrays.numpy_only
 def vee(W: Any) -> FloatArray:
     """Inverse of :func:`hat` (from the skew part), ``(..., 1)``."""
     W = validate.square(W, "W", 2)
-    return np.asarray(0.5 * (W[..., 1, 0] - W[..., 0, 1]))[..., None]
+    v = 0.5 * (W[..., 1, 0] - W[..., 0, 1])
+    return (v if arrays.is_foreign(v) else np.asarray(v))[..., None]
 
 
 def exp(w: Any) -> FloatArray:

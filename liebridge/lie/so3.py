@@ -111,7 +111,6 @@ def _jl_inv(w: FloatArray) -> FloatArray:
     return _poly(w, -0.5, jinv_coeff(th, t2))
 
 
-@arrays.numpy_only
 def hat(w: Any) -> FloatArray:
     """Skew matrix of a 3-vector.
 
@@ -127,16 +126,14 @@ def hat(w: Any) -> FloatArray:
     return _hat(validate.vector(w, "w", 3))
 
 
-@arrays.numpy_only
 def vee(W: Any) -> FloatArray:
     """Inverse of :func:`hat`: the 3-vector of the skew part of ``W``, shape ``(..., 3)``.
 
     Uses ``(W − Wᵀ)/2`` so that a slightly non-skew input gives its nearest skew matrix's vector.
     """
     W = validate.square(W, "W", 3)
-    w = 0.5 * np.stack(
-        [W[..., 2, 1] - W[..., 1, 2], W[..., 0, 2] - W[..., 2, 0], W[..., 1, 0] - W[..., 0, 1]],
-        axis=-1,
+    w = 0.5 * arrays.vector(
+        [W[..., 2, 1] - W[..., 1, 2], W[..., 0, 2] - W[..., 2, 0], W[..., 1, 0] - W[..., 0, 1]]
     )
     return validate.finite_output(w, "so3.vee")
 
