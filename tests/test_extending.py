@@ -196,6 +196,19 @@ def test_the_registry_knows_the_user_groups() -> None:
         conventions.register(_conv("gtsam", "right", "rot_first", "t3", T3))
 
 
+def test_a_numpy_only_group_copies_tensors_to_the_host_and_refuses_a_gradient() -> None:
+    """A user's group without ``array_api=True`` runs torch/JAX input on host copies (numpy out)
+    and refuses, rather than silently cutting, a tensor that requires grad."""
+    torch = pytest.importorskip("torch")
+    X = PLANAR.exp(np.array([0.3, -0.2, 0.5]))
+    ref = lb.tangent_map(X, "user_planar", "user_planar_left")
+    out = lb.tangent_map(torch.tensor(X), "user_planar", "user_planar_left")
+    assert isinstance(out, np.ndarray)
+    np.testing.assert_array_equal(out, ref)
+    with pytest.raises(TypeError, match=r"runs on numpy arrays only"):
+        lb.tangent_map(torch.tensor(X, requires_grad=True), "user_planar", "user_planar_left")
+
+
 def test_an_unregistered_group_and_a_chart_it_lacks_are_clear_errors() -> None:
     stray = lie.Group(
         name="stray", dim=3, matrix=4, rot=None, vecs=(slice(0, 3),), cols=(3,), scale=None,

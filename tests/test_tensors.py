@@ -471,19 +471,6 @@ def test_jit_checks_shapes_not_values(x64: None) -> None:
     assert out.shape == (6,)
 
 
-def test_numpy_only_function_refuses_a_gradient_it_would_cut(x64: None) -> None:
-    torch = pytest.importorskip("torch")
-    x = torch.tensor([0.1, 0.2, 0.3, 1.0, 2.0, 3.0, 0.1], dtype=torch.float64)
-    out = lb.lie.sim3.exp(x)  # no gradient: computed on the host, numpy as before
-    assert isinstance(out, np.ndarray)
-    with pytest.raises(TypeError, match=r"sim3.exp: runs on numpy arrays only"):
-        lb.lie.sim3.exp(x.requires_grad_(True))
-    with pytest.raises(TypeError, match=r"runs on numpy arrays only"):
-        lb.tangent_map(
-            torch.tensor(np.eye(4), requires_grad=True), "gtsam_similarity3", "sophus_sim3"
-        )
-
-
 def test_integer_tensors_become_float64(x64: None) -> None:
     torch = pytest.importorskip("torch")
     out = se3.exp(torch.zeros(6, dtype=torch.int64))

@@ -577,27 +577,6 @@ def test_euler_angles_are_not_an_increment_on_tensors(x64: None) -> None:
         rc.d_from_rotation(torch.eye(3, dtype=torch.float64), "euler_rpy", "right")
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="the SE(3) tensor engine sends Euler conventions' first-order maps to the record "
-    "engine, which ignores Euler angles (a wrong map, no error); fix: an Euler branch in "
-    "SE3TensorEngine as SE3Engine's, with the array-generic rotation_coords functions",
-)
-def test_euler_convention_first_order_maps_on_tensors_need_the_engine_branch(x64: None) -> None:
-    torch = pytest.importorskip("torch")
-    conv = Convention(
-        name="euler_zyx_world",
-        side="right",
-        order="trans_first",
-        chart="so3xr3_world",
-        rotation="euler_zyx",
-        quat_order="wxyz",
-    )
-    X = se3.exp(np.array([0.1, 0.2, 0.3, 1.0, 2.0, 3.0]))
-    out = lb.tangent_map(torch.tensor(X), conv, "gtsam").numpy()
-    np.testing.assert_allclose(out, lb.tangent_map(X, conv, "gtsam"), atol=1e-12)
-
-
 ROT_GRAD_POINTS = {"zero": np.zeros(6), "generic": np.array([0.4, -0.7, 0.5, 1.5, -2.0, 0.8])}
 
 

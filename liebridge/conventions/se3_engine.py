@@ -125,10 +125,10 @@ class SE3Engine(Engine):
 
     def retract(self, conv: Convention, X: FloatArray, d: FloatArray) -> FloatArray:
         """``X·Exp(d)`` / ``Exp(d)·X`` (or the split update), see the Convention docstring."""
+        if conv.is_euler:  # one array-generic definition (SE3TensorEngine's)
+            return self._tensors.retract(conv, X, d)
         right = conv.side == "right"
         if _is_so3(X):
-            if conv.is_euler:
-                return euler_retract(X, d, conv.rotation)
             dR = to_rotation(d, conv.rotation)
             return np.asarray(X @ dR if right else dR @ X, dtype=np.float64)
         r, u = _split(conv, d)
@@ -137,11 +137,8 @@ class SE3Engine(Engine):
             E = U.se3_exp(np.concatenate([r, u], axis=-1))
             return np.asarray(X @ E if right else E @ X, dtype=np.float64)
         R, t = X[..., :3, :3], X[..., :3, 3]
-        if conv.is_euler:
-            R2 = euler_retract(R, r, conv.rotation)
-        else:
-            dR = to_rotation(r, conv.rotation)
-            R2 = R @ dR if right else dR @ R
+        dR = to_rotation(r, conv.rotation)
+        R2 = R @ dR if right else dR @ R
         du = np.einsum("...ij,...j->...i", R, u) if frame == "body" else u
         out = np.zeros(np.broadcast_shapes(X.shape, (*d.shape[:-1], 4, 4)))
         out[..., :3, :3] = R2
@@ -151,10 +148,10 @@ class SE3Engine(Engine):
 
     def local(self, conv: Convention, X: FloatArray, Y: FloatArray) -> FloatArray:
         """Inverse of :meth:`retract` (principal branch)."""
+        if conv.is_euler:
+            return self._tensors.local(conv, X, Y)
         right = conv.side == "right"
         if _is_so3(X):
-            if conv.is_euler:
-                return euler_local(X, Y, conv.rotation)
             Xt = np.swapaxes(X, -1, -2)
             return from_rotation(Xt @ Y if right else Y @ Xt, conv.rotation)
         frame = self.group.split_frame(conv.chart)
@@ -165,10 +162,7 @@ class SE3Engine(Engine):
         R, t = X[..., :3, :3], X[..., :3, 3]
         Rt = np.swapaxes(R, -1, -2)
         RY, tY = Y[..., :3, :3], Y[..., :3, 3]
-        if conv.is_euler:
-            r = euler_local(R, RY, conv.rotation)
-        else:
-            r = from_rotation(Rt @ RY if right else RY @ Rt, conv.rotation)
+        r = from_rotation(Rt @ RY if right else RY @ Rt, conv.rotation)
         dt = tY - t
         u = np.einsum("...ij,...j->...i", Rt, dt) if frame == "body" else dt
         return _join(conv, r, u)
@@ -178,18 +172,8 @@ class SE3Engine(Engine):
         s = conv.rotation_scale
         right = conv.side == "right"
         frame = self.group.split_frame(conv.chart)
-        if conv.is_euler:  # local(X, retract(Y, δ)) = e(Y) + δ − e(X): the identity
-            shape = np.broadcast_shapes(X.shape[:-2], Y.shape[:-2])
-            matrix_to_euler(Y[..., :3, :3], conv.rotation, "Y")  # gimbal lock raises
-            n = 3 if _is_so3(X) else 6
-            J = np.zeros((*shape, n, n))
-            J[..., :, :] = np.eye(n)
-            if n == 6:
-                RX, RY = X[..., :3, :3], Y[..., :3, :3]
-                tb = np.swapaxes(RX, -1, -2) @ RY if frame == "body" else np.eye(3)
-                k = slice(3, 6) if conv.order == "rot_first" else slice(0, 3)
-                J[..., k, k] = tb
-            return J
+        if conv.is_euler:  # local(X, retract(Y, δ)) = e(Y) + δ − e(X): the identity (blocks)
+            return self._tensors.local_jacobian(conv, X, Y)
         if _is_so3(X):
             Xt = np.swapaxes(X, -1, -2)
             dR = Xt @ Y if right else Y @ Xt
@@ -222,39 +206,17 @@ class SE3Engine(Engine):
         base = replace(conv, name=f"{conv.name}_exp", side="right", rotation="exp")
         return base, slice(0, 3) if conv.order == "rot_first" else slice(3, 6)
 
-    def _euler_D(self, conv: Convention, X: FloatArray, inverse: bool) -> FloatArray:
-        """``D``: ``W⁻¹`` (``inverse``: ``W``) on the rotation entries, else ``I``."""
-        e = matrix_to_euler(X[..., :3, :3], conv.rotation, "X")
-        B = (
-            euler_rate_map(e, conv.rotation, "X")
-            if inverse
-            else euler_rate_map_inv(e, conv.rotation)
-        )
-        if _is_so3(X):
-            return B
-        _, k = self._euler_base(conv)
-        D = np.zeros((*X.shape[:-2], 6, 6))
-        D[..., :, :] = np.eye(6)
-        D[..., k, k] = B
-        return D
-
     def to_canonical(self, conv: Convention, X: FloatArray) -> FloatArray:
         """Closed-form grid (Euler: the rotation-vector twin's, times ``W⁻¹``)."""
-        so3_ = X.shape[-1] == 3
-        if conv.is_euler:  # ω_body = W⁻¹(e) r; the rest as the rotation-vector twin
-            base, _ = self._euler_base(conv)
-            M = canonical_tangent_map(base, "to", so3_)(X)
-            return np.asarray(M @ self._euler_D(conv, X, False), dtype=np.float64)
-        return canonical_tangent_map(conv, "to", so3_)(X)
+        if conv.is_euler:
+            return self._tensors.to_canonical(conv, X)
+        return canonical_tangent_map(conv, "to", X.shape[-1] == 3)(X)
 
     def from_canonical(self, conv: Convention, X: FloatArray) -> FloatArray:
         """Inverse of :meth:`to_canonical` (closed form, no matrix inversion)."""
-        so3_ = X.shape[-1] == 3
         if conv.is_euler:
-            base, _ = self._euler_base(conv)
-            M = canonical_tangent_map(base, "from", so3_)(X)
-            return np.asarray(self._euler_D(conv, X, True) @ M, dtype=np.float64)
-        return canonical_tangent_map(conv, "from", so3_)(X)
+            return self._tensors.from_canonical(conv, X)
+        return canonical_tangent_map(conv, "from", X.shape[-1] == 3)(X)
 
 
 def _so3_twin(conv: Convention) -> Convention:
@@ -270,7 +232,7 @@ _TWINS: dict[tuple[str, str, str, str], Convention] = {}
 
 
 class SE3TensorEngine(Engine):
-    """SE(3)/SO(3) conventions on torch and JAX arrays.
+    """SE(3)/SO(3) conventions on torch and JAX arrays (and the Euler-angle maps on every array).
 
     The record-driven formulas (array-generic) for retractions and local coordinates, the
     closed-form grids of :mod:`~liebridge.conventions.tangent_maps` for the first-order maps (the
@@ -309,27 +271,80 @@ class SE3TensorEngine(Engine):
         return _so3_twin(conv) if _is_so3(X) and not self.fast.rotation_only else conv
 
     def retract(self, conv: Convention, X: FloatArray, d: FloatArray) -> FloatArray:
-        """Retract by the record-driven formula."""
+        """Retract by the record-driven formula (Euler angles: ``E(e(R) + r)``, as numpy's)."""
+        if conv.is_euler:
+            if _is_so3(X):
+                return euler_retract(X, d, conv.rotation)
+            r, u = _split(conv, d)
+            R, t = X[..., :3, :3], X[..., :3, 3]
+            du = arrays.matvec(R, u) if self.fast.group.split_frame(conv.chart) == "body" else u
+            return U.se3_assemble(euler_retract(R, r, conv.rotation), t + du)
         return RECORD_ENGINE.retract(self._conv(conv, X), X, d)
 
     def local(self, conv: Convention, X: FloatArray, Y: FloatArray) -> FloatArray:
-        """Return the record-driven local coordinates."""
+        """Return the record-driven local coordinates (Euler angles: ``e(R_Y) − e(R_X)``)."""
+        if conv.is_euler:
+            if _is_so3(X):
+                return euler_local(X, Y, conv.rotation)
+            RX, dt = X[..., :3, :3], Y[..., :3, 3] - X[..., :3, 3]
+            r = euler_local(RX, Y[..., :3, :3], conv.rotation)
+            body = self.fast.group.split_frame(conv.chart) == "body"
+            u = arrays.matvec(arrays.mT(RX), dt) if body else dt
+            xp = arrays.namespace(r, u)
+            batch = tuple(np.broadcast_shapes(tuple(r.shape[:-1]), tuple(u.shape[:-1])))
+            r, u = xp.broadcast_to(r, (*batch, 3)), xp.broadcast_to(u, (*batch, 3))
+            return arrays.concat([r, u] if conv.order == "rot_first" else [u, r], axis=-1)
         return RECORD_ENGINE.local(self._conv(conv, X), X, Y)
 
     def local_jacobian(self, conv: Convention, X: FloatArray, Y: FloatArray) -> FloatArray:
-        """Return the record-driven ``∂ local(X, retract(Y, δ)) / ∂δ``."""
+        """Return the record-driven ``∂ local(X, retract(Y, δ)) / ∂δ`` (Euler: ``I``, blocks)."""
+        if conv.is_euler:
+            matrix_to_euler(Y[..., :3, :3], conv.rotation, "Y")  # gimbal lock raises
+            batch = tuple(np.broadcast_shapes(tuple(X.shape[:-2]), tuple(Y.shape[:-2])))
+            ref = X if tuple(X.shape[:-2]) == batch else Y
+            eye = arrays.eye(3, ref, batch)
+            if _is_so3(X):
+                return eye * 1.0
+            body = self.fast.group.split_frame(conv.chart) == "body"
+            tb = arrays.mT(X[..., :3, :3]) @ Y[..., :3, :3] if body else eye
+            zero = arrays.zeros((*batch, 3, 3), ref)
+            grid = (
+                [[eye, zero], [zero, tb]]
+                if conv.order == "rot_first"
+                else [[tb, zero], [zero, eye]]
+            )
+            return arrays.blocks(grid)
         return RECORD_ENGINE.local_jacobian(self._conv(conv, X), X, Y)
 
+    def _euler_D(self, conv: Convention, X: FloatArray, inverse: bool) -> FloatArray:
+        """:meth:`SE3Engine._euler_D` on tensors: ``W⁻¹`` (``W``) on the rotation entries."""
+        e = matrix_to_euler(X[..., :3, :3], conv.rotation, "X")
+        B = (
+            euler_rate_map(e, conv.rotation, "X")
+            if inverse
+            else euler_rate_map_inv(e, conv.rotation)
+        )
+        if _is_so3(X):
+            return B
+        batch = tuple(B.shape[:-2])
+        eye, zero = arrays.eye(3, B, batch), arrays.zeros((*batch, 3, 3), B)
+        grid = [[B, zero], [zero, eye]] if conv.order == "rot_first" else [[eye, zero], [zero, B]]
+        return arrays.blocks(grid)
+
     def to_canonical(self, conv: Convention, X: FloatArray) -> FloatArray:
-        """Return the closed-form grid's map (Euler coordinates: the record-driven one)."""
+        """Return the closed-form grid's map (Euler: the rotation-vector twin's, times ``W⁻¹``)."""
         if conv.is_euler:
-            return RECORD_ENGINE.to_canonical(self._conv(conv, X), X)
+            base, _ = SE3Engine._euler_base(conv)
+            M = canonical_tangent_map(base, "to", _is_so3(X))(X)
+            return M @ self._euler_D(conv, X, False)
         return canonical_tangent_map(conv, "to", _is_so3(X))(X)
 
     def from_canonical(self, conv: Convention, X: FloatArray) -> FloatArray:
         """Inverse of :meth:`to_canonical`."""
         if conv.is_euler:
-            return RECORD_ENGINE.from_canonical(self._conv(conv, X), X)
+            base, _ = SE3Engine._euler_base(conv)
+            M = canonical_tangent_map(base, "from", _is_so3(X))(X)
+            return self._euler_D(conv, X, True) @ M
         return canonical_tangent_map(conv, "from", _is_so3(X))(X)
 
 
