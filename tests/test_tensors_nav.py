@@ -224,18 +224,21 @@ def test_split_returns_new_arrays_not_views_of_the_callers() -> None:
     assert torch.equal(b_a, before)
 
 
-def test_cayley_states_convert_on_tensors_and_refuse_their_retraction() -> None:
-    """OpenVINS/VINS: maps need no rotation coordinates; Cayley's retraction is numpy's only."""
+@pytest.mark.parametrize("state", [C.OPENVINS, C.VINS], ids=lambda c: c.name)
+def test_cayley_states_retract_and_convert_on_tensors(state: Any) -> None:
+    """OpenVINS/VINS (Cayley rotation coordinates): retract, local and maps on tensors = numpy."""
     torch = pytest.importorskip("torch")
     rng = np.random.default_rng(10)
-    X = _element(C.OPENVINS, 3, rng, [0.3])
-    M = lb.tangent_map(torch.tensor(X, requires_grad=True), "openvins", "gtsam_combined")
+    X = _element(state, 3, rng, [0.3])
+    M = lb.tangent_map(torch.tensor(X, requires_grad=True), state.name, "gtsam_combined")
     assert M.requires_grad
-    with pytest.raises(TypeError, match="'cayley' run on numpy arrays only"):
-        C.OPENVINS.retract(torch.tensor(X), torch.zeros(15, dtype=torch.float64))
+    d = 0.1 * rng.normal(size=(3, 15))
+    Y = state.retract(X, d)
+    Yt = state.retract(torch.tensor(X), torch.tensor(d))
+    np.testing.assert_allclose(Yt.numpy(), Y, rtol=0, atol=1e-12)
     np.testing.assert_allclose(
-        C.OPENVINS.retract(X, np.zeros(15)), X, atol=1e-15
-    )  # numpy unchanged
+        state.local(torch.tensor(X), Yt).numpy(), state.local(X, Y), rtol=0, atol=1e-12
+    )
 
 
 # ----------------------------------------------------------------------------- S²

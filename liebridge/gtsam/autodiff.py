@@ -23,8 +23,9 @@ factor; GTSAM's own optimizers, :class:`~liebridge.gtsam.ISAM2` and ``optimize(b
 call each factor's callback (the same kernel on a batch of one).
 
 Computations are float64 (JAX: inside ``jax.enable_x64``, without changing the global setting).
-The conventions are those whose retraction runs on torch/JAX arrays (SE(3)/SO(3) with rotation
-coordinates ``exp``/``half_exp`` today); any other is refused by name when the factor is built.
+The conventions are those of a group GTSAM holds, whatever their rotation coordinates (their
+retractions run on torch/JAX arrays); a convention of another group, or one whose tangent sits
+inside a longer vector, is refused by name when the factor is built.
 """
 
 from __future__ import annotations
