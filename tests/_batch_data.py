@@ -73,9 +73,20 @@ def make_fleet(
     """``pairs`` pairs of ``n`` poses; every ``cov_every``-th with covariances; ``broken`` maps
     pair index to a kind of :data:`BROKEN`. Returns the manifest rows."""
     broken = broken or {}
-    return [
-        make_pair(root, k, n, cov=(k % cov_every == 0), broken=broken.get(k)) for k in range(pairs)
-    ]
+    args = [(root, k, n, k % cov_every == 0, broken.get(k)) for k in range(pairs)]
+    if pairs < 100:
+        return [_pair(a) for a in args]
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    # a large fleet is written by a small pool (the files do not depend on one another)
+    with ProcessPoolExecutor(2, mp_context=multiprocessing.get_context("spawn")) as pool:
+        return list(pool.map(_pair, args, chunksize=25))
+
+
+def _pair(a: tuple[Path, int, int, bool, str | None]) -> dict[str, str]:
+    root, k, n, cov, broken = a
+    return make_pair(root, k, n, cov=cov, broken=broken)
 
 
 def write_manifest(path: Path, rows: list[dict[str, str]]) -> None:

@@ -442,6 +442,7 @@ def test_jax_jit_of_a_bundle_conversion(x64: None) -> None:
     _close(np.asarray(v(X, d)), d, 1e-12)
 
 
+@pytest.mark.exhaustive  # torch.compile ≈ 15 s: CI compiles in test_tensors.py and _quat
 def test_torch_compile_of_a_navigation_tangent_map() -> None:
     """MOLA's NavChart (its own order, world velocity) into GTSAM's NavState chart, compiled."""
     torch = pytest.importorskip("torch")

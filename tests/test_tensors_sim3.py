@@ -408,6 +408,7 @@ def test_jax_jit_and_vmap(x64: None) -> None:
         _close(np.asarray(jax.jit(f1)(x)), f1(x))
 
 
+@pytest.mark.exhaustive  # torch.compile ≈ 15 s: CI compiles in test_tensors.py and _quat
 def test_torch_compile() -> None:
     torch = pytest.importorskip("torch")
     X = torch.tensor(sim3.exp(XI[:6]))

@@ -17,8 +17,7 @@ import numpy as np
 from .. import _validate as validate
 from .. import arrays
 from .._validate import FloatArray
-from ..conventions import Convention, ConventionLike, get, unchecked
-from ..lie.unchecked import se3_assemble
+from ..conventions import ConventionLike, get, unchecked
 
 
 def _aligned(S: Any, V: Any, host_vectors: Callable[[], np.ndarray]) -> Any:
@@ -65,34 +64,6 @@ def _element(X: Any, name: str) -> Any:
     raise ValueError(
         f"{name}: expected a pose (..., 4, 4) or a rotation (..., 3, 3), got {tuple(X.shape)}"
     )
-
-
-def _rot(c: Convention) -> slice:
-    return slice(0, 3) if c.order == "rot_first" else slice(3, 6)
-
-
-def _as_pose(R: Any) -> Any:
-    return se3_assemble(R, arrays.zeros((*R.shape[:-2], 3), R))
-
-
-def _retract(c: Convention, X: Any, d: Any) -> Any:
-    """``c.retract(X, d)``; a torch/JAX rotation through its pose ``[[R, 0], [0, 1]]``.
-
-    The array-generic retraction runs on poses only; an increment ``(ω, 0)`` of a pose of zero
-    translation gives the pose of the rotation's own retraction in every SE(3) chart.
-    """
-    if X.shape[-1] == 4 or not arrays.is_foreign(X):
-        return c.retract(X, d)
-    z = arrays.zeros((*d.shape[:-1], 3), d)
-    D = arrays.concat([d, z] if c.order == "rot_first" else [z, d], -1)
-    return c.retract(_as_pose(X), D)[..., :3, :3]
-
-
-def _local(c: Convention, X: Any, Y: Any) -> Any:
-    """``c.local(X, Y)``; torch/JAX rotations through their poses (as :func:`_retract`)."""
-    if X.shape[-1] == 4 or not arrays.is_foreign(X):
-        return c.local(X, Y)
-    return c.local(_as_pose(X), _as_pose(Y))[..., _rot(c)]
 
 
 def _cov_generic(y: Any) -> Any:
@@ -188,5 +159,5 @@ def _covariance_generic(
         U * _root(s)[None, :], U, lambda: np.linalg.svd(arrays.to_numpy(C).astype(np.float64))[0]
     )
     d = z @ arrays.mT(S)
-    y = _local(b, Xa, _retract(a, Xa, d))
+    y = b.local(Xa, a.retract(Xa, d))
     return _cov_generic(y)

@@ -33,7 +33,7 @@ from .. import arrays
 from .._validate import FloatArray
 from ..conventions import Convention, group_input
 from ..uncertain import UncertainPoint, UncertainPose
-from .montecarlo import _aligned, _cov_generic, _element, _local, _retract, _root
+from .montecarlo import _aligned, _cov_generic, _element, _root
 
 __all__ = [
     "monte_carlo_act",
@@ -180,7 +180,7 @@ def _same(A: UncertainPose, B: UncertainPose) -> Convention:
 
 def _samples(c: Convention, T: FloatArray, d: FloatArray) -> FloatArray:
     xp = arrays.namespace(T)
-    return _retract(c, xp.broadcast_to(T[..., None, :, :], (*d.shape[:-1], *T.shape[-2:])), d)
+    return c.retract(xp.broadcast_to(T[..., None, :, :], (*d.shape[:-1], *T.shape[-2:])), d)
 
 
 def _joint_samples(
@@ -195,7 +195,7 @@ def _joint_samples(
 
 
 def _result(c: Convention, TC: FloatArray, Y: FloatArray) -> UncertainPose:
-    y = _local(c, arrays.namespace(TC).broadcast_to(TC[..., None, :, :], tuple(Y.shape)), Y)
+    y = c.local(arrays.namespace(TC).broadcast_to(TC[..., None, :, :], tuple(Y.shape)), Y)
     return UncertainPose(TC, _cov(y), c)
 
 
@@ -384,16 +384,16 @@ def _average_generic(estimates: list[UncertainPose], n: int, g: np.random.Genera
         if arrays.all_true(xp.linalg.eigvalsh(E.cov) > 0) is False:
             raise ValueError(f"estimates[{i}]: covariance must be positive definite")
         L = xp.linalg.cholesky(E.cov)
-        r = _local(c, xp.broadcast_to(E.T, shape), X)
+        r = c.local(xp.broadcast_to(E.T, shape), X)
         z = xp.linalg.solve(L, arrays.mT(r))
         logw = logw - 0.5 * xp.sum(z * z, axis=0)
     w = xp.exp(logw - xp.max(logw))
     w = w / xp.sum(w)
     ref = E0.T
     for _ in range(3):
-        y = _local(c, xp.broadcast_to(ref, shape), X)
-        ref = _retract(c, ref, w @ y)
-    y = _local(c, xp.broadcast_to(ref, shape), X)
+        y = c.local(xp.broadcast_to(ref, shape), X)
+        ref = c.retract(ref, w @ y)
+    y = c.local(xp.broadcast_to(ref, shape), X)
     dy = y - w @ y
     cov = arrays.mT(dy) @ (w[:, None] * dy) / (1.0 - xp.sum(w**2))
     return UncertainPose(ref, cov, c)

@@ -68,7 +68,6 @@ from .pose import (
     UncertainPose,
     _map,
     _matrix_of,
-    _rot,
     element_input,
     moved,
     same_dtype,
@@ -396,27 +395,9 @@ def _check_method(method: str) -> None:
         raise ValueError(f"method: expected 'linear' or 'unscented', got {method!r}")
 
 
-def _embed(c: Convention, R: Any, d: Any) -> tuple[Any, Any]:
-    """Return a torch/JAX rotation as the pose ``[[R, 0], [0, 1]]``, its increment ``d`` padded.
-
-    The array-generic retraction runs on poses only; in every SE(3) chart a rotation increment
-    ``(ω, 0)`` moves a pose of zero translation to the pose of the rotation's own retraction
-    (``Exp((ω, 0))`` has no translation; split charts perturb ``R`` by itself): the rotation
-    block of the pose result is the rotation result (as ``pose._map`` for the tangent maps).
-    """
-    P = U.se3_assemble(R, arrays.zeros((*R.shape[:-2], 3), R))
-    if d is None:
-        return P, None
-    z = arrays.zeros((*d.shape[:-1], 3), d)
-    return P, arrays.concat([d, z] if c.order == "rot_first" else [z, d], -1)
-
-
 def _sample(c: Convention, T: FloatArray, d: FloatArray, name: str = "A.cov") -> FloatArray:
     """``c.retract(T, d)`` for cubature points ``d`` (..., K, n) at means ``T`` (..., 4, 4)."""
     try:
-        if T.shape[-1] == 3 and arrays.is_foreign(T):  # a rotation, through its pose
-            P, D = _embed(c, T[..., None, :, :], d)
-            return c.retract(P, D)[..., :3, :3]
         return c.retract(T[..., None, :, :], d)
     except ValueError as exc:
         raise ValueError(
@@ -428,8 +409,6 @@ def _sample(c: Convention, T: FloatArray, d: FloatArray, name: str = "A.cov") ->
 def _read(c: Convention, C: FloatArray, Y: FloatArray) -> FloatArray:
     """``c.local(C̄, Y)`` for samples ``Y`` (..., K, 4, 4) about the mean ``C̄`` (..., 4, 4)."""
     Cb = arrays.namespace(C).broadcast_to(C[..., None, :, :], tuple(Y.shape))
-    if Y.shape[-1] == 3 and arrays.is_foreign(Y):  # rotations, through their poses
-        return c.local(_embed(c, Cb, None)[0], _embed(c, Y, None)[0])[..., _rot(c)]
     return c.local(Cb, Y)
 
 

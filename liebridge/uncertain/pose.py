@@ -27,7 +27,6 @@ from ..conventions import (
     pose_convention,
     unchecked,
 )
-from ..lie.unchecked import se3_assemble as U_se3_assemble
 
 __all__ = ["UncertainPoint", "UncertainPose"]
 
@@ -56,18 +55,8 @@ def _rot(c: Convention) -> slice:
 
 
 def _map(X: FloatArray, src: Convention, dst: Convention) -> FloatArray:
-    """``unchecked.tangent_map(X, src, dst)``; on torch/JAX rotations through the embedded pose.
-
-    The array-generic (record-driven) engine maps SE(3) conventions on poses only. A rotation
-    ``R`` is the pose ``[[R, 0], [0, 1]]``, and in every SE(3) chart a pose's rotation increment
-    depends on the rotation coordinates alone (``Exp(ξ)``'s rotation is ``Exp(ω)``; split
-    charts perturb ``R`` by itself), so the rotation block of the pose map is the rotation map
-    (the numpy engine's rotation maps equal it; the tests compare them).
-    """
-    if X.shape[-1] == 4 or not arrays.is_foreign(X):
-        return unchecked.tangent_map(X, src, dst)
-    P = U_se3_assemble(X, arrays.zeros((*X.shape[:-2], 3), X))
-    return unchecked.tangent_map(P, src, dst)[..., _rot(dst), _rot(src)]
+    """``unchecked.tangent_map(X, src, dst)`` (poses, or rotations as their SO(3) part)."""
+    return unchecked.tangent_map(X, src, dst)
 
 
 def trusted(T: Any, cov: Any, convention: Convention) -> UncertainPose:
