@@ -19,8 +19,9 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci" if os.environ.ge
 # about 12 minutes on two cores, JAX's op-by-op compilation most of it). CI's torch/JAX step
 # runs `-m "not exhaustive"`: every test function, and of each one's torch and JAX
 # parametrizations a fixed sample (one in TENSOR_SAMPLE[backend], chosen by a hash of the test
-# id: the same cases every run), so every function, backend and test still runs there.
-TENSOR_SAMPLE = {"torch": 4, "jax": 12}
+# id: the same cases every run), so every test function still runs there (the few marked
+# `exhaustive` by hand, torch.compile and jit repeats of what test_tensors.py runs, excepted).
+TENSOR_SAMPLE = {"torch": 8, "jax": 24}
 
 
 def pytest_collection_modifyitems(config, items):

@@ -406,6 +406,7 @@ def test_jax_jit_of_to_matrix_and_of_a_cayley_convert_covariance(x64: None) -> N
     )
 
 
+@pytest.mark.exhaustive  # torch.compile: CI compiles in test_tensors.py
 def test_torch_compile_of_to_matrix_and_of_a_cayley_convert_covariance() -> None:
     torch = pytest.importorskip("torch")
     q = _quats("wxyz")

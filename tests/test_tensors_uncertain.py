@@ -396,6 +396,7 @@ def test_jax_check_grads(name: str, op: str, at_zero: bool, x64: None) -> None:
     check_grads(f, args, order=1, modes=("rev",), eps=1e-6, atol=1e-5, rtol=1e-5)
 
 
+@pytest.mark.exhaustive  # ≈ 30 s of JAX compilation: CI jits convert_covariance in test_tensors
 def test_jax_jit_and_vmap_of_compose_and_fuse(x64: None) -> None:
     x = _inputs((3,), None, seed=8)
     j = x["joint"]
